@@ -1,0 +1,53 @@
+"""The object-space model: vectors on the circular cone and how their phase depends on f.
+
+An interferometer reading is ``p = A x`` with ``x = P [cos t, sin t, sqrt(2)]`` on the cone
+``x^2 + y^2 - z^2/2 = 0`` (paper Eq. 9-13, 17) and ``t = 2 pi (f - f0) tau`` (Eq. 26 with
+the bias absorbed into ``A``). This module owns only that model; fitting ``A`` lives in
+:mod:`wavemeter.calibration`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["cone_vectors", "delay_phase_rad", "wrap_phase_rad", "phase_to_frequency_hz"]
+
+SQRT2 = np.sqrt(2.0)
+
+
+def cone_vectors(phase_rad, power=1.0) -> np.ndarray:
+    """Object vectors ``power * [cos t, sin t, sqrt(2)]`` on the circular cone.
+
+    Parameters
+    ----------
+    phase_rad : array_like, shape (N,)
+        Interferometer phase ``t`` (rad).
+    power : float or array_like, shape (N,)
+        Source power (W) or any quantity proportional to it.
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+    """
+    t = np.asarray(phase_rad, dtype=float)
+    scale = np.asarray(power, dtype=float)
+    return np.stack([np.cos(t), np.sin(t), np.full_like(t, SQRT2)], axis=-1) * scale[..., None]
+
+
+def delay_phase_rad(frequency_hz, center_hz: float, delay_s: float) -> np.ndarray:
+    """Phase ``2 pi (f - f0) tau`` (rad) of a delay ``tau`` relative to ``f0`` (Eq. 26)."""
+    return 2.0 * np.pi * (np.asarray(frequency_hz, dtype=float) - center_hz) * delay_s
+
+
+def wrap_phase_rad(phase_rad) -> np.ndarray:
+    """Wrap phases to [-pi, pi)."""
+    return (np.asarray(phase_rad, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def phase_to_frequency_hz(phase_rad, center_hz: float, fsr_hz: float) -> np.ndarray:
+    """Frequency (Hz) of a phase on the calibrated FSR: ``f0 + t FSR / (2 pi)``.
+
+    The phase is used as given; with ``t`` in (-pi, pi] the result lies within half an FSR
+    of ``center_hz``, so the branch cut sits at ``center_hz +- FSR/2``.
+    """
+    return center_hz + np.asarray(phase_rad, dtype=float) * (fsr_hz / (2.0 * np.pi))

@@ -1,0 +1,70 @@
+"""The physical limit: Cramer-Rao lower bound on the frequency from one reading.
+
+Model: ``p = P A [cos t, sin t, sqrt 2] + n`` with white Gaussian noise of standard deviation
+``sigma`` per port and both ``t`` and ``P`` unknown. The Fisher information on ``t`` with
+the nuisance ``P`` removed is
+
+    I(t) = (|a_t|^2 - (a_t . a_P)^2 / |a_P|^2) / sigma^2,
+    a_t = P A [-sin t, cos t, 0],   a_P = A [cos t, sin t, sqrt 2],
+
+and the frequency bound is ``sigma_f = FSR / (2 pi sqrt(I))``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .validation import check_positive
+
+__all__ = ["crlb_frequency_std", "crlb_ideal_frequency_std"]
+
+
+def crlb_frequency_std(map_, phase_rad, power, noise_std, fsr_hz) -> np.ndarray:
+    """Per-sample Cramer-Rao bound on the frequency standard deviation (Hz).
+
+    Parameters
+    ----------
+    map_ : array_like, shape (n, 3)
+        Map ``A`` per unit of ``power``.
+    phase_rad : float or array_like, shape (N,)
+        Interferometer phase ``t`` of each sample (rad).
+    power : float or array_like, shape (N,)
+        Source power ``P`` in the unit ``map_`` is scaled by (W for a device's true map;
+        1 for a fitted ``Calibrator.map_``, which already holds the calibration power).
+    noise_std : float
+        Detector noise standard deviation per reading (W).
+    fsr_hz : float
+        Free spectral range (Hz).
+
+    Returns
+    -------
+    ndarray, shape of ``phase_rad`` broadcast with ``power``, Hz
+    """
+    matrix = np.asarray(map_, dtype=float)
+    if matrix.ndim != 2 or matrix.shape[1] != 3:
+        raise ValueError(f"map_ must have shape (n, 3), got {matrix.shape}")
+    noise_std = check_positive("noise_std", noise_std)
+    fsr_hz = check_positive("fsr_hz", fsr_hz)
+    t = np.asarray(phase_rad, dtype=float)
+    power = np.asarray(power, dtype=float)
+    zeros = np.zeros_like(t)
+    a_t = np.stack([-np.sin(t), np.cos(t), zeros], axis=-1) @ matrix.T * power[..., None]
+    a_p = np.stack([np.cos(t), np.sin(t), zeros + np.sqrt(2.0)], axis=-1) @ matrix.T
+    along = np.einsum("...i,...i->...", a_t, a_p)
+    information = (
+        np.einsum("...i,...i->...", a_t, a_t) - along**2 / np.einsum("...i,...i->...", a_p, a_p)
+    ) / noise_std**2
+    return fsr_hz / (2.0 * np.pi * np.sqrt(information))
+
+
+def crlb_ideal_frequency_std(ports: int, power_w: float, noise_w: float, fsr_hz: float) -> float:
+    """Closed-form bound (Hz) for an ideal n-port device: ``FSR sqrt(2 n) sigma / (2 pi P)``.
+
+    An ideal device has ``A = O / sqrt(2 n)`` with ``O`` orthonormal, so ``|a_t|^2 =
+    P^2 / (2 n)`` and ``a_t`` is orthogonal to ``a_P``.
+    """
+    if ports < 3:
+        raise ValueError(f"ports must be >= 3, got {ports}")
+    power_w = check_positive("power_w", power_w)
+    noise_w = check_positive("noise_w", noise_w)
+    return fsr_hz * np.sqrt(2.0 * ports) * noise_w / (2.0 * np.pi * power_w)

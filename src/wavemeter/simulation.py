@@ -1,0 +1,319 @@
+"""Simulated multi-port interferometer with the impairments of the paper's Table 1."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .cone import delay_phase_rad
+from .couplers import mmi_2x2, mmi_matrix, port_phases_rad, y_junction
+
+__all__ = ["Interferometer", "as_rng"]
+
+DEFAULT_FSR_HZ = 50e9
+DEFAULT_CENTER_HZ = 193.4e12
+SPLITTERS = ("mmi", "y")
+
+
+def as_rng(rng) -> np.random.Generator:
+    """A numpy Generator from ``None``, an int seed or a Generator."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, bool)):
+        return np.random.default_rng(rng)
+    raise TypeError(f"rng must be None, an int seed or a numpy Generator, got {rng!r}")
+
+
+def _splitter_amplitudes(splitter: str) -> np.ndarray:
+    if splitter == "mmi":
+        return mmi_2x2()[:, 0]
+    if splitter == "y":
+        return y_junction()[:, 0]
+    raise ValueError(f"splitter must be one of {SPLITTERS}, got {splitter!r}")
+
+
+def _symmetry_classes(n: int) -> np.ndarray:
+    """Label each entry of an ``n x n`` MMI matrix by its orbit under the MMI symmetries.
+
+    A general-interference MMI is reciprocal (``M[j, i] == M[i, j]``) and mirror symmetric
+    about its centre (``M[j, i] == M[n-1-j, n-1-i]``); entries one of these maps onto
+    another are equal, and share the symmetry-preserving perturbation.
+    """
+    labels = -np.ones((n, n), dtype=int)
+    next_label = 0
+    for j in range(n):
+        for i in range(n):
+            if labels[j, i] >= 0:
+                continue
+            orbit = {(j, i), (i, j), (n - 1 - j, n - 1 - i), (n - 1 - i, n - 1 - j)}
+            for a, b in orbit:
+                labels[a, b] = next_label
+            next_label += 1
+    return labels
+
+
+def _perturb_coupler(
+    matrix: np.ndarray, rng: np.random.Generator, symmetric_sigma: float, breaking_sigma: float
+) -> np.ndarray:
+    """Scale real and imaginary parts by Gaussian factors (Table 1).
+
+    Factor ``1 + g + e``: ``g`` (sigma ``symmetric_sigma``) is shared by the entries of one
+    symmetry orbit, ``e`` (sigma ``breaking_sigma``) is drawn per entry.
+    """
+    labels = _symmetry_classes(matrix.shape[0])
+    classes = labels.max() + 1
+    shared_re = rng.normal(0.0, symmetric_sigma, classes)[labels]
+    shared_im = rng.normal(0.0, symmetric_sigma, classes)[labels]
+    own_re = rng.normal(0.0, breaking_sigma, matrix.shape)
+    own_im = rng.normal(0.0, breaking_sigma, matrix.shape)
+    return matrix.real * (1.0 + shared_re + own_re) + 1j * matrix.imag * (
+        1.0 + shared_im + own_im
+    )
+
+
+@dataclass(frozen=True)
+class Interferometer:
+    """An unbalanced Mach-Zehnder interferometer with an ``n``-port output coupler.
+
+    A splitter feeds two arms; the delayed arm (delay imbalance ``delay_s``, bias phase
+    ``bias_phase_rad``) enters the output coupler at ``inputs[0]``, the other arm at
+    ``inputs[1]``; photoreceivers with relative ``responsivity`` read each egress port.
+    Port readings are expressed in watts of optical power at the receivers.
+
+    Parameters
+    ----------
+    output_coupler : ndarray of complex, shape (n, n)
+        Transmission matrix of the output coupler.
+    splitter_amplitudes : ndarray of complex, shape (2,)
+        Field amplitudes the input splitter sends into (delayed arm, other arm).
+    inputs : (int, int)
+        Zero-based ingress ports of the output coupler fed by the two arms.
+    delay_s : float
+        Delay imbalance ``tau`` (s); the FSR is ``1 / tau``.
+    bias_phase_rad : float
+        Phase of the delayed arm relative to the other at ``center_hz`` (rad).
+    arm_loss_db : (float, float)
+        Power loss of (delayed arm, other arm) in dB.
+    responsivity : ndarray, shape (n,)
+        Relative photoreceiver responsivities (1 is nominal).
+    center_hz : float
+        Reference frequency (Hz), the phase origin of :meth:`true_map`.
+    design_port_phases_rad : ndarray, shape (n,)
+        Nominal fringe phases of the design (rad), what the conventional method assumes.
+    thermal_phase_rad_per_k : float
+        Bias phase change per kelvin away from ``reference_temperature_k``.
+    reference_temperature_k : float
+        Temperature (K) at which the bias phase is ``bias_phase_rad``.
+    monitor_ratio : float
+        Power-monitor reading per watt of source power.
+    """
+
+    output_coupler: np.ndarray
+    splitter_amplitudes: np.ndarray
+    inputs: tuple[int, int] = (0, 2)
+    delay_s: float = 1.0 / DEFAULT_FSR_HZ
+    bias_phase_rad: float = 0.0
+    arm_loss_db: tuple[float, float] = (0.0, 0.0)
+    responsivity: np.ndarray | None = None
+    center_hz: float = DEFAULT_CENTER_HZ
+    design_port_phases_rad: np.ndarray | None = None
+    thermal_phase_rad_per_k: float = 0.0
+    reference_temperature_k: float = 293.15
+    monitor_ratio: float = 0.01
+
+    def __post_init__(self):
+        coupler = np.array(self.output_coupler, dtype=complex)
+        if coupler.ndim != 2 or coupler.shape[0] != coupler.shape[1] or coupler.shape[0] < 3:
+            raise ValueError(
+                f"output_coupler must be a square matrix with at least 3 ports, "
+                f"got shape {coupler.shape}"
+            )
+        n = coupler.shape[0]
+        a, b = self.inputs
+        if not (0 <= a < n and 0 <= b < n and a != b):
+            raise ValueError(f"inputs must be two different ports in 0..{n - 1}, got {self.inputs}")
+        splitter = np.array(self.splitter_amplitudes, dtype=complex).reshape(-1)
+        if splitter.shape != (2,):
+            raise ValueError(f"splitter_amplitudes must have 2 entries, got {splitter.shape}")
+        if not (np.isfinite(self.delay_s) and self.delay_s > 0):
+            raise ValueError(f"delay_s must be a positive number of seconds, got {self.delay_s}")
+        responsivity = np.ones(n) if self.responsivity is None else np.array(self.responsivity)
+        if responsivity.shape != (n,) or np.any(responsivity <= 0):
+            raise ValueError(f"responsivity must be {n} positive numbers, got {responsivity}")
+        design = self.design_port_phases_rad
+        design = port_phases_rad(coupler, self.inputs) if design is None else np.array(design)
+        if design.shape != (n,):
+            raise ValueError(f"design_port_phases_rad must have {n} entries, got {design.shape}")
+        for array in (coupler, splitter, responsivity, design):
+            array.setflags(write=False)
+        object.__setattr__(self, "output_coupler", coupler)
+        object.__setattr__(self, "splitter_amplitudes", splitter)
+        object.__setattr__(self, "responsivity", responsivity)
+        object.__setattr__(self, "design_port_phases_rad", design)
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def ideal(
+        cls,
+        ports: int = 3,
+        *,
+        fsr_hz: float = DEFAULT_FSR_HZ,
+        center_hz: float = DEFAULT_CENTER_HZ,
+        bias_phase_rad: float = 0.0,
+        splitter: str = "mmi",
+        inputs: tuple[int, int] = (0, 2),
+    ) -> Interferometer:
+        """A perfect device: ideal splitter, ideal ``ports x ports`` MMI, equal receivers.
+
+        Inputs 1 and 3 (zero-based ``(0, 2)``) give equally spaced fringes for 3, 4, 5 and
+        8 ports (a 90-degree hybrid for 4).
+        """
+        return cls(
+            output_coupler=mmi_matrix(ports),
+            splitter_amplitudes=_splitter_amplitudes(splitter),
+            inputs=inputs,
+            delay_s=1.0 / fsr_hz,
+            bias_phase_rad=bias_phase_rad,
+            center_hz=center_hz,
+        )
+
+    @classmethod
+    def table1(
+        cls,
+        ports: int = 3,
+        seed=None,
+        *,
+        fsr_hz: float = DEFAULT_FSR_HZ,
+        center_hz: float = DEFAULT_CENTER_HZ,
+        symmetric_sigma: float = 0.10,
+        breaking_sigma: float = 0.01,
+        delay_sigma: float = 0.05,
+        responsivity_sigma: float = 0.10,
+        splitter: str = "mmi",
+        inputs: tuple[int, int] = (0, 2),
+    ) -> Interferometer:
+        """A device with every impairment of the paper's Table 1, drawn from ``seed``.
+
+        Coupler entries (splitter and output MMI): real and imaginary parts scaled by
+        ``1 + g + e``, ``g ~ N(0, symmetric_sigma)`` shared by entries the MMI symmetry
+        makes equal, ``e ~ N(0, breaking_sigma)`` per entry. Delay ``tau = (1 + d) / fsr_hz``
+        with ``d ~ N(0, delay_sigma)``. Responsivities ``1 + r``, ``r ~ N(0,
+        responsivity_sigma)``. Bias phase uniform in (-pi, pi]. The design phases stay
+        those of the ideal coupler. Noise is a property of the reading, see :meth:`powers`.
+        """
+        rng = as_rng(seed)
+        ideal = cls.ideal(ports, fsr_hz=fsr_hz, center_hz=center_hz, splitter=splitter, inputs=inputs)
+        coupler = _perturb_coupler(ideal.output_coupler, rng, symmetric_sigma, breaking_sigma)
+        if splitter == "mmi":
+            split = _perturb_coupler(mmi_2x2(), rng, symmetric_sigma, breaking_sigma)[:, 0]
+        else:
+            split = ideal.splitter_amplitudes * (1.0 + rng.normal(0.0, breaking_sigma, 2))
+        delay_s = (1.0 + rng.normal(0.0, delay_sigma)) / fsr_hz
+        responsivity = 1.0 + rng.normal(0.0, responsivity_sigma, ports)
+        bias = np.pi - 2.0 * np.pi * rng.random()
+        return cls(
+            output_coupler=coupler,
+            splitter_amplitudes=split,
+            inputs=inputs,
+            delay_s=delay_s,
+            bias_phase_rad=bias,
+            responsivity=responsivity,
+            center_hz=center_hz,
+            design_port_phases_rad=ideal.design_port_phases_rad,
+        )
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def ports(self) -> int:
+        """Number of egress ports ``n``."""
+        return self.output_coupler.shape[0]
+
+    @property
+    def true_fsr_hz(self) -> float:
+        """The device's free spectral range ``1 / tau`` (Hz)."""
+        return 1.0 / self.delay_s
+
+    def _port_fields(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per-port field amplitudes (delayed arm, other arm), shape (n,) each."""
+        a, b = self.inputs
+        loss = 10.0 ** (-np.asarray(self.arm_loss_db, dtype=float) / 20.0)
+        arms = self.splitter_amplitudes * loss
+        return self.output_coupler[:, a] * arms[0], self.output_coupler[:, b] * arms[1]
+
+    def bias_at(self, temperature_k=None) -> np.ndarray:
+        """Bias phase (rad) at a temperature (K); ``None`` means the reference temperature."""
+        if temperature_k is None:
+            return np.asarray(self.bias_phase_rad, dtype=float)
+        offset = np.asarray(temperature_k, dtype=float) - self.reference_temperature_k
+        return self.bias_phase_rad + self.thermal_phase_rad_per_k * offset
+
+    def true_map(self, temperature_k=None) -> np.ndarray:
+        """The exact map ``A`` (n x 3) with ``p = A @ (P [cos t, sin t, sqrt 2])``.
+
+        ``t = 2 pi (f - center_hz) tau``: the phase origin is the centre frequency and the
+        bias phase is absorbed into ``A`` as a rotation about the cone axis.
+        """
+        delayed, other = self._port_fields()
+        cross = delayed * np.conj(other) * np.exp(1j * self.bias_at(temperature_k))
+        return self.responsivity[:, None] * np.column_stack(
+            [
+                2.0 * cross.real,
+                -2.0 * cross.imag,
+                (np.abs(delayed) ** 2 + np.abs(other) ** 2) / np.sqrt(2.0),
+            ]
+        )
+
+    # ------------------------------------------------------------------ readings
+    def powers(self, f_hz, power_w=1e-3, noise_w=0.0, rng=None, temperature_k=None) -> np.ndarray:
+        """Port readings (W) from the fields, for source frequencies ``f_hz``.
+
+        Parameters
+        ----------
+        f_hz : array_like, shape (N,)
+            Source optical frequency (Hz).
+        power_w : float or array_like, shape (N,)
+            Source power (W), scalar or per sample (fluctuations).
+        noise_w : float
+            Standard deviation of additive white Gaussian detector noise per reading (W).
+        rng : None, int or numpy.random.Generator
+            Source of the noise.
+        temperature_k : None, float or array_like, shape (N,)
+            Chip temperature (K); moves the bias phase by ``thermal_phase_rad_per_k``.
+
+        Returns
+        -------
+        ndarray, shape (N, n), W
+        """
+        f = np.atleast_1d(np.asarray(f_hz, dtype=float))
+        if f.ndim != 1:
+            raise ValueError(f"f_hz must be 1-D, got shape {f.shape}")
+        power = np.broadcast_to(np.asarray(power_w, dtype=float), f.shape)
+        if not np.all(np.isfinite(power)) or np.any(power < 0):
+            raise ValueError("power_w must be finite and non-negative (W)")
+        if not (np.isfinite(noise_w) and noise_w >= 0):
+            raise ValueError(f"noise_w must be a non-negative number (W), got {noise_w}")
+        delayed, other = self._port_fields()
+        psi = delay_phase_rad(f, self.center_hz, self.delay_s) + self.bias_at(temperature_k)
+        fields = np.exp(1j * psi)[:, None] * delayed[None, :] + other[None, :]
+        readings = np.abs(fields) ** 2 * self.responsivity * power[:, None]
+        if noise_w > 0:
+            readings = readings + as_rng(rng).normal(0.0, noise_w, readings.shape)
+        return readings
+
+    def monitor(self, power_w, noise_w=0.0, rng=None) -> np.ndarray:
+        """Power-monitor reading (W) for source power ``power_w`` (W): ``monitor_ratio * P``."""
+        power = np.asarray(power_w, dtype=float)
+        reading = self.monitor_ratio * power
+        if noise_w > 0:
+            reading = reading + as_rng(rng).normal(0.0, noise_w, reading.shape)
+        return reading
+
+    def sweep_hz(self, samples: int, span_fsr: float = 1.0) -> np.ndarray:
+        """``samples`` frequencies (Hz) evenly over ``span_fsr`` true FSRs about the centre.
+
+        The last point stops one step short of the span, so a one-FSR sweep covers each
+        phase once.
+        """
+        span = span_fsr * self.true_fsr_hz
+        return self.center_hz - span / 2 + span * np.arange(samples) / samples

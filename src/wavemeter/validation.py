@@ -1,0 +1,109 @@
+"""Input checks shared by every calibrator: one place for the messages users read."""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "NotFittedError",
+    "check_powers",
+    "check_frequency",
+    "check_monitor",
+    "check_positive",
+    "check_choice",
+    "check_fitted",
+    "MIN_SAMPLES",
+]
+
+MIN_SAMPLES = 4
+
+
+class NotFittedError(ValueError, AttributeError):
+    """Raised when ``predict``/``phase``/``save`` is called before ``fit``."""
+
+
+def check_positive(name: str, value, *, upper: float | None = None) -> float:
+    """A finite real number > 0 (and < ``upper`` when given), or a clear error."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
+    value = float(value)
+    if not np.isfinite(value) or value <= 0 or (upper is not None and value >= upper):
+        allowed = f"in (0, {upper})" if upper is not None else "a finite number > 0"
+        raise ValueError(f"{name} must be {allowed}, got {value!r}")
+    return value
+
+
+def check_choice(name: str, value, allowed: tuple) -> str:
+    """One of ``allowed``, or an error naming the parameter, the choices and the value."""
+    if value not in allowed:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {value!r}")
+    return value
+
+
+def check_powers(powers, *, min_samples: int = 1, ports: int | None = None) -> np.ndarray:
+    """Port readings as a fresh float64 array of shape (N, n) with n >= 3.
+
+    Rejects non-numeric input, NaN/inf, rows whose total power is zero or negative (single
+    readings may dip below zero by noise) and a port count different from ``ports``.
+    """
+    try:
+        array = np.array(powers, dtype=float, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"port powers must be numeric, got {type(powers).__name__}") from exc
+    if array.ndim == 1 and ports is not None and array.size == ports:
+        array = array[np.newaxis, :]
+    if array.ndim != 2:
+        raise ValueError(f"port powers must be a 2-D array (samples, ports), got shape {array.shape}")
+    samples, n = array.shape
+    if n < 3:
+        raise ValueError(f"port powers need at least 3 ports (columns), got {n}")
+    if ports is not None and n != ports:
+        raise ValueError(f"port powers have {n} ports but the calibration has {ports}")
+    if samples < min_samples:
+        raise ValueError(f"need at least {min_samples} samples, got {samples}")
+    bad = ~np.isfinite(array).all(axis=1)
+    if bad.any():
+        rows = np.flatnonzero(bad)[:5].tolist()
+        raise ValueError(f"port powers contain NaN or inf in rows {rows} (zero-based); drop them")
+    dark = array.sum(axis=1) <= 0
+    if dark.any():
+        rows = np.flatnonzero(dark)[:5].tolist()
+        raise ValueError(
+            f"port powers sum to zero or less in rows {rows} (zero-based): no light, or "
+            "readings that are not linear powers (dBm read as W?)"
+        )
+    return array
+
+
+def check_frequency(frequency_hz, samples: int, name: str = "frequency_hz") -> np.ndarray:
+    """Frequencies (Hz) as a fresh finite float64 vector of length ``samples``."""
+    try:
+        f = np.array(frequency_hz, dtype=float, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be numeric, got {type(frequency_hz).__name__}") from exc
+    if f.ndim != 1 or f.size != samples:
+        raise ValueError(f"{name} must be a vector of {samples} values, got shape {f.shape}")
+    if not np.all(np.isfinite(f)):
+        raise ValueError(f"{name} contains NaN or inf")
+    return f
+
+
+def check_monitor(power_monitor_w, samples: int) -> np.ndarray | None:
+    """Power-monitor readings (W): None, or positive finite values, one per sample."""
+    if power_monitor_w is None:
+        return None
+    m = np.array(np.broadcast_to(np.asarray(power_monitor_w, dtype=float), (samples,)))
+    if not np.all(np.isfinite(m)) or np.any(m <= 0):
+        raise ValueError("power_monitor_w must be finite and > 0 for every sample (W)")
+    return m
+
+
+def check_fitted(estimator, attribute: str = "fsr_hz_") -> None:
+    """Raise :class:`NotFittedError` unless ``estimator`` has been fitted."""
+    if not hasattr(estimator, attribute):
+        raise NotFittedError(
+            f"this {type(estimator).__name__} is not fitted yet: call fit(powers, frequency_hz) "
+            "or load a calibration file first"
+        )
