@@ -62,8 +62,9 @@ def map_cost(objects: np.ndarray, powers: np.ndarray) -> tuple[np.ndarray, float
 
 def retrieve_phase_rad(powers, map_pinv: np.ndarray) -> np.ndarray:
     """Phase ``atan2(x_hat_2, x_hat_1)`` (rad) of ``x_hat = A+ p`` for readings (N, n)."""
-    objects = np.asarray(powers, dtype=float) @ map_pinv.T
-    return np.arctan2(objects[:, 1], objects[:, 0])
+    readings = np.asarray(powers, dtype=float)
+    # two matrix-vector products keep both quadratures contiguous for the arctangent
+    return np.arctan2(readings @ map_pinv[1], readings @ map_pinv[0])
 
 
 def predict_frequency_hz(powers, map_: np.ndarray, center_hz: float, fsr_hz: float) -> np.ndarray:

@@ -112,11 +112,18 @@ def search_delay(
         result = optimize.minimize_scalar(
             scaled, bracket=(lo, mid, hi), method="golden", options={"xtol": xtol}
         )
+        u_best = float(result.x)
     else:
+        # fminbound adds sqrt(eps) * |x| to its tolerance: search the offset from the grid
+        # point, which is small, so that xtol is honoured
         result = optimize.minimize_scalar(
-            scaled, bounds=(lo, hi), method="bounded", options={"xatol": xtol * mid}
+            lambda offset: scaled(mid + offset),
+            bounds=(lo - mid, hi - mid),
+            method="bounded",
+            options={"xatol": xtol * mid},
         )
-    u_best, cost_best = float(result.x), float(result.fun)
+        u_best = float(mid + result.x)
+    cost_best = float(result.fun)
     if grid_cost[best] < cost_best:  # refinement can only improve on the grid point
         u_best, cost_best = float(mid), float(grid_cost[best])
     return DelaySearchResult(

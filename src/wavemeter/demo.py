@@ -67,8 +67,10 @@ def run_demo(out_dir, seed: int = 1, quiet: bool = False) -> dict:
         device.true_map(), true_phase, setup["power_w"], setup["noise_w"], device.true_fsr_hz
     )
     crlb_rms_hz = float(np.sqrt(np.mean(bound_hz**2)))
-    predictions = {name: cal.predict(test_w) for name, cal in
-                   (("learned", learned), ("conventional", conventional))}
+    predictions = {
+        name: cal.predict(test_w)
+        for name, cal in (("learned", learned), ("conventional", conventional))
+    }
     summary = {
         "setup": {**setup, "seed": seed, "true_fsr_hz": device.true_fsr_hz},
         "crlb_rms_hz": crlb_rms_hz,

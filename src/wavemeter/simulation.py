@@ -67,9 +67,7 @@ def _perturb_coupler(
     shared_im = rng.normal(0.0, symmetric_sigma, classes)[labels]
     own_re = rng.normal(0.0, breaking_sigma, matrix.shape)
     own_im = rng.normal(0.0, breaking_sigma, matrix.shape)
-    return matrix.real * (1.0 + shared_re + own_re) + 1j * matrix.imag * (
-        1.0 + shared_im + own_im
-    )
+    return matrix.real * (1.0 + shared_re + own_re) + 1j * matrix.imag * (1.0 + shared_im + own_im)
 
 
 @dataclass(frozen=True)
@@ -203,7 +201,9 @@ class Interferometer:
         those of the ideal coupler. Noise is a property of the reading, see :meth:`powers`.
         """
         rng = as_rng(seed)
-        ideal = cls.ideal(ports, fsr_hz=fsr_hz, center_hz=center_hz, splitter=splitter, inputs=inputs)
+        ideal = cls.ideal(
+            ports, fsr_hz=fsr_hz, center_hz=center_hz, splitter=splitter, inputs=inputs
+        )
         coupler = _perturb_coupler(ideal.output_coupler, rng, symmetric_sigma, breaking_sigma)
         if splitter == "mmi":
             split = _perturb_coupler(mmi_2x2(), rng, symmetric_sigma, breaking_sigma)[:, 0]

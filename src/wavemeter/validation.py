@@ -43,19 +43,22 @@ def check_choice(name: str, value, allowed: tuple) -> str:
 
 
 def check_powers(powers, *, min_samples: int = 1, ports: int | None = None) -> np.ndarray:
-    """Port readings as a fresh float64 array of shape (N, n) with n >= 3.
+    """Port readings as a float64 array of shape (N, n) with n >= 3 (a view when possible;
+    callers never write to it).
 
     Rejects non-numeric input, NaN/inf, rows whose total power is zero or negative (single
     readings may dip below zero by noise) and a port count different from ``ports``.
     """
     try:
-        array = np.array(powers, dtype=float, copy=True)
+        array = np.asarray(powers, dtype=float)
     except (TypeError, ValueError) as exc:
         raise TypeError(f"port powers must be numeric, got {type(powers).__name__}") from exc
     if array.ndim == 1 and ports is not None and array.size == ports:
         array = array[np.newaxis, :]
     if array.ndim != 2:
-        raise ValueError(f"port powers must be a 2-D array (samples, ports), got shape {array.shape}")
+        raise ValueError(
+            f"port powers must be a 2-D array (samples, ports), got shape {array.shape}"
+        )
     samples, n = array.shape
     if n < 3:
         raise ValueError(f"port powers need at least 3 ports (columns), got {n}")
@@ -63,13 +66,16 @@ def check_powers(powers, *, min_samples: int = 1, ports: int | None = None) -> n
         raise ValueError(f"port powers have {n} ports but the calibration has {ports}")
     if samples < min_samples:
         raise ValueError(f"need at least {min_samples} samples, got {samples}")
-    bad = ~np.isfinite(array).all(axis=1)
-    if bad.any():
-        rows = np.flatnonzero(bad)[:5].tolist()
-        raise ValueError(f"port powers contain NaN or inf in rows {rows} (zero-based); drop them")
-    dark = array.sum(axis=1) <= 0
-    if dark.any():
-        rows = np.flatnonzero(dark)[:5].tolist()
+    # one pass over the data: a row sum is NaN/inf when any reading is, and <= 0 in the dark
+    total = array @ np.ones(n)
+    if not np.all(np.isfinite(total) & (total > 0)):
+        bad = ~np.isfinite(array).all(axis=1)
+        if bad.any():
+            rows = np.flatnonzero(bad)[:5].tolist()
+            raise ValueError(
+                f"port powers contain NaN or inf in rows {rows} (zero-based); drop them"
+            )
+        rows = np.flatnonzero(total <= 0)[:5].tolist()
         raise ValueError(
             f"port powers sum to zero or less in rows {rows} (zero-based): no light, or "
             "readings that are not linear powers (dBm read as W?)"
