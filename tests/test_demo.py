@@ -60,3 +60,13 @@ def test_unknown_command_is_a_usage_error(capsys):
     assert main(["frobnicate"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error:") and "frobnicate" in err[0]
+
+
+def test_quickstart_example_runs_and_retrieves_frequencies():
+    example = Path(__file__).resolve().parents[1] / "examples" / "quickstart.py"
+    done = subprocess.run(
+        [sys.executable, str(example)], capture_output=True, text=True, check=True
+    )
+    errors_mhz = [float(line.split("error")[1].split()[0]) for line in done.stdout.splitlines()[1:]]
+    # three readings at 0.5 mW: CRLB ~ 20 MHz each; allow 5 standard deviations
+    assert len(errors_mhz) == 3 and max(abs(e) for e in errors_mhz) < 100
