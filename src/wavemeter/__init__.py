@@ -5,7 +5,13 @@ learned in closed form from a calibration sweep, only the delay (FSR) is searche
 phase comes back through a pseudo-inverse and an arctangent.
 """
 
-from .baselines import ConventionalCalibrator
+from .baselines import (
+    ConventionalCalibrator,
+    EllipseCalibrator,
+    ExtendedConventionalCalibrator,
+    NonlinearFitCalibrator,
+    PlaneEllipseCalibrator,
+)
 from .calibration import Calibrator, predict_frequency_hz, retrieve_phase_rad
 from .cone import cone_vectors, phase_to_frequency_hz, wrap_phase_rad
 from .couplers import fourier_matrix, mmi_matrix, orthonormal_map
@@ -21,6 +27,10 @@ __version__ = "0.1.0"
 __all__ = [
     "Calibrator",
     "ConventionalCalibrator",
+    "EllipseCalibrator",
+    "ExtendedConventionalCalibrator",
+    "NonlinearFitCalibrator",
+    "PlaneEllipseCalibrator",
     "EdgeMinimumError",
     "Interferometer",
     "NotFittedError",

@@ -61,9 +61,9 @@ class BaseCalibrator:
         return f"{type(self).__name__}({params})"
 
     def get_params_for_file(self) -> dict:
-        """Settings as JSON-ready values (arrays become lists)."""
+        """Settings as JSON-ready values: arrays and tuples become lists, as JSON reads them."""
         return {
-            key: value.tolist() if isinstance(value, np.ndarray) else value
+            key: np.asarray(value).tolist() if isinstance(value, (np.ndarray, tuple)) else value
             for key, value in self.get_params().items()
         }
 
