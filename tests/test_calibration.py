@@ -181,3 +181,13 @@ def test_bad_input_errors():
     cal.fit(readings, f)
     with pytest.raises(ValueError, match="have 4 ports but the calibration has 3"):
         cal.predict(np.ones((2, 4)))
+
+
+@pytest.mark.parametrize("true_fsr_hz", [35e9, 70e9])
+def test_long_sweep_with_fsr_far_outside_the_bracket_is_an_error(true_fsr_hz):
+    """On 20 FSRs a side minimum of J may lie inside the bracket; it must not pass as a fit."""
+    device = wm.Interferometer.ideal(3, fsr_hz=true_fsr_hz)
+    f = device.sweep_hz(4000, span_fsr=20)
+    readings = device.powers(f, POWER_W, NOISE_W, np.random.default_rng(1))
+    with pytest.raises(wm.EdgeMinimumError, match="widen fsr_tolerance or correct fsr_hz"):
+        wm.Calibrator(fsr_hz=50e9).fit(readings, f)

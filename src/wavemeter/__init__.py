@@ -13,12 +13,14 @@ from .baselines import (
     PlaneEllipseCalibrator,
 )
 from .calibration import Calibrator, predict_frequency_hz, retrieve_phase_rad
+from .calibration_set import CalibrationSet
 from .cone import cone_vectors, phase_to_frequency_hz, wrap_phase_rad
 from .couplers import fourier_matrix, mmi_matrix, orthonormal_map
 from .delay_search import EdgeMinimumError
 from .limits import crlb_frequency_std, crlb_ideal_frequency_std
 from .metrics import error_summary_hz, frequency_error_hz
 from .persistence import load_calibration, save_calibration
+from .report import write_report
 from .simulation import Interferometer
 from .validation import NotFittedError
 
@@ -26,6 +28,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Calibrator",
+    "CalibrationSet",
     "ConventionalCalibrator",
     "EllipseCalibrator",
     "ExtendedConventionalCalibrator",
@@ -47,6 +50,7 @@ __all__ = [
     "predict_frequency_hz",
     "retrieve_phase_rad",
     "save_calibration",
+    "write_report",
     "wrap_phase_rad",
     "__version__",
 ]

@@ -25,6 +25,7 @@ __all__ = [
     "object_vectors",
     "fit_map",
     "map_cost",
+    "unfitted_cost",
     "retrieve_phase_rad",
     "predict_frequency_hz",
 ]
@@ -58,6 +59,18 @@ def map_cost(objects: np.ndarray, powers: np.ndarray) -> tuple[np.ndarray, float
     matrix = fit_map(objects, powers)
     residual = powers - objects @ matrix.T
     return matrix, float(np.einsum("ij,ij->", residual, residual) / powers.shape[0])
+
+
+def unfitted_cost(powers: np.ndarray, scale=None) -> float:
+    """Cost ``J`` (W^2) of the model with no fringe: readings proportional to the power.
+
+    The least-squares fit keeps only the cone-axis column ``sqrt(2) m_k`` (``m_k`` the
+    relative monitored power, or 1), i.e. the readings about their (power-weighted) mean.
+    A fit at the true delay removes nearly all of this; a side minimum of ``J`` only a
+    little (:func:`wavemeter.delay_search.check_fringes_explained`).
+    """
+    axis = object_vectors(np.zeros(powers.shape[0]), 0.0, 0.0, scale)[:, 2:]
+    return map_cost(axis, powers)[1]
 
 
 def retrieve_phase_rad(powers, map_pinv: np.ndarray) -> np.ndarray:
@@ -147,6 +160,7 @@ class Calibrator(BaseCalibrator):
             span_hz=self.span_hz_[1] - self.span_hz_[0],
             method=self.search,
             xtol=self.xtol,
+            unfitted_cost=unfitted_cost(powers, scale),
         )
         matrix, cost_value = map_cost(
             object_vectors(frequency_hz, center, result.delay_s, scale), powers

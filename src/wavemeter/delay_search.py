@@ -4,6 +4,14 @@ The cost ``J(tau)`` of a sweep spanning ``K`` FSRs has local minima about ``1/K`
 relative delay, so a plain golden-section search over a wide bracket can stop on a wrong
 one. The search first scans the bracket on a grid finer than that spacing, then refines the
 best grid point with scipy's golden-section search (the paper's choice) or bounded Brent.
+
+The main minimum of ``J`` is about ``2/K`` wide (between its first side minima) and
+removes nearly all the fringe power, while a side minimum removes only a few per cent of
+it. A scan step of ``1/(8 K)`` puts several grid points inside the main minimum, so the
+best grid point lies in it whenever the true delay is inside the bracket. When the true
+delay lies outside, the best grid point is on the bracket edge, or (for ``K`` of a few or
+more) on a side minimum inside; given the cost of a model that explains no fringe at all,
+:func:`check_fringes_explained` tells the two apart.
 """
 
 from __future__ import annotations
@@ -16,15 +24,74 @@ from scipy import optimize
 
 from .validation import check_choice, check_positive
 
-__all__ = ["DelaySearchResult", "EdgeMinimumError", "search_delay", "SEARCH_METHODS"]
+__all__ = [
+    "DelaySearchResult",
+    "EdgeMinimumError",
+    "check_fringes_explained",
+    "search_delay",
+    "SEARCH_METHODS",
+]
 
 SEARCH_METHODS = ("golden", "brent")
 GRID_POINTS_PER_MINIMUM = 8
 MIN_GRID_POINTS = 17
+#: a fit at the true delay removes all but the noise; a side minimum removes a few per cent
+MIN_EXPLAINED_FRACTION = 0.5
 
 
 class EdgeMinimumError(ValueError):
-    """The cost is smallest on the edge of the FSR bracket: the true FSR lies outside it."""
+    """The true FSR lies outside the bracket searched.
+
+    Raised when the cost is smallest on the edge of the bracket, or when the best delay
+    inside it explains less than half of the fringe power (a side minimum of ``J``).
+    """
+
+
+def _bracket_text(fsr_hz: float, fsr_tolerance: float) -> str:
+    return f"fsr_hz={fsr_hz / 1e9:.6g} GHz, fsr_tolerance={fsr_tolerance:g}"
+
+
+def check_fringes_explained(
+    cost: float, unfitted_cost: float, *, fsr_hz: float, fsr_tolerance: float
+) -> float:
+    """Fraction of the fringe power a fit removes; raise when it is below one half.
+
+    Parameters
+    ----------
+    cost : float
+        Cost ``J`` at the best delay (W^2 for the learned map).
+    unfitted_cost : float
+        Cost of a model that explains no fringe (the readings about their mean, or about
+        the power-monitor scaling), same unit as ``cost``.
+    fsr_hz, fsr_tolerance : float
+        The bracket searched, for the message.
+
+    Returns
+    -------
+    float
+        ``1 - cost / unfitted_cost``: about 1 at the true delay with fringes well above the
+        noise, a few per cent on a side minimum.
+
+    Raises
+    ------
+    EdgeMinimumError
+        When the fraction is below ``MIN_EXPLAINED_FRACTION`` (0.5): the best delay in the
+        bracket is a side minimum, so the true FSR lies outside the bracket (or the
+        readings carry no fringes above the noise).
+    """
+    if not unfitted_cost > 0:
+        raise ValueError(
+            f"unfitted_cost must be > 0 (the readings vary about their mean), got {unfitted_cost!r}"
+        )
+    explained = 1.0 - cost / unfitted_cost
+    if explained < MIN_EXPLAINED_FRACTION:
+        raise EdgeMinimumError(
+            f"the best delay fit in the FSR bracket ({_bracket_text(fsr_hz, fsr_tolerance)}) "
+            f"explains only {100 * explained:.3g} % of the fringe power, a side minimum: the "
+            "true FSR is outside the bracket (or the readings carry no fringes above the noise); "
+            "widen fsr_tolerance or correct fsr_hz"
+        )
+    return explained
 
 
 @dataclass(frozen=True)
@@ -58,6 +125,7 @@ def search_delay(
     span_hz: float,
     method: str = "golden",
     xtol: float = 1e-12,
+    unfitted_cost: float | None = None,
 ) -> DelaySearchResult:
     """Find the delay minimising ``cost`` for an FSR within ``fsr_hz * (1 +- fsr_tolerance)``.
 
@@ -75,6 +143,10 @@ def search_delay(
         Refinement: scipy's golden-section search or bounded Brent.
     xtol : float
         Relative tolerance on the delay for the refinement.
+    unfitted_cost : float, optional
+        Cost of a model that explains no fringe (see :func:`check_fringes_explained`).
+        When given, a best delay that is only a side minimum raises, which catches a true
+        FSR outside the bracket on sweeps of several FSRs.
 
     Returns
     -------
@@ -83,7 +155,8 @@ def search_delay(
     Raises
     ------
     EdgeMinimumError
-        When the smallest cost lies on an edge of the bracket.
+        When the smallest cost lies on an edge of the bracket, or (with ``unfitted_cost``)
+        when the best delay inside it is a side minimum.
     """
     fsr_hz = check_positive("fsr_hz", fsr_hz)
     fsr_tolerance = check_positive("fsr_tolerance", fsr_tolerance, upper=1.0)
@@ -104,8 +177,8 @@ def search_delay(
         edge_fsr = fsr_hz / grid[best]
         raise EdgeMinimumError(
             f"the delay fit is best at the edge of the FSR bracket ({edge_fsr / 1e9:.6g} GHz for "
-            f"fsr_hz={fsr_hz / 1e9:.6g} GHz, fsr_tolerance={fsr_tolerance:g}): the true FSR is "
-            "outside it; widen fsr_tolerance or correct fsr_hz"
+            f"{_bracket_text(fsr_hz, fsr_tolerance)}): the true FSR is outside it; widen "
+            "fsr_tolerance or correct fsr_hz"
         )
     lo, mid, hi = grid[best - 1], grid[best], grid[best + 1]
     if method == "golden":
@@ -126,6 +199,10 @@ def search_delay(
     cost_best = float(result.fun)
     if grid_cost[best] < cost_best:  # refinement can only improve on the grid point
         u_best, cost_best = float(mid), float(grid_cost[best])
+    if unfitted_cost is not None:
+        check_fringes_explained(
+            cost_best, unfitted_cost, fsr_hz=fsr_hz, fsr_tolerance=fsr_tolerance
+        )
     return DelaySearchResult(
         delay_s=u_best * design_delay,
         cost=cost_best,

@@ -30,7 +30,7 @@ def _package_version() -> str:
 
 def _calibrator_classes() -> dict[str, type[BaseCalibrator]]:
     """Every calibrator class with a method tag, found by walking the subclass tree."""
-    from . import baselines, calibration  # noqa: F401  (imports register the subclasses)
+    from . import baselines, calibration, calibration_set  # noqa: F401  (register subclasses)
 
     found, stack = {}, [BaseCalibrator]
     while stack:
@@ -43,14 +43,27 @@ def _calibrator_classes() -> dict[str, type[BaseCalibrator]]:
 
 def calibration_to_dict(calibrator: BaseCalibrator, metadata: dict | None = None) -> dict:
     """The JSON document of a fitted calibrator."""
-    check_fitted(calibrator)
     return {
         "format": FORMAT,
         "schema_version": SCHEMA_VERSION,
         "wavemeter_version": _package_version(),
         "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
-        "method": calibrator.method,
         "units": UNITS,
+        **calibrator_fields(calibrator),
+        "metadata": metadata or {},
+    }
+
+
+def calibrator_fields(calibrator: BaseCalibrator) -> dict:
+    """Method, settings and learned values of a fitted calibrator, JSON-ready.
+
+    The body of a calibration file without its header; a calibration set stores one per
+    window. The method tag is the class's (an instance attribute of the same name, such as
+    :class:`wavemeter.CalibrationSet`'s window method, does not replace it).
+    """
+    check_fitted(calibrator)
+    return {
+        "method": type(calibrator).method,
         "params": calibrator.get_params_for_file(),
         "fsr_hz": calibrator.fsr_hz_,
         "center_hz": calibrator.center_hz_,
@@ -60,7 +73,6 @@ def calibration_to_dict(calibrator: BaseCalibrator, metadata: dict | None = None
         "n_samples": calibrator.n_samples_,
         "calibration_rms_hz": calibrator.calibration_rms_hz_,
         "state": calibrator._state(),
-        "metadata": metadata or {},
     }
 
 
@@ -104,6 +116,16 @@ def calibration_from_dict(document, path="<calibration>") -> BaseCalibrator:
             f"calibration schema_version {version!r} is not supported by wavemeter "
             f"{_package_version()} (reads 1..{SCHEMA_VERSION}); upgrade wavemeter",
         )
+    return calibrator_from_fields(document, path)
+
+
+def calibrator_from_fields(document: dict, path="<calibration>") -> BaseCalibrator:
+    """Rebuild a fitted calibrator from the fields :func:`calibrator_fields` wrote.
+
+    ``path`` names the source in error messages (a file, or a window of a set).
+    """
+    if not isinstance(document, dict):
+        raise _fail(path, f"calibration fields must be an object, got {type(document).__name__}")
     classes = _calibrator_classes()
     method = document.get("method")
     if method not in classes:
