@@ -389,6 +389,14 @@ def simulate(out_path, test_samples, test_out, **options):
         write_table(path, columns, options["file_format"])
         rows = len(next(iter(columns.values())))
         _say(options["quiet"], f"wrote {path} ({rows} rows: {', '.join(columns)})")
+        codes = sum(int(np.count_nonzero(values == SENTINEL_DBM)) for values in columns.values())
+        if options["power_unit"] == "dBm" and codes:
+            _say(
+                options["quiet"],
+                f"note: {codes} reading(s) at or below 0 W (noise at a fringe null) are written "
+                f"as the {SENTINEL_DBM:g} dBm no-reading code; read {path} with --drop-invalid, "
+                "or simulate with a lower --noise-w",
+            )
     _say(
         options["quiet"],
         f"device: Table 1, {device.ports} ports, seed {options['seed']}, true FSR "
@@ -808,7 +816,7 @@ def _summary_lines(calibration) -> list[str]:
         f"calibration RMS  {calibration.calibration_rms_hz_ / 1e6:.4f} MHz",
     ]
     if hasattr(calibration, "noise_std_w_"):
-        lines.append(f"noise estimate   {calibration.noise_std_w_:.4g} (residual, port units)")
+        lines.append(f"noise estimate   {calibration.noise_std_w_:.4g} W (calibration residual)")
     if _is_set(calibration):
         lines.append("windows          centre THz      FSR GHz   samples   RMS MHz")
         for index, window in enumerate(calibration.windows_):
