@@ -310,3 +310,11 @@ def test_windows_follow_a_local_fsr_that_drifts_across_the_band(device):
     single = wm.Calibrator(50e9).fit(readings, frequency)
     single_error = wm.frequency_error_hz(single.predict(test), test_hz, single.fsr_hz_)
     assert rms(single_error) > 10 * rms(error)
+
+
+def test_ml_retrieval_windows_and_its_parameter_check(device, sweep):
+    frequency, readings = sweep[0][:4000], sweep[1][:4000]
+    ml_set = wm.CalibrationSet(50e9, retrieval="ml").fit(readings, frequency)
+    assert all(window.retrieval == "ml" for window in ml_set.windows_)
+    with pytest.raises(ValueError, match="retrieval='ml' needs method='learned'"):
+        wm.CalibrationSet(50e9, method="conventional", retrieval="ml").fit(readings, frequency)

@@ -371,3 +371,37 @@ def test_progress_bar_only_on_a_terminal_and_not_when_quiet(stream, quiet, drawn
     slices = list(chunked(10, "working", quiet=quiet, chunk_rows=3, stream=stream))
     assert slices == [slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 10)]
     assert bool(stream.getvalue()) is drawn
+
+
+def test_ml_retrieval_and_per_reading_uncertainty(files, tmp_path, capsys):
+    """calibrate --retrieval ml and measure --uncertainty: errors / std have unit RMS."""
+    cal, out = tmp_path / "ml.wmcal.json", tmp_path / "f.csv"
+    ok(capsys, f"calibrate {files['sweep']} -o {cal} --retrieval ml --quiet")
+    assert wm.load_calibration(cal).retrieval == "ml"
+    ok(capsys, f"measure {cal} {files['test']} -o {out} --uncertainty --keep true_frequency_hz")
+    header, data = read_csv(out)
+    assert header == [
+        "frequency_hz",
+        "wavelength_nm",
+        "phase_rad",
+        "frequency_std_hz",
+        "true_frequency_hz",
+    ]
+    fsr = wm.load_calibration(cal).fsr_hz_
+    normalised = wm.frequency_error_hz(data[:, 0], data[:, 4], fsr) / data[:, 3]
+    # 4000 readings: the RMS of unit-variance errors is known to ~1.1 %; allow 4 of them
+    assert np.sqrt(np.mean(normalised**2)) == pytest.approx(1.0, abs=0.045)
+
+
+def test_uncertainty_and_ml_need_the_learned_method(files, tmp_path, capsys):
+    conventional = tmp_path / "conv.wmcal.json"
+    code, _, err = run(
+        capsys, f"calibrate {files['sweep']} -o {conventional} --method conventional --retrieval ml"
+    )
+    assert code == 2 and "--retrieval ml needs --method learned" in err
+    assert not conventional.exists()
+    ok(capsys, f"calibrate {files['sweep']} -o {conventional} --method conventional --quiet")
+    out = tmp_path / "f.csv"
+    code, _, err = run(capsys, f"measure {conventional} {files['test']} -o {out} --uncertainty")
+    assert code == 2 and err.startswith("error:") and "--uncertainty needs a learned" in err
+    assert not out.exists()

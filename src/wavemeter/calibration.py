@@ -18,10 +18,15 @@ from scipy import linalg
 from .base import BaseCalibrator
 from .cone import cone_vectors, delay_phase_rad, phase_to_frequency_hz
 from .delay_search import SEARCH_METHODS, search_delay
+from .limits import crlb_frequency_std
+from .retrieval import cone_ml_phase_rad, source_power_ratio
 from .validation import check_choice, check_positive
+
+RETRIEVALS = ("pinv", "ml")
 
 __all__ = [
     "Calibrator",
+    "RETRIEVALS",
     "object_vectors",
     "fit_map",
     "map_cost",
@@ -98,6 +103,10 @@ class Calibrator(BaseCalibrator):
         Refinement of the delay after the scan: golden-section (paper) or bounded Brent.
     xtol : float
         Relative tolerance on the delay.
+    retrieval : {"pinv", "ml"}
+        Phase retrieval: the paper's pseudo-inverse and arctangent, or the cone-constrained
+        maximum-likelihood phase (:mod:`wavemeter.retrieval`), which starts from it and
+        reaches the Cramer-Rao bound also for ill-conditioned maps.
 
     Attributes
     ----------
@@ -134,17 +143,20 @@ class Calibrator(BaseCalibrator):
         fsr_tolerance: float = 0.2,
         search: str = "golden",
         xtol: float = 1e-12,
+        retrieval: str = "pinv",
     ):
         self.fsr_hz = fsr_hz
         self.fsr_tolerance = fsr_tolerance
         self.search = search
         self.xtol = xtol
+        self.retrieval = retrieval
 
     def _check_params(self) -> None:
         super()._check_params()
         check_positive("fsr_tolerance", self.fsr_tolerance, upper=1.0)
         check_choice("search", self.search, SEARCH_METHODS)
         check_positive("xtol", self.xtol, upper=1.0)
+        check_choice("retrieval", self.retrieval, RETRIEVALS)
 
     def _fit(self, powers, frequency_hz, monitor):
         scale = None if monitor is None else monitor / monitor.mean()
@@ -180,7 +192,33 @@ class Calibrator(BaseCalibrator):
         self.map_pinv_ = linalg.pinv(matrix)
 
     def _phase(self, powers):
-        return retrieve_phase_rad(powers, self.map_pinv_)
+        phase = retrieve_phase_rad(powers, self.map_pinv_)
+        if self.retrieval == "ml":
+            phase = cone_ml_phase_rad(powers, self.map_, phase)
+        return phase
+
+    def frequency_std_hz(self, powers) -> np.ndarray:
+        """Per-reading frequency uncertainty (Hz): the Cramer-Rao bound at the reading.
+
+        Evaluated at the retrieved phase and the reading's own source power, with the
+        detector noise ``noise_std_w_`` estimated from the calibration residual. The
+        ``"ml"`` retrieval attains it; the pseudo-inverse may exceed it for an
+        ill-conditioned map.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+
+        Returns
+        -------
+        ndarray, shape (N,), Hz
+        """
+        readings = self._check_readings(powers)
+        phase = self._phase(readings)
+        power = source_power_ratio(readings, self.map_, phase)
+        # the bound is linear in the noise: evaluate at unit noise, then scale
+        unit = crlb_frequency_std(self.map_, phase, power, 1.0, self.fsr_hz_)
+        return unit * self.noise_std_w_
 
     def _state(self) -> dict:
         return {

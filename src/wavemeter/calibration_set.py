@@ -25,7 +25,7 @@ import numpy as np
 
 from .base import BaseCalibrator
 from .baselines import ConventionalCalibrator
-from .calibration import Calibrator
+from .calibration import RETRIEVALS, Calibrator
 from .metrics import error_summary_hz, frequency_error_hz
 from .persistence import calibrator_fields, calibrator_from_fields
 from .validation import (
@@ -65,6 +65,8 @@ class CalibrationSet(BaseCalibrator):
         Nominal port phases (rad) for the conventional method: used by conventional
         windows and by the baseline of :meth:`adjacent_evaluation`. Default: equally
         spaced in port order.
+    retrieval : {"pinv", "ml"}
+        Phase retrieval of learned windows (see :class:`wavemeter.Calibrator`).
 
     Attributes
     ----------
@@ -99,20 +101,29 @@ class CalibrationSet(BaseCalibrator):
         fsr_tolerance: float = 0.2,
         method: str = "learned",
         port_phases_rad=None,
+        retrieval: str = "pinv",
     ):
         self.fsr_hz = fsr_hz
         self.fsr_tolerance = fsr_tolerance
         self.method = method
         self.port_phases_rad = port_phases_rad
+        self.retrieval = retrieval
 
     def _check_params(self) -> None:
         super()._check_params()
         check_positive("fsr_tolerance", self.fsr_tolerance, upper=1.0)
         check_choice("method", self.method, WINDOW_METHODS)
+        check_choice("retrieval", self.retrieval, RETRIEVALS)
+        if self.method != "learned" and self.retrieval != "pinv":
+            raise ValueError(
+                f"retrieval={self.retrieval!r} needs method='learned', got method={self.method!r}"
+            )
 
     def _window_calibrator(self, fsr_hz: float) -> BaseCalibrator:
         if self.method == "learned":
-            return Calibrator(fsr_hz=fsr_hz, fsr_tolerance=WINDOW_FSR_TOLERANCE)
+            return Calibrator(
+                fsr_hz=fsr_hz, fsr_tolerance=WINDOW_FSR_TOLERANCE, retrieval=self.retrieval
+            )
         return self._conventional(fsr_hz)
 
     def _conventional(self, fsr_hz: float) -> ConventionalCalibrator:

@@ -411,10 +411,15 @@ def _fit(options: dict, table, phases):
     from .calibration_set import CalibrationSet
 
     fsr, tolerance, method = options["fsr"], options["fsr_tolerance"], options["method"]
+    retrieval = options["retrieval"]
+    if method != "learned" and retrieval != "pinv":
+        raise ValueError(f"--retrieval {retrieval} needs --method learned, got --method {method}")
     if options["per_fsr"]:
-        calibrator = CalibrationSet(fsr, tolerance, method=method, port_phases_rad=phases)
+        calibrator = CalibrationSet(
+            fsr, tolerance, method=method, port_phases_rad=phases, retrieval=retrieval
+        )
     elif method == "learned":
-        calibrator = Calibrator(fsr_hz=fsr, fsr_tolerance=tolerance)
+        calibrator = Calibrator(fsr_hz=fsr, fsr_tolerance=tolerance, retrieval=retrieval)
     else:
         calibrator = ConventionalCalibrator(fsr_hz=fsr, port_phases_rad=phases)
     with busy(f"calibrating on {table.source}", quiet=options["quiet"]), _about(table.source):
@@ -456,6 +461,14 @@ def _metadata(table) -> dict:
     default="learned",
     show_default=True,
     help="Learned linear map (paper) or the conventional ideal-map method.",
+)
+@click.option(
+    "--retrieval",
+    type=click.Choice(("pinv", "ml")),
+    default="pinv",
+    show_default=True,
+    help="Phase retrieval of the learned method: pseudo-inverse (paper) or cone-constrained "
+    "maximum likelihood (reaches the Cramer-Rao bound also for ill-conditioned maps).",
 )
 @PORT_PHASES
 @click.option(
@@ -529,16 +542,30 @@ def _coarse(calibration, cal_path, table, coarse_hz):
     type=FREQUENCY,
     help="One coarse frequency for every reading, e.g. 193.4THz (calibration sets).",
 )
+@click.option(
+    "--uncertainty",
+    is_flag=True,
+    help="Also write frequency_std_hz: the per-reading Cramer-Rao bound at the detector noise "
+    "estimated from the calibration (learned single-map calibrations).",
+)
 @column_options(axis=False)
 @QUIET
 def measure(
-    calibration_file, data, out_path, keep, file_format, coarse_column, coarse_hz, **options
+    calibration_file,
+    data,
+    out_path,
+    keep,
+    file_format,
+    coarse_column,
+    coarse_hz,
+    uncertainty,
+    **options,
 ):
     """Turn port readings into frequency with a calibration.
 
     Writes one row per input row, in order: frequency_hz, wavelength_nm (vacuum) and
-    phase_rad at full float64 precision, then the --keep columns. Rows skipped with
-    --drop-invalid are written as NaN.
+    phase_rad at full float64 precision, with --uncertainty frequency_std_hz, then the
+    --keep columns. Rows skipped with --drop-invalid are written as NaN.
 
     \b
     Example:
@@ -546,6 +573,11 @@ def measure(
     """
     calibration = _load(calibration_file)
     table_format(out_path, file_format)  # reject a bad format before the work
+    if uncertainty and not hasattr(calibration, "frequency_std_hz"):
+        raise ValueError(
+            f"{calibration_file}: --uncertainty needs a learned single-map calibration, "
+            f"not a {_method_label(calibration)} calibration"
+        )
     request = _request(options, coarse=coarse_column, keep=_names(keep) or ())
     table = _read(
         data, request, need_x=False, drop_invalid=options["drop_invalid"], quiet=options["quiet"]
@@ -555,16 +587,20 @@ def measure(
     coarse = _coarse(calibration, calibration_file, valid, coarse_hz)
     frequency = np.full(table.n_rows, np.nan)
     phase = np.full(table.n_rows, np.nan)
+    std = np.full(table.n_rows, np.nan)
     rows = np.flatnonzero(~table.invalid)
     for block in chunked(valid.n_rows, f"measuring {data}", quiet=options["quiet"]):
         extra = {} if coarse is None else {"coarse_hz": coarse[block]}
         with _about(data):
             frequency[rows[block]] = calibration.predict(valid.powers_w[block], **extra)
             phase[rows[block]] = calibration.phase(valid.powers_w[block], **extra)
+            if uncertainty:
+                std[rows[block]] = calibration.frequency_std_hz(valid.powers_w[block])
     columns = {
         "frequency_hz": frequency,
         "wavelength_nm": SPEED_OF_LIGHT_M_S / frequency * 1e9,
         "phase_rad": phase,
+        **({"frequency_std_hz": std} if uncertainty else {}),
     }
     for name, values in table.kept.items():
         columns.setdefault(name, values)
