@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test lint bench peers clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -22,6 +22,11 @@ lint: $(BIN)/wavemeter
 
 bench: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/precision.py
+
+peers: $(BIN)/wavemeter
+	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'
+	$(BIN)/python -m pip install --quiet --no-deps 'hoqi-bench>=0.1.1' 'minipti>=1.9.3'
+	$(BIN)/python benchmarks/peers.py
 
 clean:
 	rm -rf $(VENV) wavemeter-demo

@@ -13,24 +13,14 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import statistics
 import tempfile
-import time
 from pathlib import Path
 from unittest import mock
 
 import numpy as np
+from _montecarlo import median_time_s
 
 from wavemeter.io import read_table, write_table
-
-
-def _median_seconds(task, runs: int) -> float:
-    times = []
-    for _ in range(runs):
-        start = time.perf_counter()
-        task()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def _sweep_columns(rows: int) -> dict[str, np.ndarray]:
@@ -55,10 +45,10 @@ def main() -> None:
         size_mb = csv_path.stat().st_size / 1e6
         label = f"read CSV {args.rows:,} x 4 ({size_mb:.0f} MB)"
         if has_arrow:
-            seconds = _median_seconds(lambda: read_table(csv_path), args.runs)
+            seconds, _ = median_time_s(lambda: read_table(csv_path), args.runs)
             results.append((label, "pyarrow.csv", seconds))
         with mock.patch("wavemeter.io._parse_text_with_arrow", return_value=None):
-            seconds = _median_seconds(lambda: read_table(csv_path), args.runs)
+            seconds, _ = median_time_s(lambda: read_table(csv_path), args.runs)
         results.append((label, "numpy.loadtxt", seconds))
         output = {
             "frequency_hz": columns["frequency_hz"],
@@ -68,7 +58,7 @@ def main() -> None:
         formats = ["csv", "hdf5", "npz"] + (["parquet"] if has_arrow else [])
         for file_format in formats:
             target = Path(folder) / f"out.{file_format}"
-            seconds = _median_seconds(
+            seconds, _ = median_time_s(
                 lambda target=target, file_format=file_format: write_table(
                     target, output, file_format
                 ),

@@ -13,15 +13,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 
 import numpy as np
+from _montecarlo import NOISE_W, POWER_W, crlb_rms_hz, median_time_s, progress
 
 import wavemeter as wm
-from wavemeter.cone import delay_phase_rad
 
-POWER_W = 1e-3
-NOISE_W = 5e-7
 TRAIN = 2001
 TEST = 20000
 TARGETS = {"learned median": 1.02, "learned worst": 1.08, "conventional / learned": 50.0}
@@ -36,9 +33,7 @@ def evaluate_device(ports: int, seed: int) -> dict[str, dict[str, float]]:
     half = device.true_fsr_hz / 2
     test_hz = device.center_hz + rng.uniform(-half, half, TEST)
     test_w = device.powers(test_hz, POWER_W, NOISE_W, rng)
-    phase = delay_phase_rad(test_hz, device.center_hz, device.delay_s)
-    bound = wm.crlb_frequency_std(device.true_map(), phase, POWER_W, NOISE_W, device.true_fsr_hz)
-    crlb_rms = float(np.sqrt(np.mean(bound**2)))
+    crlb_rms = crlb_rms_hz(device, test_hz, POWER_W, NOISE_W)
     methods = {
         "learned": wm.Calibrator(50e9),
         "conventional": wm.ConventionalCalibrator(50e9, device.design_port_phases_rad),
@@ -63,7 +58,7 @@ def precision_table(devices: int, seed: int) -> str:
         results = []
         for k in range(devices):
             results.append(evaluate_device(ports, seed + k))
-            print(f"\r{ports}x{ports}: device {k + 1}/{devices}", end="", file=sys.stderr)
+            progress(f"{ports}x{ports}: device {k + 1}/{devices}")
         print(file=sys.stderr)
         improvement = np.array(
             [r["conventional"]["rms_hz"] / r["learned"]["rms_hz"] for r in results]
@@ -96,16 +91,6 @@ def precision_table(devices: int, seed: int) -> str:
     return "\n".join(lines)
 
 
-def median_time_s(function, repeats: int) -> float:
-    """Median wall time (s) of ``repeats`` calls."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return float(np.median(times))
-
-
 def speed_table(seed: int) -> str:
     device = wm.Interferometer.table1(3, seed=seed)
     rng = np.random.default_rng(seed)
@@ -114,13 +99,13 @@ def speed_table(seed: int) -> str:
         train_hz = device.sweep_hz(samples)
         train_w = device.powers(train_hz, POWER_W, NOISE_W, rng)
         cal = wm.Calibrator(50e9)
-        seconds = median_time_s(lambda c=cal, w=train_w, f=train_hz: c.fit(w, f), repeats)
+        seconds, _ = median_time_s(lambda c=cal, w=train_w, f=train_hz: c.fit(w, f), repeats)
         lines.append(f"| Calibrator.fit | {samples:,} | {seconds:.4f} | {samples / seconds:.3g} |")
     count = 1_000_000
     test_w = device.powers(device.sweep_hz(count), POWER_W, NOISE_W, rng)
     y, x = test_w[:, 0].copy(), test_w[:, 1].copy()
-    predict_s = median_time_s(lambda: cal.predict(test_w), 7)
-    arctan_s = median_time_s(lambda: np.arctan2(y, x), 7)
+    predict_s, _ = median_time_s(lambda: cal.predict(test_w), 7)
+    arctan_s, _ = median_time_s(lambda: np.arctan2(y, x), 7)
     lines.append(f"| Calibrator.predict | {count:,} | {predict_s:.4f} | {count / predict_s:.3g} |")
     lines.append(f"| np.arctan2 alone | {count:,} | {arctan_s:.4f} | {count / arctan_s:.3g} |")
     lines.append("")

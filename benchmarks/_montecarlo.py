@@ -1,0 +1,242 @@
+"""Monte Carlo helpers shared by the benchmark scripts.
+
+One place for what every benchmark needs: the simulation regimes (device impairments,
+noise, training sweep and test conditions), seeded device and data generation, the
+Cramer-Rao bound of each device's test set, wall-clock timing as a median of several runs,
+markdown tables on stdout and a progress line on stderr.
+
+Seeding: device ``k`` with ``ports`` ports is drawn from ``SeedSequence([seed, ports, k])``
+in every regime, so the regimes that only rescale an impairment see the same devices (the
+same standard normal draws, scaled); its training and test data come from
+``SeedSequence([seed, ports, k, crc32(regime key)])``.
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import time
+import zlib
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import wavemeter as wm
+
+__all__ = [
+    "DESIGN_FSR_HZ",
+    "NOISE_W",
+    "POWER_W",
+    "REGIMES",
+    "TEST_SAMPLES",
+    "Regime",
+    "Trial",
+    "crlb_rms_hz",
+    "make_device",
+    "make_trial",
+    "markdown_table",
+    "median_time_s",
+    "progress",
+    "trials",
+]
+
+DESIGN_FSR_HZ = 50e9
+POWER_W = 1e-3
+NOISE_W = 5e-7
+TRAIN_SAMPLES = 2001
+TEST_SAMPLES = 5000
+#: draws of a device before giving up on an impairment spread that yields no physical device
+MAX_DRAWS = 100
+
+
+@dataclass(frozen=True)
+class Regime:
+    """One simulated operating condition.
+
+    Attributes
+    ----------
+    key : str
+        Short identifier (command-line friendly).
+    title : str
+        Human-readable description for table headings.
+    device : dict
+        Keyword overrides for :meth:`wavemeter.Interferometer.table1` (impairment sigmas).
+    noise_factor : float
+        Detector noise as a multiple of ``NOISE_W``.
+    train_samples : int
+        Number of calibration readings, evenly over the sweep.
+    span_fsr : float
+        Calibration sweep span in true FSRs; test frequencies lie in the same span.
+    test_power_factor : float
+        Test source power as a multiple of the calibration power ``POWER_W``.
+    test_power_fluctuation : float
+        Relative half width of a uniform per-sample fluctuation of the test source power.
+    """
+
+    key: str
+    title: str
+    device: dict = field(default_factory=dict)
+    noise_factor: float = 1.0
+    train_samples: int = TRAIN_SAMPLES
+    span_fsr: float = 1.0
+    test_power_factor: float = 1.0
+    test_power_fluctuation: float = 0.0
+
+
+REGIMES = (
+    Regime("table1", "Table 1 impairments"),
+    Regime("breaking", "symmetry-breaking perturbation 5 %", device={"breaking_sigma": 0.05}),
+    Regime("responsivity", "responsivity spread 30 %", device={"responsivity_sigma": 0.30}),
+    Regime("noise10", "detector noise x10", noise_factor=10.0),
+    Regime("train10", "only 10 training samples", train_samples=10),
+    Regime("span30", "training and test over 30 % of an FSR", span_fsr=0.3),
+    Regime("power05", "test source power x0.5 of calibration", test_power_factor=0.5),
+    Regime(
+        "fluct30", "test source power fluctuating +-30 % per sample", test_power_fluctuation=0.3
+    ),
+)
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One device of one regime with its calibration sweep and its test readings.
+
+    Attributes
+    ----------
+    device : wavemeter.Interferometer
+    regime : Regime
+    train_powers : ndarray, shape (N, n), W
+    train_hz : ndarray, shape (N,), Hz
+    test_powers : ndarray, shape (M, n), W
+    test_hz : ndarray, shape (M,), Hz
+    test_power_w : ndarray, shape (M,), W
+        Source power of each test reading.
+    noise_w : float
+        Detector noise standard deviation (W).
+    """
+
+    device: wm.Interferometer
+    regime: Regime
+    train_powers: np.ndarray
+    train_hz: np.ndarray
+    test_powers: np.ndarray
+    test_hz: np.ndarray
+    test_power_w: np.ndarray
+    noise_w: float
+
+    def crlb_rms_hz(self) -> float:
+        """RMS over the test set of the per-sample Cramer-Rao bound (Hz)."""
+        return crlb_rms_hz(self.device, self.test_hz, self.test_power_w, self.noise_w)
+
+    def error_hz(self, predicted_hz) -> np.ndarray:
+        """Wrapped retrieval error (Hz) of predictions for the test readings."""
+        return wm.frequency_error_hz(predicted_hz, self.test_hz, self.device.true_fsr_hz)
+
+
+def make_device(ports: int, seed, regime: Regime = REGIMES[0]) -> wm.Interferometer:
+    """A Table 1 device with the regime's impairment overrides.
+
+    ``seed`` is an int or a numpy Generator. A draw that is not a physical device (a
+    responsivity <= 0, possible at a wide spread) is rejected and drawn again from the same
+    generator: the impairments are Gaussians truncated to physical devices.
+    """
+    rng = np.random.default_rng(seed)
+    for _ in range(MAX_DRAWS):
+        try:
+            return wm.Interferometer.table1(ports=ports, seed=rng, **regime.device)
+        except ValueError:
+            continue
+    raise ValueError(f"no physical device in {MAX_DRAWS} draws for regime {regime.key!r}")
+
+
+def make_trial(
+    device: wm.Interferometer,
+    regime: Regime,
+    rng,
+    test_samples: int = TEST_SAMPLES,
+) -> Trial:
+    """Calibration sweep and random-frequency test readings of ``device`` under ``regime``.
+
+    Parameters
+    ----------
+    device : wavemeter.Interferometer
+    regime : Regime
+    rng : int or numpy.random.Generator
+        Source of test frequencies, power fluctuations and detector noise.
+    test_samples : int
+        Number of test readings.
+
+    Returns
+    -------
+    Trial
+    """
+    rng = np.random.default_rng(rng)
+    noise_w = NOISE_W * regime.noise_factor
+    train_hz = device.sweep_hz(regime.train_samples, span_fsr=regime.span_fsr)
+    train_powers = device.powers(train_hz, POWER_W, noise_w, rng)
+    span_hz = regime.span_fsr * device.true_fsr_hz
+    test_hz = device.center_hz + span_hz * (rng.random(test_samples) - 0.5)
+    fluctuation = regime.test_power_fluctuation * rng.uniform(-1.0, 1.0, test_samples)
+    test_power_w = POWER_W * regime.test_power_factor * (1.0 + fluctuation)
+    test_powers = device.powers(test_hz, test_power_w, noise_w, rng)
+    return Trial(
+        device, regime, train_powers, train_hz, test_powers, test_hz, test_power_w, noise_w
+    )
+
+
+def trials(
+    regime: Regime, ports: int, devices: int, seed: int, test_samples: int = TEST_SAMPLES
+) -> Iterator[Trial]:
+    """The ``devices`` trials of one regime and port count (see the module's seeding note)."""
+    regime_code = zlib.crc32(regime.key.encode())
+    for k in range(devices):
+        device_rng = np.random.default_rng(np.random.SeedSequence([seed, ports, k]))
+        device = make_device(ports, device_rng, regime)
+        data_seed = np.random.SeedSequence([seed, ports, k, regime_code])
+        yield make_trial(device, regime, np.random.default_rng(data_seed), test_samples)
+
+
+def crlb_rms_hz(device: wm.Interferometer, frequency_hz, power_w, noise_w: float) -> float:
+    """RMS of the per-sample Cramer-Rao bound (Hz) of ``device`` at the given readings.
+
+    Parameters
+    ----------
+    device : wavemeter.Interferometer
+    frequency_hz : array_like, shape (N,)
+        Source frequencies (Hz).
+    power_w : float or array_like, shape (N,)
+        Source power (W).
+    noise_w : float
+        Detector noise standard deviation (W).
+
+    Returns
+    -------
+    float, Hz
+    """
+    phase = 2.0 * np.pi * (np.asarray(frequency_hz) - device.center_hz) * device.delay_s
+    bound = wm.crlb_frequency_std(device.true_map(), phase, power_w, noise_w, device.true_fsr_hz)
+    return float(np.sqrt(np.mean(bound**2)))
+
+
+def median_time_s(func: Callable[[], object], repeats: int = 5) -> tuple[float, object]:
+    """Median wall-clock time (s) of ``repeats`` calls of ``func()`` and the last result."""
+    times, result = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = func()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), result
+
+
+def markdown_table(headers: Sequence[str], rows: Sequence[Sequence[object]]) -> str:
+    """A GitHub markdown table; cells are converted with ``str``."""
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    lines += ["| " + " | ".join(str(cell) for cell in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def progress(message: str) -> None:
+    """Overwrite the progress line on stderr (stdout carries only the tables)."""
+    sys.stderr.write("\r" + message.ljust(100))
+    sys.stderr.flush()

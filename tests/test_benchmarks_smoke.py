@@ -1,0 +1,112 @@
+"""Smoke test of the peers benchmark's core functions on 2 devices per regime."""
+
+from __future__ import annotations
+
+import importlib
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+DEVICES = 2
+
+
+@pytest.fixture(scope="module")
+def peers():
+    with pytest.MonkeyPatch.context() as patch:
+        patch.syspath_prepend(str(BENCHMARKS))
+        yield importlib.import_module("peers")
+
+
+@pytest.fixture(scope="module")
+def all_results(peers):
+    methods = peers.library_methods()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", peers.NonlinearFitWarning)
+        return {
+            regime.key: {
+                ports: peers.run_regime(
+                    regime,
+                    ports,
+                    methods,
+                    devices=DEVICES,
+                    seed=1,
+                    convergence_devices=1,
+                    starts=3,
+                    test_samples=500,
+                )
+                for ports in peers.PORTS
+            }
+            for regime in peers.REGIMES
+        }
+
+
+def _rows(table: str) -> list[list[str]]:
+    return [[cell.strip() for cell in line.strip("|").split("|")] for line in table.splitlines()]
+
+
+def test_regime_tables_have_a_row_per_method_and_port_count(peers, all_results):
+    methods = [method.name for method in peers.library_methods()]
+    for by_ports in all_results.values():
+        rows = _rows(peers.regime_table(by_ports))
+        assert rows[0][:3] == ["method", "ports", "RMS (MHz)"]
+        assert all(len(row) == len(rows[0]) for row in rows)
+        body = rows[2:]
+        assert [row[0] for row in body] == methods * len(peers.PORTS)
+        assert all(row[-1].endswith(f"/{DEVICES}") for row in body)
+
+
+def test_learned_is_near_the_bound_on_table1(peers, all_results):
+    for results in all_results["table1"].values():
+        learned = results[peers.LEARNED]
+        assert learned.failed == 0
+        ratios = np.array(learned.over_crlb)
+        assert ratios.shape == (DEVICES,)
+        assert np.all(np.isfinite(ratios)) and np.all(ratios < 1.5)
+        assert len(results[peers.NONLINEAR].convergence) == 1
+
+
+def test_summary_and_targets_tables(peers, all_results):
+    summary = _rows(peers.summary_table(all_results, 3))
+    assert summary[0][1:] == [regime.key for regime in peers.REGIMES]
+    targets = _rows(peers.targets_table(all_results, None))
+    assert targets[0] == ["target", "measured", "status"]
+    assert {row[2] for row in targets[2:]} <= {"met", "missed", "n/a"}
+    assert len(targets) - 2 == 2 * len(peers.REGIMES) + 4  # two learned variants
+
+
+def test_quadrature_pair(peers):
+    assert peers.quadrature_pair(np.radians([120, 0, -120])) == (0, 1)
+    assert peers.quadrature_pair(np.radians([135, 45, -135, -45])) == (0, 1)
+    assert peers.quadrature_pair(np.radians([0, 180, 90])) == (0, 2)
+
+
+def test_phase_difference_ignores_offset_and_sign(peers):
+    reference = np.linspace(0, 9, 200)
+    assert peers.phase_difference_rms_rad(-reference + 2.0, reference) < 1e-12
+
+
+def test_hoqi_peer_on_a_sweep(peers, all_results):
+    methods = peers.hoqi_methods()
+    if not methods:
+        pytest.skip("hoqi-bench not installed")
+    heydemann = [m for m in methods if m.name.endswith("heydemann")]
+    results = peers.run_regime(peers.REGIMES[0], 3, heydemann, devices=1, seed=1, test_samples=500)
+    result = results[heydemann[0].name]
+    assert result.failed == 0 and result.median_over_crlb() < 3
+
+
+def test_measured_data_with_peers(peers):
+    if not (peers.DATA_DIR / "Decimation_Comercial.csv").exists():
+        pytest.skip("measured MiniPTI data not found")
+    readings, published = peers.load_measured(peers.DATA_DIR)
+    assert readings.shape == (published.size, 3)
+    external = importlib.import_module("external_peers")
+    try:
+        solver = external.minipti_solver(peers.DATA_DIR / "settings.csv")
+    except external.PeerUnavailable:
+        pytest.skip("minipti not installed")
+    rms = peers.phase_difference_rms_rad(solver(readings[:50]), published[:50])
+    assert rms < 0.05
