@@ -197,24 +197,27 @@ class Calibrator(BaseCalibrator):
             phase = cone_ml_phase_rad(powers, self.map_, phase)
         return phase
 
-    def frequency_std_hz(self, powers) -> np.ndarray:
+    def frequency_std_hz(self, powers, phase_rad=None) -> np.ndarray:
         """Per-reading frequency uncertainty (Hz): the Cramer-Rao bound at the reading.
 
-        Evaluated at the retrieved phase and the reading's own source power, with the
-        detector noise ``noise_std_w_`` estimated from the calibration residual. The
-        ``"ml"`` retrieval attains it; the pseudo-inverse may exceed it for an
-        ill-conditioned map.
+        Evaluated at the retrieved phase (or ``phase_rad``) and the reading's own source
+        power, with the detector noise ``noise_std_w_`` estimated from the calibration
+        residual. The ``"ml"`` retrieval attains it; the pseudo-inverse may exceed it for
+        an ill-conditioned map.
 
         Parameters
         ----------
         powers : array_like, shape (N, n) or (n,)
+        phase_rad : None or array_like, shape (N,)
+            Phase (rad, zero at ``center_hz_``) to evaluate the bound at, e.g. that of the
+            true frequency in an evaluation; default: the retrieved phase.
 
         Returns
         -------
         ndarray, shape (N,), Hz
         """
         readings = self._check_readings(powers)
-        phase = self._phase(readings)
+        phase = self._phase(readings) if phase_rad is None else np.asarray(phase_rad, float)
         power = source_power_ratio(readings, self.map_, phase)
         # the bound is linear in the noise: evaluate at unit noise, then scale
         unit = crlb_frequency_std(self.map_, phase, power, 1.0, self.fsr_hz_)

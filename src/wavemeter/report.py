@@ -30,7 +30,6 @@ from .baselines import ConventionalCalibrator
 from .calibration import Calibrator
 from .calibration_set import CalibrationSet
 from .cone import SQRT2, cone_vectors, delay_phase_rad, wrap_phase_rad
-from .limits import crlb_frequency_std
 from .metrics import error_summary_hz, frequency_error_hz
 from .validation import check_fitted, check_frequency, check_powers
 
@@ -176,8 +175,8 @@ def crlb_per_reading_hz(calibration: BaseCalibrator, powers_w, frequency_hz) -> 
     """Per-reading Cramer-Rao standard deviation (Hz) under a learned calibration's model.
 
     The map, FSR and noise (``noise_std_w_``, from the calibration residual) are the fitted
-    ones, the phase that of the true frequency, and the source power of each reading
-    relative to the calibration's is ``x_hat_3 / sqrt 2``.
+    ones and the phase that of the true frequency
+    (:meth:`wavemeter.Calibrator.frequency_std_hz` at that phase).
 
     Parameters
     ----------
@@ -198,10 +197,7 @@ def crlb_per_reading_hz(calibration: BaseCalibrator, powers_w, frequency_hz) -> 
     bound = np.empty(truth.size)
     for window, rows in _window_rows(calibration, truth):
         phase = delay_phase_rad(truth[rows], window.center_hz_, window.delay_s_)
-        relative_power = (powers[rows] @ window.map_pinv_.T)[:, 2] / SQRT2
-        bound[rows] = crlb_frequency_std(
-            window.map_, phase, relative_power, window.noise_std_w_, window.fsr_hz_
-        )
+        bound[rows] = window.frequency_std_hz(powers[rows], phase)
     return bound
 
 
