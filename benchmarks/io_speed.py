@@ -20,7 +20,7 @@ from unittest import mock
 import numpy as np
 from _montecarlo import median_time_s
 
-from wavemeter.io import read_table, write_table
+from wavemeter.io._reader import read_table, write_table
 
 
 def _sweep_columns(rows: int) -> dict[str, np.ndarray]:

@@ -11,14 +11,19 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.baselines._labels import lock_phase
-from wavemeter.baselines.ellipse import FringeEllipse, ellipse_phase, fit_conic, fit_ellipse
-from wavemeter.baselines.nonlinear_fit import (
+from wavemeter.calibration.baselines._labels import lock_phase
+from wavemeter.calibration.baselines.ellipse import (
+    FringeEllipse,
+    ellipse_phase,
+    fit_conic,
+    fit_ellipse,
+)
+from wavemeter.calibration.baselines.nonlinear_fit import (
     NonlinearFitWarning,
     convergence_share,
     design_parameters,
 )
-from wavemeter.baselines.plane_ellipse import fit_plane_ellipse, plane_ellipse_phase
+from wavemeter.calibration.baselines.plane_ellipse import fit_plane_ellipse, plane_ellipse_phase
 
 POWER_W = 1e-3
 NOISE_W = 5e-7

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wavemeter as wm
-from wavemeter.calibration import fit_map, map_cost, object_vectors, predict_frequency_hz
+from wavemeter.calibration.learned import fit_map, map_cost, object_vectors, predict_frequency_hz
 
 from .conftest import NOISE_W, POWER_W, random_test_frequencies
 

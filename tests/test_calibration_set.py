@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration_set import WINDOW_FSR_TOLERANCE
-from wavemeter.cone import delay_phase_rad
+from wavemeter.analysis import adjacent_evaluation
+from wavemeter.calibration.set import WINDOW_FSR_TOLERANCE
+from wavemeter.model.cone import delay_phase_rad
 
 from .conftest import NOISE_W, POWER_W
 from .test_delay_search import fsr_crlb_std_hz
@@ -41,9 +42,7 @@ def sweep(device):
 @pytest.fixture(scope="module")
 def calibration_set(device, sweep):
     frequency, readings = sweep
-    return wm.CalibrationSet(50e9, port_phases_rad=device.design_port_phases_rad).fit(
-        readings, frequency
-    )
+    return wm.CalibrationSet(50e9).fit(readings, frequency)
 
 
 @pytest.fixture(scope="module")
@@ -125,7 +124,8 @@ def test_adjacent_windows_degrade_little_and_stay_far_below_conventional(
     device, calibration_set, test_data
 ):
     frequency, readings = test_data
-    report = calibration_set.adjacent_evaluation(readings, frequency)
+    baseline = wm.ConventionalCalibrator(port_phases_rad=device.design_port_phases_rad)
+    report = adjacent_evaluation(calibration_set, readings, frequency, baseline)
     assert report["windows_evaluated"] == len(calibration_set.windows_) == len(report["windows"])
     bound_rms = rms(crlb_hz(device, frequency))
     for entry in report["windows"]:
@@ -146,7 +146,7 @@ def test_adjacent_evaluation_needs_two_neighbouring_windows(calibration_set, tes
     frequency, readings = test_data
     first = calibration_set.window_index(frequency) == 0
     with pytest.raises(ValueError, match="neighbouring window"):
-        calibration_set.adjacent_evaluation(readings[first], frequency[first])
+        adjacent_evaluation(calibration_set, readings[first], frequency[first])
 
 
 def test_save_load_round_trip_predicts_bit_for_bit(calibration_set, test_data, tmp_path):
@@ -155,16 +155,18 @@ def test_save_load_round_trip_predicts_bit_for_bit(calibration_set, test_data, t
     calibration_set.save(path)
     document = json.loads(path.read_text())
     assert document["method"] == "calibration_set"
-    assert document["params"]["method"] == "learned"
+    assert document["params"]["window"]["method"] == "learned"
     loaded = wm.load_calibration(path)
     assert isinstance(loaded, wm.CalibrationSet)
     assert loaded.get_params_for_file() == calibration_set.get_params_for_file()
     np.testing.assert_array_equal(loaded.window_edges_hz_, calibration_set.window_edges_hz_)
     np.testing.assert_array_equal(
-        loaded.predict(readings, frequency), calibration_set.predict(readings, frequency)
+        loaded.predict(readings, coarse_hz=frequency),
+        calibration_set.predict(readings, coarse_hz=frequency),
     )
     np.testing.assert_array_equal(
-        loaded.phase(readings, frequency), calibration_set.phase(readings, frequency)
+        loaded.phase(readings, coarse_hz=frequency),
+        calibration_set.phase(readings, coarse_hz=frequency),
     )
     for name in calibration_set.common_attributes:
         assert getattr(loaded, name) == getattr(calibration_set, name)
@@ -192,9 +194,9 @@ def test_a_corrupt_window_is_named(calibration_set, tmp_path):
 
 def test_predict_without_coarse_frequency_says_what_is_needed(calibration_set, test_data):
     _, readings = test_data
-    with pytest.raises(ValueError, match="coarse_hz is required.*laser set point"):
+    with pytest.raises(ValueError, match="needs coarse_hz.*laser set point"):
         calibration_set.predict(readings)
-    with pytest.raises(ValueError, match="coarse_hz is required"):
+    with pytest.raises(ValueError, match="needs coarse_hz"):
         calibration_set.phase(readings)
 
 
@@ -212,7 +214,7 @@ def test_coarse_frequency_outside_every_window_is_refused(calibration_set, test_
     [
         ([193.4e12, 193.4e12], ValueError, r"one value or one per reading \(1140\)"),
         (float("nan"), ValueError, "NaN or inf"),
-        ("193.4 THz", TypeError, "coarse_hz must be a number"),
+        ("193.4 THz", wm.InputError, "coarse_hz must be a number"),
     ],
 )
 def test_bad_coarse_values_are_refused(calibration_set, test_data, coarse, error, match):
@@ -226,23 +228,24 @@ def test_scalar_coarse_value_applies_to_every_reading(calibration_set, test_data
     rows = calibration_set.window_index(frequency) == 9
     centre = calibration_set.windows_[9].center_hz_
     np.testing.assert_array_equal(
-        calibration_set.predict(readings[rows], centre),
-        calibration_set.predict(readings[rows], np.full(rows.sum(), centre)),
+        calibration_set.predict(readings[rows], coarse_hz=centre),
+        calibration_set.predict(readings[rows], coarse_hz=np.full(rows.sum(), centre)),
     )
 
 
 def test_unfitted_set_raises_not_fitted(tmp_path):
     unfitted = wm.CalibrationSet()
     with pytest.raises(wm.NotFittedError):
-        unfitted.predict(np.ones((2, 3)), 193.4e12)
+        unfitted.predict(np.ones((2, 3)), coarse_hz=193.4e12)
     with pytest.raises(wm.NotFittedError):
         unfitted.save(tmp_path / "x.json")
 
 
-def test_unknown_window_method_is_refused(sweep):
+def test_a_window_that_is_not_a_single_fsr_calibrator_is_refused(sweep):
     frequency, readings = sweep
-    with pytest.raises(ValueError, match="method must be one of 'learned', 'conventional'"):
-        wm.CalibrationSet(method="golden").fit(readings, frequency)
+    for window in ("golden", wm.CalibrationSet()):
+        with pytest.raises(wm.InputError, match="window must be an unfitted single-FSR"):
+            wm.CalibrationSet(window=window).fit(readings, frequency)
 
 
 def test_sweep_shorter_than_half_an_fsr_is_refused(device):
@@ -268,9 +271,8 @@ def test_conventional_windows_and_power_monitor(device, sweep):
     before = readings.copy()
     monitored = wm.CalibrationSet(50e9).fit(readings, frequency, device.monitor(source))
     np.testing.assert_array_equal(readings, before)  # inputs are not modified
-    conventional = wm.CalibrationSet(
-        50e9, method="conventional", port_phases_rad=device.design_port_phases_rad
-    ).fit(readings, frequency)
+    window = wm.ConventionalCalibrator(port_phases_rad=device.design_port_phases_rad)
+    conventional = wm.CalibrationSet(50e9, window=window).fit(readings, frequency)
     assert all(isinstance(w, wm.ConventionalCalibrator) for w in conventional.windows_)
     # the calibration RMS: learned with a monitor at the noise level (~ CRLB at 1 mW),
     # conventional an order of magnitude worse
@@ -312,9 +314,31 @@ def test_windows_follow_a_local_fsr_that_drifts_across_the_band(device):
     assert rms(single_error) > 10 * rms(error)
 
 
-def test_ml_retrieval_windows_and_its_parameter_check(device, sweep):
+def test_windows_copy_the_window_calibrators_settings(device, sweep):
     frequency, readings = sweep[0][:4000], sweep[1][:4000]
-    ml_set = wm.CalibrationSet(50e9, retrieval="ml").fit(readings, frequency)
+    template = wm.Calibrator(retrieval="ml")
+    ml_set = wm.CalibrationSet(50e9, window=template).fit(readings, frequency)
     assert all(window.retrieval == "ml" for window in ml_set.windows_)
-    with pytest.raises(ValueError, match="retrieval='ml' needs method='learned'"):
-        wm.CalibrationSet(50e9, method="conventional", retrieval="ml").fit(readings, frequency)
+    assert all(window.fsr_tolerance == 0.05 for window in ml_set.windows_)
+    assert not hasattr(template, "fsr_hz_")  # the template itself is never fitted
+
+
+def test_a_version_0_1_set_file_still_loads(calibration_set, test_data, tmp_path):
+    """0.1 wrote the window method as ``method`` with ``retrieval`` and port phases."""
+    frequency, readings = test_data
+    path = tmp_path / "old.wmcal.json"
+    calibration_set.save(path)
+    document = json.loads(path.read_text())
+    document["params"] = {
+        "fsr_hz": 50e9,
+        "fsr_tolerance": 0.2,
+        "method": "learned",
+        "port_phases_rad": None,
+        "retrieval": "pinv",
+    }
+    path.write_text(json.dumps(document))
+    loaded = wm.load_calibration(path)
+    np.testing.assert_array_equal(
+        loaded.predict(readings, coarse_hz=frequency),
+        calibration_set.predict(readings, coarse_hz=frequency),
+    )

@@ -23,7 +23,7 @@ def _rms_over_crlb(cal, device, test_hz, power_w, rng):
     """RMS error over the RMS of the per-sample CRLB at the test power."""
     readings = device.powers(test_hz, power_w, NOISE_W, rng)
     error = wm.frequency_error_hz(cal.predict(readings), test_hz, device.true_fsr_hz)
-    phase = wm.cone.delay_phase_rad(test_hz, device.center_hz, device.delay_s)
+    phase = wm.model.cone.delay_phase_rad(test_hz, device.center_hz, device.delay_s)
     bound = wm.crlb_frequency_std(device.true_map(), phase, power_w, NOISE_W, device.true_fsr_hz)
     return np.sqrt(np.mean(error**2) / np.mean(bound**2))
 

@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wavemeter.couplers import (
+from wavemeter.exceptions import InputError
+
+from wavemeter.model.couplers import (
     equally_spaced_phases_rad,
     fourier_matrix,
     mmi_2x2,
@@ -98,5 +100,5 @@ def test_orthonormal_map_rejects_bad_phases():
         orthonormal_map([0.0, 1.0])
     with pytest.raises(ValueError, match="finite"):
         orthonormal_map([0.0, np.nan, 1.0])
-    with pytest.raises(TypeError, match="ports must be an integer"):
+    with pytest.raises(InputError, match="ports must be an integer"):
         fourier_matrix(3.5)

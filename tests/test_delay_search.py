@@ -15,9 +15,9 @@ import pytest
 from scipy import linalg
 
 import wavemeter as wm
-from wavemeter.calibration import map_cost, object_vectors
-from wavemeter.cone import cone_vectors, delay_phase_rad
-from wavemeter.delay_search import check_fringes_explained, search_delay
+from wavemeter.calibration.delay_search import check_fringes_explained, search_delay
+from wavemeter.calibration.learned import map_cost, object_vectors
+from wavemeter.model.cone import cone_vectors, delay_phase_rad
 
 from .conftest import NOISE_W, POWER_W
 

@@ -12,7 +12,7 @@ import pytest
 from scipy import io as scipy_io
 
 import wavemeter as wm
-from wavemeter.io import ColumnRequest, port_key, read_table, table_format, write_table
+from wavemeter.io._reader import ColumnRequest, port_key, read_table, table_format, write_table
 from wavemeter.units import SPEED_OF_LIGHT_M_S, hz_to_axis, w_to_power
 
 MINIPTI = Path(__file__).parents[2] / "shared" / "data" / "minipti-fiber-3x3"
@@ -33,7 +33,7 @@ def parser(request, monkeypatch):
     if request.param == "arrow":
         pytest.importorskip("pyarrow")
     else:
-        monkeypatch.setattr("wavemeter.io._parse_text_with_arrow", lambda *args: None)
+        monkeypatch.setattr("wavemeter.io._reader._parse_text_with_arrow", lambda *args: None)
     return request.param
 
 

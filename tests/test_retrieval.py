@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.cone import delay_phase_rad
-from wavemeter.retrieval import cone_ml_phase_rad, source_power_ratio
+from wavemeter.model.cone import delay_phase_rad
+from wavemeter.model.retrieval import cone_ml_phase_rad, source_power_ratio
 
 from .conftest import NOISE_W, POWER_W, random_test_frequencies
 

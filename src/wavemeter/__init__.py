@@ -3,54 +3,66 @@
 Port powers are a linear image ``p = A x`` of a vector ``x`` on a circular cone; the map is
 learned in closed form from a calibration sweep, only the delay (FSR) is searched, and
 phase comes back through a pseudo-inverse and an arctangent.
+
+The public names below are loaded on first use, so ``import wavemeter`` (and the command
+line's ``--help``) does not pay for numpy and scipy until they are needed.
 """
 
-from .baselines import (
-    ConventionalCalibrator,
-    EllipseCalibrator,
-    ExtendedConventionalCalibrator,
-    NonlinearFitCalibrator,
-    PlaneEllipseCalibrator,
-)
-from .calibration import Calibrator, predict_frequency_hz, retrieve_phase_rad
-from .calibration_set import CalibrationSet
-from .cone import cone_vectors, phase_to_frequency_hz, wrap_phase_rad
-from .couplers import fourier_matrix, mmi_matrix, orthonormal_map
-from .delay_search import EdgeMinimumError
-from .limits import crlb_frequency_std, crlb_ideal_frequency_std
-from .metrics import error_summary_hz, frequency_error_hz
-from .persistence import load_calibration, save_calibration
-from .report import write_report
-from .simulation import Interferometer
-from .validation import NotFittedError
+from __future__ import annotations
 
-__version__ = "0.1.0"
+import importlib
 
-__all__ = [
-    "Calibrator",
-    "CalibrationSet",
-    "ConventionalCalibrator",
-    "EllipseCalibrator",
-    "ExtendedConventionalCalibrator",
-    "NonlinearFitCalibrator",
-    "PlaneEllipseCalibrator",
-    "EdgeMinimumError",
-    "Interferometer",
-    "NotFittedError",
-    "cone_vectors",
-    "crlb_frequency_std",
-    "crlb_ideal_frequency_std",
-    "error_summary_hz",
-    "fourier_matrix",
-    "frequency_error_hz",
-    "load_calibration",
-    "mmi_matrix",
-    "orthonormal_map",
-    "phase_to_frequency_hz",
-    "predict_frequency_hz",
-    "retrieve_phase_rad",
-    "save_calibration",
-    "write_report",
-    "wrap_phase_rad",
-    "__version__",
-]
+from ._version import __version__
+
+#: public name -> submodule that defines it
+_WHERE = {
+    "Calibrator": "calibration",
+    "CalibrationSet": "calibration",
+    "ConventionalCalibrator": "calibration",
+    "EllipseCalibrator": "calibration",
+    "ExtendedConventionalCalibrator": "calibration",
+    "NonlinearFitCalibrator": "calibration",
+    "PlaneEllipseCalibrator": "calibration",
+    "load_calibration": "calibration",
+    "save_calibration": "calibration",
+    "predict_frequency_hz": "calibration",
+    "retrieve_phase_rad": "calibration",
+    "Interferometer": "simulation",
+    "cone_vectors": "model",
+    "phase_to_frequency_hz": "model",
+    "wrap_phase_rad": "model",
+    "fourier_matrix": "model",
+    "mmi_matrix": "model",
+    "orthonormal_map": "model",
+    "crlb_frequency_std": "model",
+    "crlb_ideal_frequency_std": "model",
+    "error_summary_hz": "analysis",
+    "frequency_error_hz": "analysis",
+    "write_report": "report",
+    "WavemeterError": "exceptions",
+    "InputError": "exceptions",
+    "FileFormatError": "exceptions",
+    "NotFittedError": "exceptions",
+    "EdgeMinimumError": "exceptions",
+    "CalibrationWarning": "exceptions",
+}
+
+#: subpackages reachable as attributes (``wm.model.cone``), loaded on first use
+_SUBPACKAGES = ("analysis", "calibration", "io", "model", "report", "simulation")
+
+__all__ = sorted(_WHERE) + ["__version__"]
+
+
+def __getattr__(name: str):
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f".{name}", __name__)
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'wavemeter' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_WHERE) | set(_SUBPACKAGES))

@@ -8,6 +8,8 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+from .exceptions import InputError
+
 __all__ = ["atomic_path"]
 
 
@@ -27,7 +29,7 @@ def atomic_path(path) -> Iterator[Path]:
     target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
-        raise ValueError(f"cannot write {target}: folder {folder} does not exist")
+        raise InputError(f"cannot write {target}: folder {folder} does not exist")
     handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
     os.close(handle)
     os.chmod(temporary, 0o666 & ~_umask())  # mkstemp creates 0600; give the usual mode

@@ -14,6 +14,8 @@ import re
 
 import numpy as np
 
+from .exceptions import InputError
+
 __all__ = [
     "SPEED_OF_LIGHT_M_S",
     "FREQUENCY_UNITS",
@@ -91,7 +93,7 @@ def canonical_unit(unit: str, kind: str, label: str | None = None) -> str:
     name = _LOOKUP.get(str(unit).strip().lower())
     if name not in allowed:
         where = f"{label}: " if label else ""
-        raise ValueError(f"{where}unknown {kind} unit {unit!r}; allowed: {', '.join(allowed)}")
+        raise InputError(f"{where}unknown {kind} unit {unit!r}; allowed: {', '.join(allowed)}")
     return name
 
 
@@ -175,7 +177,7 @@ def check_optical_frequency(frequency_hz, raw_values, unit: str | None, column: 
         hint = f"look like {guesses[0]}; use --x-unit {guesses[0]}"
     else:
         hint = "are not optical (100-1000 THz, 300-3000 nm) in any unit; check the column"
-    raise ValueError(f"column {column!r}: values {shown} {label} {hint}")
+    raise InputError(f"column {column!r}: values {shown} {label} {hint}")
 
 
 def _range_in(raw: tuple[float, float], unit: str) -> tuple[float, float]:
@@ -229,7 +231,7 @@ def parse_frequency_hz(text, name: str = "frequency") -> float:
     """
     match = _QUANTITY.match(str(text))
     if not match:
-        raise ValueError(
+        raise InputError(
             f"{name} {text!r} is not a number with an optional unit "
             f"(e.g. 50GHz, 49.69 GHz, 5e10); units: {', '.join(FREQUENCY_UNITS)}"
         )

@@ -6,11 +6,14 @@ import numbers
 
 import numpy as np
 
+from .exceptions import InputError, NotFittedError
+
 __all__ = [
-    "NotFittedError",
+    "as_rng",
     "check_powers",
     "check_frequency",
     "check_monitor",
+    "check_per_reading",
     "check_positive",
     "check_choice",
     "check_fitted",
@@ -20,25 +23,30 @@ __all__ = [
 MIN_SAMPLES = 4
 
 
-class NotFittedError(ValueError, AttributeError):
-    """Raised when ``predict``/``phase``/``save`` is called before ``fit``."""
+def as_rng(rng) -> np.random.Generator:
+    """A numpy Generator from ``None``, an int seed or a Generator."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, bool)):
+        return np.random.default_rng(rng)
+    raise InputError(f"rng must be None, an int seed or a numpy Generator, got {rng!r}")
 
 
 def check_positive(name: str, value, *, upper: float | None = None) -> float:
     """A finite real number > 0 (and < ``upper`` when given), or a clear error."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
+        raise InputError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
     value = float(value)
     if not np.isfinite(value) or value <= 0 or (upper is not None and value >= upper):
         allowed = f"in (0, {upper})" if upper is not None else "a finite number > 0"
-        raise ValueError(f"{name} must be {allowed}, got {value!r}")
+        raise InputError(f"{name} must be {allowed}, got {value!r}")
     return value
 
 
 def check_choice(name: str, value, allowed: tuple) -> str:
     """One of ``allowed``, or an error naming the parameter, the choices and the value."""
     if value not in allowed:
-        raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {value!r}")
+        raise InputError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {value!r}")
     return value
 
 
@@ -52,31 +60,31 @@ def check_powers(powers, *, min_samples: int = 1, ports: int | None = None) -> n
     try:
         array = np.asarray(powers, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise TypeError(f"port powers must be numeric, got {type(powers).__name__}") from exc
+        raise InputError(f"port powers must be numeric, got {type(powers).__name__}") from exc
     if array.ndim == 1 and ports is not None and array.size == ports:
         array = array[np.newaxis, :]
     if array.ndim != 2:
-        raise ValueError(
+        raise InputError(
             f"port powers must be a 2-D array (samples, ports), got shape {array.shape}"
         )
     samples, n = array.shape
     if n < 3:
-        raise ValueError(f"port powers need at least 3 ports (columns), got {n}")
+        raise InputError(f"port powers need at least 3 ports (columns), got {n}")
     if ports is not None and n != ports:
-        raise ValueError(f"port powers have {n} ports but the calibration has {ports}")
+        raise InputError(f"port powers have {n} ports but the calibration has {ports}")
     if samples < min_samples:
-        raise ValueError(f"need at least {min_samples} samples, got {samples}")
+        raise InputError(f"need at least {min_samples} samples, got {samples}")
     # one pass over the data: a row sum is NaN/inf when any reading is, and <= 0 in the dark
     total = array @ np.ones(n)
     if not np.all(np.isfinite(total) & (total > 0)):
         bad = ~np.isfinite(array).all(axis=1)
         if bad.any():
             rows = np.flatnonzero(bad)[:5].tolist()
-            raise ValueError(
+            raise InputError(
                 f"port powers contain NaN or inf in rows {rows} (zero-based); drop them"
             )
         rows = np.flatnonzero(total <= 0)[:5].tolist()
-        raise ValueError(
+        raise InputError(
             f"port powers sum to zero or less in rows {rows} (zero-based): no light, or "
             "readings that are not linear powers (dBm read as W?)"
         )
@@ -88,12 +96,31 @@ def check_frequency(frequency_hz, samples: int, name: str = "frequency_hz") -> n
     try:
         f = np.array(frequency_hz, dtype=float, copy=True)
     except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be numeric, got {type(frequency_hz).__name__}") from exc
+        raise InputError(f"{name} must be numeric, got {type(frequency_hz).__name__}") from exc
     if f.ndim != 1 or f.size != samples:
-        raise ValueError(f"{name} must be a vector of {samples} values, got shape {f.shape}")
+        raise InputError(f"{name} must be a vector of {samples} values, got shape {f.shape}")
     if not np.all(np.isfinite(f)):
-        raise ValueError(f"{name} contains NaN or inf")
+        raise InputError(f"{name} contains NaN or inf")
     return f
+
+
+def check_per_reading(name: str, value, samples: int) -> np.ndarray:
+    """One finite number, or one per reading, as a fresh float64 vector of length ``samples``."""
+    try:
+        array = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            f"{name} must be a number or an array of numbers, got {type(value).__name__}"
+        ) from exc
+    if array.ndim == 0:
+        array = np.full(samples, float(array))
+    if array.shape != (samples,):
+        raise InputError(
+            f"{name} must be one value or one per reading ({samples}), got shape {array.shape}"
+        )
+    if not np.all(np.isfinite(array)):
+        raise InputError(f"{name} contains NaN or inf")
+    return array
 
 
 def check_monitor(power_monitor_w, samples: int) -> np.ndarray | None:
@@ -102,7 +129,7 @@ def check_monitor(power_monitor_w, samples: int) -> np.ndarray | None:
         return None
     m = np.array(np.broadcast_to(np.asarray(power_monitor_w, dtype=float), (samples,)))
     if not np.all(np.isfinite(m)) or np.any(m <= 0):
-        raise ValueError("power_monitor_w must be finite and > 0 for every sample (W)")
+        raise InputError("power_monitor_w must be finite and > 0 for every sample (W)")
     return m
 
 

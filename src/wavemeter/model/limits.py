@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .validation import check_positive
+from ..exceptions import InputError
+from ..validation import check_positive
 
 __all__ = ["crlb_frequency_std", "crlb_ideal_frequency_std"]
 
@@ -42,7 +43,7 @@ def crlb_frequency_std(map_, phase_rad, power, noise_std, fsr_hz) -> np.ndarray:
     """
     matrix = np.asarray(map_, dtype=float)
     if matrix.ndim != 2 or matrix.shape[1] != 3:
-        raise ValueError(f"map_ must have shape (n, 3), got {matrix.shape}")
+        raise InputError(f"map_ must have shape (n, 3), got {matrix.shape}")
     noise_std = check_positive("noise_std", noise_std)
     fsr_hz = check_positive("fsr_hz", fsr_hz)
     t = np.asarray(phase_rad, dtype=float)
@@ -64,7 +65,7 @@ def crlb_ideal_frequency_std(ports: int, power_w: float, noise_w: float, fsr_hz:
     P^2 / (2 n)`` and ``a_t`` is orthogonal to ``a_P``.
     """
     if ports < 3:
-        raise ValueError(f"ports must be >= 3, got {ports}")
+        raise InputError(f"ports must be >= 3, got {ports}")
     power_w = check_positive("power_w", power_w)
     noise_w = check_positive("noise_w", noise_w)
     return fsr_hz * np.sqrt(2.0 * ports) * noise_w / (2.0 * np.pi * power_w)

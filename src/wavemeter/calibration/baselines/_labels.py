@@ -16,8 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...exceptions import InputError
+from ...model.cone import wrap_phase_rad
 from ..base import BaseCalibrator
-from ..cone import wrap_phase_rad
 from ..delay_search import EdgeMinimumError, search_delay
 
 __all__ = [
@@ -153,6 +154,6 @@ class LabelLockedCalibrator(BaseCalibrator):
     def _set_lock_state(self, state: dict) -> None:
         direction = int(state["direction"])
         if direction not in (1, -1):
-            raise ValueError(f"direction must be 1 or -1, got {state['direction']!r}")
+            raise InputError(f"direction must be 1 or -1, got {state['direction']!r}")
         self.direction_ = direction
         self.phase_origin_rad_ = float(state["phase_origin_rad"])

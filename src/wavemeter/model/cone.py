@@ -10,7 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cone_vectors", "delay_phase_rad", "wrap_phase_rad", "phase_to_frequency_hz"]
+__all__ = [
+    "cone_vectors",
+    "delay_phase_rad",
+    "wrap_to_period",
+    "wrap_phase_rad",
+    "phase_to_frequency_hz",
+]
 
 SQRT2 = np.sqrt(2.0)
 
@@ -39,9 +45,15 @@ def delay_phase_rad(frequency_hz, center_hz: float, delay_s: float) -> np.ndarra
     return 2.0 * np.pi * (np.asarray(frequency_hz, dtype=float) - center_hz) * delay_s
 
 
+def wrap_to_period(values, period: float) -> np.ndarray:
+    """Wrap values to [-period/2, period/2): the one wrap of phases and frequency errors."""
+    half = 0.5 * period
+    return (np.asarray(values, dtype=float) + half) % period - half
+
+
 def wrap_phase_rad(phase_rad) -> np.ndarray:
     """Wrap phases to [-pi, pi)."""
-    return (np.asarray(phase_rad, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
+    return wrap_to_period(phase_rad, 2.0 * np.pi)
 
 
 def phase_to_frequency_hz(phase_rad, center_hz: float, fsr_hz: float) -> np.ndarray:

@@ -41,10 +41,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, optimize
 
+from ...exceptions import InputError
+from ...model.couplers import mmi_matrix, port_phases_rad
+from ...validation import as_rng, check_positive
 from ..base import BaseCalibrator
-from ..couplers import mmi_matrix, port_phases_rad
-from ..simulation import as_rng
-from ..validation import check_positive
 
 __all__ = [
     "ConvergenceShare",
@@ -195,24 +195,24 @@ class NonlinearFitCalibrator(BaseCalibrator):
             or not isinstance(self.max_nfev, (int, np.integer))
             or self.max_nfev < 1
         ):
-            raise ValueError(f"max_nfev must be an integer >= 1, got {self.max_nfev!r}")
+            raise InputError(f"max_nfev must be an integer >= 1, got {self.max_nfev!r}")
 
     def _starting_point(self, ports: int) -> np.ndarray:
         if self.initial is None:
             return design_parameters(ports, self.fsr_hz)
         start = np.array(self.initial, dtype=float)
         if start.shape != (3 * ports + 1,) or not np.all(np.isfinite(start)):
-            raise ValueError(
+            raise InputError(
                 f"initial must be 3 n + 1 = {3 * ports + 1} finite numbers [m_a (n), m_b (n), "
                 f"phi (n), delay_s] for n = {ports} ports, got shape {start.shape}"
             )
         if not start[-1] > 0:
-            raise ValueError(f"initial delay_s (last entry) must be > 0, got {start[-1]!r}")
+            raise InputError(f"initial delay_s (last entry) must be > 0, got {start[-1]!r}")
         return start
 
     def _fit(self, powers, frequency_hz, monitor):
         if monitor is not None:
-            raise ValueError(
+            raise InputError(
                 "power_monitor_w is not used by the nonlinear_fit method (Kleijn's model takes "
                 "the source power as the sum of the port powers); pass power_monitor_w=None"
             )
@@ -299,7 +299,7 @@ class NonlinearFitCalibrator(BaseCalibrator):
             or not (np.all(np.isfinite(magnitudes)) and np.all(np.isfinite(phases)))
             or not (np.isfinite(delay) and delay > 0)
         ):
-            raise ValueError(
+            raise InputError(
                 f"magnitudes must be {n} x 2 and port_phases_rad {n} finite numbers, delay_s > 0"
             )
         self._set_parameters(magnitudes, phases, delay)
@@ -378,7 +378,7 @@ def convergence_share(
     ConvergenceShare
     """
     if isinstance(starts, bool) or not isinstance(starts, (int, np.integer)) or starts < 1:
-        raise ValueError(f"starts must be an integer >= 1, got {starts!r}")
+        raise InputError(f"starts must be an integer >= 1, got {starts!r}")
     spread = check_positive("spread", spread, upper=1.0)
     cost_rtol = check_positive("cost_rtol", cost_rtol)
     generator = as_rng(rng)

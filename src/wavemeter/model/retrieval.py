@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cone import cone_vectors
+from .cone import cone_vectors, wrap_phase_rad
 
 __all__ = ["cone_ml_phase_rad", "source_power_ratio", "MAX_NEWTON_STEP_RAD"]
 
@@ -73,7 +73,7 @@ def cone_ml_phase_rad(powers, map_: np.ndarray, start_rad, iterations: int = 3) 
         # a maximum has negative curvature; elsewhere (far from it) do not step
         step = np.where(curvature < 0, -slope / np.where(curvature < 0, curvature, -1.0), 0.0)
         phase = phase + np.clip(step, -MAX_NEWTON_STEP_RAD, MAX_NEWTON_STEP_RAD)
-    return (phase + np.pi) % (2.0 * np.pi) - np.pi
+    return wrap_phase_rad(phase)
 
 
 def source_power_ratio(powers, map_: np.ndarray, phase_rad) -> np.ndarray:

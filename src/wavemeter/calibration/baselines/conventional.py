@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..couplers import equally_spaced_phases_rad, orthonormal_map
+from ...exceptions import InputError
+from ...model.couplers import equally_spaced_phases_rad, orthonormal_map
 from ._labels import LabelLockedCalibrator, phase_locking
 
 __all__ = ["ConventionalCalibrator", "phase_locking"]
@@ -51,7 +52,7 @@ class ConventionalCalibrator(LabelLockedCalibrator):
         else:
             phases = np.asarray(self.port_phases_rad, dtype=float)
             if phases.shape != (n,):
-                raise ValueError(
+                raise InputError(
                     f"port_phases_rad must have one phase per port ({n}), got shape {phases.shape}"
                 )
         self.map_ = orthonormal_map(phases)

@@ -6,23 +6,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cone import delay_phase_rad
-from .couplers import mmi_2x2, mmi_matrix, port_phases_rad, y_junction
+from ..exceptions import InputError
+from ..model.cone import delay_phase_rad
+from ..model.couplers import mmi_2x2, mmi_matrix, port_phases_rad, y_junction
+from ..validation import as_rng
 
-__all__ = ["Interferometer", "as_rng"]
+__all__ = ["Interferometer"]
 
 DEFAULT_FSR_HZ = 50e9
 DEFAULT_CENTER_HZ = 193.4e12
 SPLITTERS = ("mmi", "y")
-
-
-def as_rng(rng) -> np.random.Generator:
-    """A numpy Generator from ``None``, an int seed or a Generator."""
-    if isinstance(rng, np.random.Generator):
-        return rng
-    if rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, bool)):
-        return np.random.default_rng(rng)
-    raise TypeError(f"rng must be None, an int seed or a numpy Generator, got {rng!r}")
 
 
 def _splitter_amplitudes(splitter: str) -> np.ndarray:
@@ -30,7 +23,7 @@ def _splitter_amplitudes(splitter: str) -> np.ndarray:
         return mmi_2x2()[:, 0]
     if splitter == "y":
         return y_junction()[:, 0]
-    raise ValueError(f"splitter must be one of {SPLITTERS}, got {splitter!r}")
+    raise InputError(f"splitter must be one of {SPLITTERS}, got {splitter!r}")
 
 
 def _symmetry_classes(n: int) -> np.ndarray:
@@ -123,26 +116,26 @@ class Interferometer:
     def __post_init__(self):
         coupler = np.array(self.output_coupler, dtype=complex)
         if coupler.ndim != 2 or coupler.shape[0] != coupler.shape[1] or coupler.shape[0] < 3:
-            raise ValueError(
+            raise InputError(
                 f"output_coupler must be a square matrix with at least 3 ports, "
                 f"got shape {coupler.shape}"
             )
         n = coupler.shape[0]
         a, b = self.inputs
         if not (0 <= a < n and 0 <= b < n and a != b):
-            raise ValueError(f"inputs must be two different ports in 0..{n - 1}, got {self.inputs}")
+            raise InputError(f"inputs must be two different ports in 0..{n - 1}, got {self.inputs}")
         splitter = np.array(self.splitter_amplitudes, dtype=complex).reshape(-1)
         if splitter.shape != (2,):
-            raise ValueError(f"splitter_amplitudes must have 2 entries, got {splitter.shape}")
+            raise InputError(f"splitter_amplitudes must have 2 entries, got {splitter.shape}")
         if not (np.isfinite(self.delay_s) and self.delay_s > 0):
-            raise ValueError(f"delay_s must be a positive number of seconds, got {self.delay_s}")
+            raise InputError(f"delay_s must be a positive number of seconds, got {self.delay_s}")
         responsivity = np.ones(n) if self.responsivity is None else np.array(self.responsivity)
         if responsivity.shape != (n,) or np.any(responsivity <= 0):
-            raise ValueError(f"responsivity must be {n} positive numbers, got {responsivity}")
+            raise InputError(f"responsivity must be {n} positive numbers, got {responsivity}")
         design = self.design_port_phases_rad
         design = port_phases_rad(coupler, self.inputs) if design is None else np.array(design)
         if design.shape != (n,):
-            raise ValueError(f"design_port_phases_rad must have {n} entries, got {design.shape}")
+            raise InputError(f"design_port_phases_rad must have {n} entries, got {design.shape}")
         for array in (coupler, splitter, responsivity, design):
             array.setflags(write=False)
         object.__setattr__(self, "output_coupler", coupler)
@@ -287,12 +280,12 @@ class Interferometer:
         """
         f = np.atleast_1d(np.asarray(f_hz, dtype=float))
         if f.ndim != 1:
-            raise ValueError(f"f_hz must be 1-D, got shape {f.shape}")
+            raise InputError(f"f_hz must be 1-D, got shape {f.shape}")
         power = np.broadcast_to(np.asarray(power_w, dtype=float), f.shape)
         if not np.all(np.isfinite(power)) or np.any(power < 0):
-            raise ValueError("power_w must be finite and non-negative (W)")
+            raise InputError("power_w must be finite and non-negative (W)")
         if not (np.isfinite(noise_w) and noise_w >= 0):
-            raise ValueError(f"noise_w must be a non-negative number (W), got {noise_w}")
+            raise InputError(f"noise_w must be a non-negative number (W), got {noise_w}")
         delayed, other = self._port_fields()
         psi = delay_phase_rad(f, self.center_hz, self.delay_s) + self.bias_at(temperature_k)
         fields = np.exp(1j * psi)[:, None] * delayed[None, :] + other[None, :]

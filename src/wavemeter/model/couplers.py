@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..exceptions import InputError
+
 __all__ = [
     "fourier_matrix",
     "mmi_matrix",
@@ -22,9 +24,9 @@ __all__ = [
 
 def _check_port_count(n: int, minimum: int) -> int:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
-        raise TypeError(f"ports must be an integer, got {type(n).__name__} {n!r}")
+        raise InputError(f"ports must be an integer, got {type(n).__name__} {n!r}")
     if n < minimum:
-        raise ValueError(f"ports must be >= {minimum}, got {n}")
+        raise InputError(f"ports must be >= {minimum}, got {n}")
     return int(n)
 
 
@@ -134,10 +136,10 @@ def orthonormal_map(phases_rad) -> np.ndarray:
     """
     phases = np.asarray(phases_rad, dtype=float)
     if phases.ndim != 1:
-        raise ValueError(f"port phases must be a 1-D array, got shape {phases.shape}")
+        raise InputError(f"port phases must be a 1-D array, got shape {phases.shape}")
     n = _check_port_count(phases.size, 3)
     if not np.all(np.isfinite(phases)):
-        raise ValueError("port phases must be finite numbers (rad)")
+        raise InputError("port phases must be finite numbers (rad)")
     scale = np.sqrt(2.0 / n)
     return np.column_stack(
         [scale * np.cos(phases), scale * np.sin(phases), np.full(n, 1.0 / np.sqrt(n))]

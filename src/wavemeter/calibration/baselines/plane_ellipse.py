@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...exceptions import InputError
 from ._labels import LabelLockedCalibrator
 from .ellipse import MIN_ELLIPSE_POINTS, FringeEllipse, ellipse_phase, fit_ellipse
 
@@ -71,12 +72,12 @@ class PlaneEllipse:
         basis = np.array(state["basis"], dtype=float)
         normal = np.array(state["normal"], dtype=float)
         if origin.shape != (ports,) or basis.shape != (ports, 2) or normal.shape != (ports,):
-            raise ValueError(
+            raise InputError(
                 f"plane needs origin ({ports},), basis ({ports}, 2) and normal ({ports},), got "
                 f"{origin.shape}, {basis.shape} and {normal.shape}"
             )
         if not all(np.all(np.isfinite(v)) for v in (origin, basis, normal)):
-            raise ValueError("plane origin, basis and normal must be finite")
+            raise InputError("plane origin, basis and normal must be finite")
         return cls(origin, basis, normal, FringeEllipse.from_dict(state["ellipse"]))
 
 
@@ -85,7 +86,7 @@ def _plane_coordinates(origin, basis, normal, powers: np.ndarray) -> np.ndarray:
     along_normal = powers @ normal
     if not np.all(along_normal > 0):
         rows = np.flatnonzero(~(along_normal > 0))[:5].tolist()
-        raise ValueError(
+        raise InputError(
             f"readings in rows {rows} (zero-based) lie on the far side of the cone vertex "
             "from the calibration plane: not readings of this interferometer"
         )
@@ -96,9 +97,9 @@ def _plane_coordinates(origin, basis, normal, powers: np.ndarray) -> np.ndarray:
 def _check_readings(powers) -> np.ndarray:
     array = np.asarray(powers, dtype=float)
     if array.ndim != 2 or array.shape[1] < 3:
-        raise ValueError(f"powers must have shape (samples, ports >= 3), got {array.shape}")
+        raise InputError(f"powers must have shape (samples, ports >= 3), got {array.shape}")
     if not np.all(np.isfinite(array)):
-        raise ValueError("powers must be finite (no NaN or inf)")
+        raise InputError("powers must be finite (no NaN or inf)")
     return array
 
 
@@ -121,19 +122,19 @@ def fit_plane_ellipse(powers) -> PlaneEllipse:
     """
     readings = _check_readings(powers)
     if readings.shape[0] < MIN_ELLIPSE_POINTS:
-        raise ValueError(
+        raise InputError(
             f"a plane ellipse fit needs at least {MIN_ELLIPSE_POINTS} readings, "
             f"got {readings.shape[0]}"
         )
     origin = readings.mean(axis=0)
     _, singular, right = np.linalg.svd(readings - origin, full_matrices=False)
     if not singular[1] > 0:
-        raise ValueError("the readings do not span a plane: they lie on a line or a point")
+        raise InputError("the readings do not span a plane: they lie on a line or a point")
     basis = right[:2].T
     off_plane = origin - basis @ (basis.T @ origin)
     distance = np.linalg.norm(off_plane)
     if not distance > 0:
-        raise ValueError("the readings' plane passes through zero power: not an interferometer")
+        raise InputError("the readings' plane passes through zero power: not an interferometer")
     normal = off_plane / distance
     coordinates = _plane_coordinates(origin, basis, normal, readings)
     ellipse = fit_ellipse(coordinates[:, 0], coordinates[:, 1])

@@ -21,8 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path
-from .units import (
+from ..atomic import atomic_path
+from ..exceptions import InputError
+from ..units import (
     FREQUENCY_UNITS,
     WAVELENGTH_UNITS,
     axis_to_hz,
@@ -221,7 +222,7 @@ def _open_npz(path: Path) -> _Source:
         with np.load(path, allow_pickle=False) as archive:
             arrays = {name: archive[name] for name in archive.files}
     except (ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise ValueError(f"cannot read it as NPZ ({exc}); save plain numeric arrays") from exc
+        raise InputError(f"cannot read it as NPZ ({exc}); save plain numeric arrays") from exc
     return _array_source(arrays)
 
 
@@ -233,7 +234,7 @@ def _open_mat_v5(path: Path) -> _Source:
     except NotImplementedError:
         return _open_hdf5(path, matlab=True)
     except Exception as exc:  # scipy raises many kinds on a corrupt or truncated file
-        raise ValueError(f"cannot read it as a MATLAB file ({exc!r})") from exc
+        raise InputError(f"cannot read it as a MATLAB file ({exc!r})") from exc
     return _array_source(_flatten(contents))
 
 
@@ -260,7 +261,7 @@ def _open_hdf5(path: Path, matlab: bool = False) -> _Source:
         with h5py.File(path, "r") as handle:
             handle.visititems(visit)
     except OSError as exc:
-        raise ValueError(f"cannot read it as HDF5 ({exc})") from exc
+        raise InputError(f"cannot read it as HDF5 ({exc})") from exc
 
     def load(names, text_ok=()):
         with h5py.File(path, "r") as handle:
@@ -287,11 +288,11 @@ def _open_parquet(path: Path) -> _Source:
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError as exc:
-        raise ValueError("reading Parquet needs pyarrow: pip install 'wavemeter[parquet]'") from exc
+        raise InputError("reading Parquet needs pyarrow: pip install 'wavemeter[parquet]'") from exc
     try:
         schema = pq.read_schema(path)
     except (pa.ArrowException, OSError) as exc:
-        raise ValueError(f"cannot read it as Parquet ({exc})") from exc
+        raise InputError(f"cannot read it as Parquet ({exc})") from exc
     rows = pq.ParquetFile(path).metadata.num_rows
     numeric = [
         schema_field.name
@@ -339,7 +340,7 @@ def _sniff_layout(path: Path) -> _TextLayout:
         head = handle.read(_HEAD_BYTES)
         complete = not handle.read(1)
     if not head.strip():
-        raise ValueError("the file is empty")
+        raise InputError("the file is empty")
     text, encoding = _decode(head)
     lines = text.splitlines()
     if not complete:
@@ -349,10 +350,10 @@ def _sniff_layout(path: Path) -> _TextLayout:
         None,
     )
     if header_line is None:
-        raise ValueError("no header row: the file holds only comments or blank lines")
+        raise InputError("no header row: the file holds only comments or blank lines")
     sample = [line for line in lines[header_line + 1 : header_line + 6] if line.strip()]
     if not sample:
-        raise ValueError("the file has a header row but no data rows")
+        raise InputError("the file has a header row but no data rows")
     header = lines[header_line]
     candidates = []  # (rows agreeing with the header, priority, delimiter, names)
     for priority, delimiter in enumerate(("\t", ",", ";", None)):
@@ -362,7 +363,7 @@ def _sniff_layout(path: Path) -> _TextLayout:
             agreeing = sum(width in (len(names), len(names) + 1) for width in widths)
             candidates.append((agreeing, -priority, delimiter, names))
     if not candidates:
-        raise ValueError(
+        raise InputError(
             "cannot tell the column delimiter (tried tab, comma, semicolon, spaces): the "
             "header row has a single column"
         )
@@ -379,7 +380,7 @@ def _column_names(raw: list[str]) -> list[str]:
     seen: dict[str, int] = {}
     for k, name in enumerate(names):
         if name in seen:
-            raise ValueError(
+            raise InputError(
                 f"duplicate column name {name!r} (columns {seen[name] + 1} and {k + 1}); "
                 "rename one of them"
             )
@@ -412,7 +413,7 @@ def _open_text(path: Path) -> _Source:
         except ValueError:
             return _parse_text_exactly(path, layout, names, set(text_ok))
         if data.shape[0] == 0:
-            raise ValueError("the file has a header row but no data rows")
+            raise InputError("the file has a header row but no data rows")
         return {name: data[:, k] for k, name in enumerate(names)}
 
     def row_label(row: int) -> str:
@@ -485,7 +486,7 @@ def _parse_text_exactly(
     for number, line in _data_lines(path, layout):
         fields = _split(line.rstrip("\r\n"), layout.delimiter)
         if len(fields) not in (width, width + 1):
-            raise ValueError(f"line {number} has {len(fields)} fields, the header has {width}")
+            raise InputError(f"line {number} has {len(fields)} fields, the header has {width}")
         line_numbers.append(number)
         for k, column in enumerate(columns):
             cells[k].append(fields[column].strip())
@@ -509,7 +510,7 @@ def _numbers(name: str, cells: list[str], text_ok: bool, line_numbers: list[int]
                 if re.fullmatch(r"[-+]?\d+,\d+", cell)
                 else ""
             )
-            raise ValueError(
+            raise InputError(
                 f"line {line_numbers[row]}, column {name!r}: {cell!r} is not a number{hint}"
             ) from None
     return values
@@ -532,9 +533,9 @@ def _file_kind(path: Path) -> str:
 
 def _open(path: Path) -> _Source:
     if not path.exists():
-        raise ValueError("file not found")
+        raise InputError("file not found")
     if path.is_dir():
-        raise ValueError("is a folder, not a data file")
+        raise InputError("is a folder, not a data file")
     kind = _file_kind(path)
     if kind == "text":
         return _open_text(path)
@@ -689,14 +690,14 @@ class Table:
 def _single(candidates: list[_Role], what: str, option: str) -> _Role | None:
     if len(candidates) > 1:
         names = ", ".join(repr(role.name) for role in candidates)
-        raise ValueError(f"columns {names} all look like the {what}; choose one with {option}")
+        raise InputError(f"columns {names} all look like the {what}; choose one with {option}")
     return candidates[0] if candidates else None
 
 
 def _require(source: _Source, name: str, option: str) -> None:
     if name not in source.shapes:
         available = ", ".join(repr(n) for n in source.shapes) or "none"
-        raise ValueError(f"no column {name!r} (given by {option}); columns: {available}")
+        raise InputError(f"no column {name!r} (given by {option}); columns: {available}")
 
 
 def _find_roles(
@@ -727,7 +728,7 @@ def _find_roles(
         if x_role is not None and request.x_unit is not None:
             x_role = dataclasses.replace(x_role, unit=request.x_unit)
     if need_x and x_role is None:
-        raise ValueError(
+        raise InputError(
             "no frequency or wavelength column (looked for names like frequency_hz, "
             f"freq_THz, wavelength_nm, 'Wavelength (nm)'); columns: {', '.join(names)}; "
             "name the column or pass --x COLUMN"
@@ -759,7 +760,7 @@ def _find_ports(source: _Source, request: ColumnRequest, names: list[str]) -> li
     if request.ports is not None:
         roles = [_explicit_role(name, "power", request.power_unit) for name in request.ports]
         if len(set(request.ports)) != len(request.ports):
-            raise ValueError(f"--ports names a column twice: {', '.join(request.ports)}")
+            raise InputError(f"--ports names a column twice: {', '.join(request.ports)}")
     else:
         singles = [
             role
@@ -770,7 +771,7 @@ def _find_ports(source: _Source, request: ColumnRequest, names: list[str]) -> li
         numbers = [(role.family, role.order) for role in roles]
         if len(set(numbers)) != len(numbers):
             listed = ", ".join(repr(role.name) for role in roles)
-            raise ValueError(
+            raise InputError(
                 f"port columns {listed} repeat a port number; choose them with --ports A,B,C"
             )
         if not roles:
@@ -783,7 +784,7 @@ def _find_ports(source: _Source, request: ColumnRequest, names: list[str]) -> li
         if request.power_unit is not None:
             roles = [dataclasses.replace(role, unit=request.power_unit) for role in roles]
     if not roles:
-        raise ValueError(
+        raise InputError(
             "no port columns (looked for names like P1_mW, port2_dBm, 'Port 3 [uW]', "
             f"'DC CH1', p4); columns: {', '.join(names)}; name them or pass --ports A,B,C"
         )
@@ -795,7 +796,7 @@ def _orient(array: np.ndarray, name: str, samples: int | None) -> np.ndarray:
     rows, cols = array.shape
     if samples is not None:
         if rows == samples and cols == samples:
-            raise ValueError(
+            raise InputError(
                 f"cannot tell samples from ports in {name!r} of shape {array.shape}: both axes "
                 f"have {samples} entries"
             )
@@ -803,14 +804,14 @@ def _orient(array: np.ndarray, name: str, samples: int | None) -> np.ndarray:
             return array
         if cols == samples:
             return array.T
-        raise ValueError(
+        raise InputError(
             f"{name!r} has shape {array.shape} but the other columns have {samples} samples"
         )
     if cols <= MAX_PORTS < rows:
         return array
     if rows <= MAX_PORTS < cols:
         return array.T
-    raise ValueError(
+    raise InputError(
         f"cannot tell samples from ports in {name!r} of shape {array.shape}; store the "
         "frequency vector beside it or use more samples than ports"
     )
@@ -823,7 +824,7 @@ def _sample_count(source: _Source, data: dict[str, np.ndarray]) -> int | None:
         lengths = {shape[0] for shape in source.shapes.values() if len(shape) == 1}
     if len(lengths) > 1:
         shown = ", ".join(f"{name!r} ({len(v)})" for name, v in data.items() if v.ndim == 1)
-        raise ValueError(f"columns have different lengths: {shown}")
+        raise InputError(f"columns have different lengths: {shown}")
     return lengths.pop() if lengths else None
 
 
@@ -838,7 +839,7 @@ def _axis_hz(role: _Role, values: np.ndarray) -> tuple[np.ndarray, str]:
             return axis_to_hz(values, unit, role.name), unit
         except ValueError:
             continue
-    raise ValueError(
+    raise InputError(
         f"column {role.name!r} has no unit and its values are not optical in any "
         f"{'wavelength' if units is WAVELENGTH_UNITS else 'frequency'} unit; name it like "
         "frequency_hz or wavelength_nm, or pass --x-unit"
@@ -864,7 +865,7 @@ def _raw_power_problems(raw: np.ndarray, unit: str) -> tuple[np.ndarray, np.ndar
 def _check_linear_column(name: str, raw: np.ndarray, unit: str) -> None:
     finite = raw[np.isfinite(raw) & (raw < SENTINEL_W)]
     if unit != "dBm" and finite.size and np.all(finite <= 0):
-        raise ValueError(
+        raise InputError(
             f"column {name!r}{f' (labelled {unit})' if unit else ''} has no positive reading: "
             "are these dBm? pass --power-unit dBm"
         )
@@ -960,9 +961,9 @@ def read_table(
     try:
         return _read(path, request, need_x, find_extras, allow_invalid)
     except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from exc
+        raise InputError(f"{path}: {exc}") from exc
     except OSError as exc:
-        raise ValueError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
+        raise InputError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
 
 
 def _read(
@@ -976,7 +977,7 @@ def _read(
     data = source.load(list(dict.fromkeys(wanted)), text_ok=set(request.keep))
     for name in request.keep:
         if data[name].ndim != 1:
-            raise ValueError(
+            raise InputError(
                 f"--keep column {name!r} must be a vector, has shape {data[name].shape}"
             )
     rows = _sample_count(source, data)
@@ -986,7 +987,7 @@ def _read(
     invalid = _Invalid(rows)
     powers, port_names, port_units = _ports_array(roles["ports"], data, rows, source, invalid)
     if powers.shape[1] < 3:
-        raise ValueError(
+        raise InputError(
             f"found {powers.shape[1]} port column(s) ({', '.join(port_names)}); need at least 3"
         )
     fields: dict[str, object] = {}
@@ -1014,7 +1015,7 @@ def _read(
         raw = data[temperature.name]
         unit = temperature.unit or source.unit_attributes.get(temperature.name)
         if unit is None:
-            raise ValueError(
+            raise InputError(
                 f"temperature column {temperature.name!r} has no unit; name it like "
                 "temperature_K or 'Temperature (C)'"
             )
@@ -1035,7 +1036,7 @@ def _read(
         **fields,
     )
     if table.invalid.any() and not allow_invalid:
-        raise ValueError(
+        raise InputError(
             f"{int(table.invalid.sum())} invalid row(s): {table.describe_invalid()}; fix or "
             "delete them, or pass --drop-invalid to skip them"
         )
@@ -1047,11 +1048,11 @@ def table_format(path, file_format: str | None = None) -> str:
     """Output format: ``file_format`` if given, else from the file extension (default CSV)."""
     if file_format is not None:
         if file_format not in FORMATS:
-            raise ValueError(f"format must be one of {', '.join(FORMATS)}; got {file_format!r}")
+            raise InputError(f"format must be one of {', '.join(FORMATS)}; got {file_format!r}")
         return file_format
     found = _EXTENSIONS.get(Path(path).suffix.lower(), "csv")
     if found == "mat":
-        raise ValueError(f"{path}: cannot write MAT files; write one of {', '.join(FORMATS)}")
+        raise InputError(f"{path}: cannot write MAT files; write one of {', '.join(FORMATS)}")
     return found
 
 
@@ -1073,7 +1074,7 @@ def write_table(path, columns: dict[str, np.ndarray], file_format: str | None = 
     arrays = {name: _column_array(values) for name, values in columns.items()}
     lengths = {len(values) for values in arrays.values()}
     if len(lengths) > 1:
-        raise ValueError(f"columns to write have different lengths: {sorted(lengths)}")
+        raise InputError(f"columns to write have different lengths: {sorted(lengths)}")
     writer = {
         "csv": _write_text,
         "tsv": _write_text,
@@ -1090,7 +1091,7 @@ def write_table(path, columns: dict[str, np.ndarray], file_format: str | None = 
 def _column_array(values) -> np.ndarray:
     array = np.asarray(values)
     if array.ndim != 1:
-        raise ValueError(f"columns to write must be 1-D, got shape {array.shape}")
+        raise InputError(f"columns to write must be 1-D, got shape {array.shape}")
     if array.dtype.kind in "fiub":
         return array.astype(float)
     return array.astype(str)
@@ -1124,7 +1125,7 @@ def _require_pyarrow():
     try:
         import pyarrow  # noqa: F401
     except ImportError as exc:
-        raise ValueError("writing Parquet needs pyarrow: pip install 'wavemeter[parquet]'") from exc
+        raise InputError("writing Parquet needs pyarrow: pip install 'wavemeter[parquet]'") from exc
 
 
 def _write_parquet(path: Path, arrays: dict[str, np.ndarray], _delimiter: str) -> None:

@@ -20,8 +20,9 @@ from __future__ import annotations
 import numpy as np
 from scipy import linalg
 
+from ...exceptions import InputError
 from ..base import BaseCalibrator
-from ..calibration import Calibrator
+from ..learned import Calibrator
 from ._labels import FSR_TOLERANCE
 
 __all__ = ["ExtendedConventionalCalibrator"]
@@ -97,7 +98,7 @@ class ExtendedConventionalCalibrator(BaseCalibrator):
             for key in ("offsets_w", "amplitudes_w", "port_phases_rad")
         ]
         if any(v.shape != (self.n_ports_,) or not np.all(np.isfinite(v)) for v in fringes):
-            raise ValueError(
+            raise InputError(
                 f"offsets_w, amplitudes_w and port_phases_rad must be {self.n_ports_} finite "
                 "numbers each"
             )

@@ -7,14 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path
-from .baselines import ConventionalCalibrator
-from .calibration import Calibrator
-from .cone import delay_phase_rad
-from .io import write_table
-from .limits import crlb_frequency_std
-from .metrics import error_summary_hz, frequency_error_hz
-from .simulation import Interferometer
+from ..analysis.metrics import error_summary_hz, frequency_error_hz
+from ..atomic import atomic_path
+from ..calibration.baselines import ConventionalCalibrator
+from ..calibration.learned import Calibrator
+from ..io._reader import write_table
+from ..model.cone import delay_phase_rad
+from ..model.limits import crlb_frequency_std
+from ..simulation.interferometer import Interferometer
 
 __all__ = ["run_demo", "DEMO_SETUP"]
 

@@ -14,9 +14,9 @@ from pathlib import Path
 import click
 import numpy as np
 
-from . import __version__
-from .demo import run_demo
-from .io import (
+from .._version import __version__
+from ..exceptions import InputError, WavemeterError
+from ..io._reader import (
     FORMATS,
     SENTINEL_DBM,
     ColumnRequest,
@@ -25,12 +25,13 @@ from .io import (
     table_format,
     write_table,
 )
-from .progress import busy, chunked
-from .units import SPEED_OF_LIGHT_M_S, canonical_unit, hz_to_axis, parse_frequency_hz, w_to_power
+from ..progress import busy, chunked
+from ..report.demo import run_demo
+from ..units import SPEED_OF_LIGHT_M_S, canonical_unit, hz_to_axis, parse_frequency_hz, w_to_power
 
 __all__ = ["main", "cli"]
 
-USER_ERRORS = (ValueError, TypeError, OSError)
+USER_ERRORS = (WavemeterError, OSError)
 METHODS = ("learned", "conventional")
 
 
@@ -57,7 +58,7 @@ def _names(text: str | None) -> tuple[str, ...] | None:
         return None
     names = tuple(name.strip() for name in text.split(","))
     if not all(names):
-        raise ValueError(f"empty column name in {text!r}; separate names with single commas")
+        raise InputError(f"empty column name in {text!r}; separate names with single commas")
     return names
 
 
@@ -67,7 +68,7 @@ def _port_phases_rad(text: str | None) -> np.ndarray | None:
     try:
         return np.deg2rad([float(value) for value in text.split(",")])
     except ValueError as exc:
-        raise ValueError(
+        raise InputError(
             f"--port-phases-deg must be numbers separated by commas, got {text!r}"
         ) from exc
 
@@ -84,13 +85,13 @@ def _note(quiet: bool, text: str) -> None:
 
 @contextlib.contextmanager
 def _about(path):
-    """Prefix a ValueError raised by the numerics with the file it concerns."""
+    """Prefix an error raised by the library with the file it concerns."""
     try:
         yield
-    except ValueError as exc:
+    except WavemeterError as exc:
         if str(exc).startswith(str(path)):
             raise
-        raise ValueError(f"{path}: {exc}") from exc
+        raise type(exc)(f"{path}: {exc}") from exc
 
 
 # ---------------------------------------------------------------------------- shared options
@@ -206,13 +207,13 @@ def _read(path, request: ColumnRequest, *, need_x: bool, drop_invalid: bool, qui
 
 
 def _load(path):
-    from .persistence import load_calibration
+    from ..calibration.files import load_calibration
 
     return load_calibration(path)
 
 
 def _is_set(calibration) -> bool:
-    from .calibration_set import CalibrationSet
+    from ..calibration.set import CalibrationSet
 
     return isinstance(calibration, CalibrationSet)
 
@@ -224,14 +225,14 @@ def _check_ports(calibration, cal_path, table, explicit: bool) -> None:
     expected = ", ".join(calibration.port_names_)
     hint = "pass --ports with the file's columns in the calibration's order"
     if len(table.port_names) != calibration.n_ports_:
-        raise ValueError(
+        raise InputError(
             f"{table.source} has {len(table.port_names)} ports ({names}) but {cal_path} was "
             f"calibrated on {calibration.n_ports_} ({expected}); {hint}"
         )
     if not explicit and [port_key(n) for n in table.port_names] != [
         port_key(n) for n in calibration.port_names_
     ]:
-        raise ValueError(
+        raise InputError(
             f"{table.source} has ports {names} but {cal_path} was calibrated on ports "
             f"{expected}; {hint}"
         )
@@ -361,12 +362,12 @@ def simulate(out_path, test_samples, test_out, **options):
       wavemeter simulate -o sweep.csv --ports 3 --seed 1 --test 20000
       wavemeter simulate -o lab.csv --x-unit nm --power-unit dBm --noise-w 2e-8
     """
-    from .simulation import Interferometer
+    from ..simulation.interferometer import Interferometer
 
     x_unit = canonical_unit(options["x_unit"], "axis", "--x-unit")
     options["power_unit"] = canonical_unit(options["power_unit"], "power", "--power-unit")
     if options["power_unit"] == "V":
-        raise ValueError("--power-unit V is not a simulated output; use W, mW, uW, nW or dBm")
+        raise InputError("--power-unit V is not a simulated output; use W, mW, uW, nW or dBm")
     device = Interferometer.table1(options["ports"], seed=options["seed"], fsr_hz=options["fsr"])
     rng = np.random.default_rng(options["seed"])  # as the demo: the same seed, the same data
     sweep_hz = device.sweep_hz(options["samples"], options["span_fsr"])
@@ -384,7 +385,7 @@ def simulate(out_path, test_samples, test_out, **options):
     for path, _ in tables:  # check every target before writing any: no partial output
         table_format(path, options["file_format"])
         if not path.absolute().parent.is_dir():
-            raise ValueError(f"cannot write {path}: folder {path.parent} does not exist")
+            raise InputError(f"cannot write {path}: folder {path.parent} does not exist")
     for path, columns in tables:
         write_table(path, columns, options["file_format"])
         rows = len(next(iter(columns.values())))
@@ -406,22 +407,20 @@ def simulate(out_path, test_samples, test_out, **options):
 
 # ---------------------------------------------------------------------------- calibrate
 def _fit(options: dict, table, phases):
-    from .baselines import ConventionalCalibrator
-    from .calibration import Calibrator
-    from .calibration_set import CalibrationSet
+    from ..calibration.baselines import ConventionalCalibrator
+    from ..calibration.learned import Calibrator
+    from ..calibration.set import CalibrationSet
 
     fsr, tolerance, method = options["fsr"], options["fsr_tolerance"], options["method"]
     retrieval = options["retrieval"]
     if method != "learned" and retrieval != "pinv":
-        raise ValueError(f"--retrieval {retrieval} needs --method learned, got --method {method}")
-    if options["per_fsr"]:
-        calibrator = CalibrationSet(
-            fsr, tolerance, method=method, port_phases_rad=phases, retrieval=retrieval
-        )
-    elif method == "learned":
+        raise InputError(f"--retrieval {retrieval} needs --method learned, got --method {method}")
+    if method == "learned":
         calibrator = Calibrator(fsr_hz=fsr, fsr_tolerance=tolerance, retrieval=retrieval)
     else:
         calibrator = ConventionalCalibrator(fsr_hz=fsr, port_phases_rad=phases)
+    if options["per_fsr"]:
+        calibrator = CalibrationSet(fsr, tolerance, window=calibrator)
     with busy(f"calibrating on {table.source}", quiet=options["quiet"]), _about(table.source):
         return calibrator.fit(table.powers_w, table.x_hz, table.monitor_w, list(table.port_names))
 
@@ -490,7 +489,7 @@ def calibrate(sweep, out_path, port_phases_deg, **options):
       wavemeter calibrate lab.csv -o chip.wmcal.json --fsr '49.69 GHz' \\
           --x 'Wavelength (nm)' --ports 'Port 1 [dBm]','Port 2 [dBm]','Port 3 [dBm]'
     """
-    from .persistence import save_calibration
+    from ..calibration.files import save_calibration
 
     request = _request(options)
     table = _read(
@@ -518,7 +517,7 @@ def _coarse(calibration, cal_path, table, coarse_hz):
     if coarse_hz is not None:
         return np.full(table.n_rows, coarse_hz)
     low, high = calibration.covered_hz()
-    raise ValueError(
+    raise InputError(
         f"{cal_path} is a per-FSR calibration set ({len(calibration.windows_)} windows, "
         f"{low / 1e12:.6f} to {high / 1e12:.6f} THz): it needs a coarse frequency per "
         "reading to pick the window; pass --coarse COL or --coarse-hz VALUE"
@@ -573,10 +572,10 @@ def measure(
     """
     calibration = _load(calibration_file)
     table_format(out_path, file_format)  # reject a bad format before the work
-    if uncertainty and not hasattr(calibration, "frequency_std_hz"):
-        raise ValueError(
-            f"{calibration_file}: --uncertainty needs a learned single-map calibration, "
-            f"not a {_method_label(calibration)} calibration"
+    if uncertainty and "frequency_std" not in calibration.capabilities:
+        raise InputError(
+            f"{calibration_file}: --uncertainty needs a learned calibration (single or per "
+            f"FSR), not a {_method_label(calibration)} calibration"
         )
     request = _request(options, coarse=coarse_column, keep=_names(keep) or ())
     table = _read(
@@ -595,7 +594,7 @@ def measure(
             frequency[rows[block]] = calibration.predict(valid.powers_w[block], **extra)
             phase[rows[block]] = calibration.phase(valid.powers_w[block], **extra)
             if uncertainty:
-                std[rows[block]] = calibration.frequency_std_hz(valid.powers_w[block])
+                std[rows[block]] = calibration.frequency_std_hz(valid.powers_w[block], **extra)
     columns = {
         "frequency_hz": frequency,
         "wavelength_nm": SPEED_OF_LIGHT_M_S / frequency * 1e9,
@@ -618,14 +617,12 @@ def _noise_std_w(calibration) -> float:
 
 
 def _method_label(calibration) -> str:
-    if _is_set(calibration):
-        return f"{calibration.method} per FSR"
-    return type(calibration).method
+    return calibration.method_label
 
 
 def _other_method(calibration, sweep, options, phases):
     """The other method (learned <-> conventional) fitted on the sweep file."""
-    from .report import comparison_calibration
+    from ..report.html import comparison_calibration
 
     request = _request(options)
     table = _read(
@@ -641,8 +638,8 @@ def _other_method(calibration, sweep, options, phases):
 def _evaluation(calibrations: dict, table) -> dict:
     """Error summaries (Hz) of each calibration on a table with known frequencies, and the
     Cramer-Rao bound of the first learned one."""
-    from .metrics import error_summary_hz, frequency_error_hz
-    from .report import crlb_per_reading_hz
+    from ..analysis.metrics import error_summary_hz, frequency_error_hz
+    from ..report.html import crlb_per_reading_hz
 
     truth = table.x_hz
     coarse = table.coarse_hz if table.coarse_hz is not None else truth
@@ -782,12 +779,21 @@ def evaluate(
         report.update(_evaluation(calibrations, table))
     if adjacent:
         if not _is_set(calibration):
-            raise ValueError(
+            raise InputError(
                 f"--adjacent needs a per-FSR calibration set; {calibration_file} is a single "
                 "calibration: calibrate with --per-fsr on a sweep over several FSRs"
             )
         with _about(test):
-            report["adjacent"] = calibration.adjacent_evaluation(table.powers_w, table.x_hz)
+            from ..analysis.evaluation import adjacent_evaluation
+            from ..calibration.baselines import ConventionalCalibrator
+
+            phases = _port_phases_rad(port_phases_deg)
+            if phases is None:
+                phases = calibration.windows_[0].get_params().get("port_phases_rad")
+            baseline = ConventionalCalibrator(port_phases_rad=phases)
+            report["adjacent"] = adjacent_evaluation(
+                calibration, table.powers_w, table.x_hz, baseline
+            )
     if as_json:
         click.echo(json.dumps(report, indent=1))
     elif not options["quiet"]:
@@ -810,7 +816,7 @@ def report(calibration_file, sweep, test, out_path, port_phases_deg, **options):
     Example:
       wavemeter report chip.wmcal.json sweep.csv sweep-test.csv -o report.html
     """
-    from .report import write_report
+    from ..report.html import write_report
 
     calibration = _load(calibration_file)
     request = _request(options)

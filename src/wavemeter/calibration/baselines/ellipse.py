@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...exceptions import InputError
 from ._labels import LabelLockedCalibrator
 
 __all__ = [
@@ -78,7 +79,7 @@ class FringeEllipse:
             and ellipse.amplitude_y > 0
             and 0 < ellipse.phase_rad < np.pi
         ):
-            raise ValueError(
+            raise InputError(
                 "an ellipse needs finite parameters, amplitudes > 0 and 0 < phase_rad < pi, "
                 f"got {ellipse}"
             )
@@ -89,9 +90,9 @@ def _as_coordinates(x, y) -> tuple[np.ndarray, np.ndarray]:
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
     if x.ndim != 1 or x.shape != y.shape:
-        raise ValueError(f"x and y must be vectors of equal length, got {x.shape} and {y.shape}")
+        raise InputError(f"x and y must be vectors of equal length, got {x.shape} and {y.shape}")
     if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
-        raise ValueError("x and y must be finite (no NaN or inf)")
+        raise InputError("x and y must be finite (no NaN or inf)")
     return x, y
 
 
@@ -119,20 +120,20 @@ def fit_conic(x, y) -> np.ndarray:
     """
     x, y = _as_coordinates(x, y)
     if x.size < MIN_ELLIPSE_POINTS:
-        raise ValueError(f"an ellipse fit needs at least {MIN_ELLIPSE_POINTS} points, got {x.size}")
+        raise InputError(f"an ellipse fit needs at least {MIN_ELLIPSE_POINTS} points, got {x.size}")
     quadratic = np.column_stack([x * x, x * y, y * y])
     linear = np.column_stack([x, y, np.ones_like(x)])
     s1, s2, s3 = quadratic.T @ quadratic, quadratic.T @ linear, linear.T @ linear
     try:
         elimination = -np.linalg.solve(s3, s2.T)  # best linear part for a quadratic part
     except np.linalg.LinAlgError as exc:
-        raise ValueError("the points do not trace an ellipse: they are collinear") from exc
+        raise InputError("the points do not trace an ellipse: they are collinear") from exc
     eigenvalues, eigenvectors = np.linalg.eig(_CONSTRAINT_INVERSE @ (s1 + s2 @ elimination))
     eigenvectors = np.real(eigenvectors)
     constraint = 4.0 * eigenvectors[0] * eigenvectors[2] - eigenvectors[1] ** 2
     admissible = np.flatnonzero(constraint > 0)
     if admissible.size == 0:
-        raise ValueError("the points do not trace an ellipse (no elliptic solution)")
+        raise InputError("the points do not trace an ellipse (no elliptic solution)")
     # the ellipse minimising the algebraic distance has the smallest admissible eigenvalue
     best = admissible[np.argmin(np.real(eigenvalues[admissible]))]
     quad = eigenvectors[:, best] / np.sqrt(constraint[best])
@@ -154,12 +155,12 @@ def conic_to_fringes(conic) -> FringeEllipse:
     a, b, c, d, e, f = np.asarray(conic, dtype=float) * np.sign(conic[0])  # make a > 0
     discriminant = 4.0 * a * c - b * b
     if not discriminant > 0:
-        raise ValueError(f"the conic is not an ellipse (4ac - b^2 = {discriminant:.3g})")
+        raise InputError(f"the conic is not an ellipse (4ac - b^2 = {discriminant:.3g})")
     center_x = (b * e - 2.0 * c * d) / discriminant
     center_y = (b * d - 2.0 * a * e) / discriminant
     level = -(f + 0.5 * (d * center_x + e * center_y))  # a X^2 + b XY + c Y^2 = level
     if not level > 0:
-        raise ValueError("the conic is an imaginary ellipse (no real points)")
+        raise InputError("the conic is an imaginary ellipse (no real points)")
     # (X/ax)^2 - 2 (X/ax)(Y/ay) cos phi + (Y/ay)^2 = sin^2 phi
     phase = float(np.arctan2(np.sqrt(discriminant), -b))
     sin_phase = np.sqrt(discriminant / (4.0 * a * c))
@@ -195,7 +196,7 @@ def fit_ellipse(x, y) -> FringeEllipse:
     x, y = _as_coordinates(x, y)
     mean_x, mean_y, scale_x, scale_y = x.mean(), y.mean(), x.std(), y.std()
     if not (scale_x > 0 and scale_y > 0):
-        raise ValueError("the points do not trace an ellipse: one coordinate is constant")
+        raise InputError("the points do not trace an ellipse: one coordinate is constant")
     unit = conic_to_fringes(fit_conic((x - mean_x) / scale_x, (y - mean_y) / scale_y))
     return FringeEllipse(
         center_x=float(mean_x + scale_x * unit.center_x),
@@ -275,17 +276,17 @@ class EllipseCalibrator(LabelLockedCalibrator):
             or ports[0] == ports[1]
             or min(ports) < 0
         ):
-            raise ValueError(f"ports must be two different port indices >= 0, got {ports!r}")
+            raise InputError(f"ports must be two different port indices >= 0, got {ports!r}")
 
     def _fit(self, powers, frequency_hz, monitor):
         first, second = self.ports
         if max(first, second) >= powers.shape[1]:
-            raise ValueError(
+            raise InputError(
                 f"ports must index the {powers.shape[1]} port columns (0..{powers.shape[1] - 1}), "
                 f"got {self.ports!r}"
             )
         if powers.shape[0] < MIN_ELLIPSE_POINTS:
-            raise ValueError(
+            raise InputError(
                 f"the ellipse method needs at least {MIN_ELLIPSE_POINTS} samples, "
                 f"got {powers.shape[0]}"
             )

@@ -24,14 +24,16 @@ from pathlib import Path
 import numpy as np
 from scipy import linalg
 
-from .atomic import atomic_path
-from .base import BaseCalibrator
-from .baselines import ConventionalCalibrator
-from .calibration import Calibrator
-from .calibration_set import CalibrationSet
-from .cone import SQRT2, cone_vectors, delay_phase_rad, wrap_phase_rad
-from .metrics import error_summary_hz, frequency_error_hz
-from .validation import check_fitted, check_frequency, check_powers
+from ..analysis.evaluation import adjacent_evaluation
+from ..analysis.metrics import error_summary_hz, frequency_error_hz
+from ..atomic import atomic_path
+from ..calibration.base import BaseCalibrator
+from ..calibration.baselines import ConventionalCalibrator
+from ..calibration.learned import Calibrator
+from ..calibration.set import CalibrationSet
+from ..exceptions import InputError
+from ..model.cone import SQRT2, cone_vectors, delay_phase_rad, wrap_phase_rad
+from ..validation import check_fitted, check_frequency, check_powers
 
 __all__ = [
     "write_report",
@@ -73,7 +75,7 @@ def _readings(table, role: str, ports: int) -> _Readings:
     if frequency is None:
         frequency = getattr(table, "x_hz", None)
     if frequency is None or not hasattr(table, "powers_w"):
-        raise TypeError(
+        raise InputError(
             f"{role} must have attributes powers_w (N, n) and frequency_hz or x_hz (N,), "
             f"got {type(table).__name__} without them"
         )
@@ -81,7 +83,7 @@ def _readings(table, role: str, ports: int) -> _Readings:
         powers = check_powers(table.powers_w, min_samples=1, ports=ports)
         frequency = check_frequency(frequency, powers.shape[0], name=f"{role} frequency")
     except ValueError as exc:
-        raise ValueError(f"{role}: {exc}") from exc
+        raise InputError(f"{role}: {exc}") from exc
     monitor = getattr(table, "monitor_w", None)
     return _Readings(frequency, powers, None if monitor is None else np.asarray(monitor, float))
 
@@ -90,7 +92,7 @@ def _check_inside(calibration: CalibrationSet, frequency_hz: np.ndarray, role: s
     low, high = calibration.covered_hz()
     outside = (frequency_hz < low) | (frequency_hz > high)
     if outside.any():
-        raise ValueError(
+        raise InputError(
             f"{role}: {int(outside.sum())} readings lie outside the calibration set's span "
             f"{low / 1e12:.6f} to {high / 1e12:.6f} THz (first at "
             f"{frequency_hz[outside][0] / 1e12:.6f} THz); a set has no map there: drop them"
@@ -98,15 +100,11 @@ def _check_inside(calibration: CalibrationSet, frequency_hz: np.ndarray, role: s
 
 
 def _is_learned(calibration: BaseCalibrator) -> bool:
-    if isinstance(calibration, CalibrationSet):
-        return calibration.method == "learned"
-    return isinstance(calibration, Calibrator)
+    return isinstance(_central(calibration), Calibrator)
 
 
 def _label(calibration: BaseCalibrator) -> str:
-    if isinstance(calibration, CalibrationSet):
-        return f"{calibration.method} per FSR"
-    return type(calibration).method
+    return calibration.method_label
 
 
 def comparison_calibration(
@@ -138,16 +136,15 @@ def comparison_calibration(
     BaseCalibrator
         Fitted with the design FSR of ``calibration``.
     """
-    params = calibration.get_params()
-    design = params["fsr_hz"]
-    phases = params.get("port_phases_rad") if port_phases_rad is None else port_phases_rad
-    if isinstance(calibration, CalibrationSet):
-        other = "conventional" if calibration.method == "learned" else "learned"
-        fitted = CalibrationSet(design, calibration.fsr_tolerance, other, port_phases_rad=phases)
-    elif _is_learned(calibration):
+    design = calibration.fsr_hz
+    own = _central(calibration)
+    phases = own.get_params().get("port_phases_rad") if port_phases_rad is None else port_phases_rad
+    if _is_learned(calibration):
         fitted = ConventionalCalibrator(fsr_hz=design, port_phases_rad=phases)
     else:
         fitted = Calibrator(fsr_hz=design)
+    if isinstance(calibration, CalibrationSet):
+        fitted = CalibrationSet(design, calibration.fsr_tolerance, window=fitted)
     return fitted.fit(powers_w, frequency_hz, power_monitor_w, calibration.port_names_)
 
 
@@ -197,7 +194,7 @@ def crlb_per_reading_hz(calibration: BaseCalibrator, powers_w, frequency_hz) -> 
     bound = np.empty(truth.size)
     for window, rows in _window_rows(calibration, truth):
         phase = delay_phase_rad(truth[rows], window.center_hz_, window.delay_s_)
-        bound[rows] = window.frequency_std_hz(powers[rows], phase)
+        bound[rows] = window.frequency_std_hz(powers[rows], phase_rad=phase)
     return bound
 
 
@@ -226,7 +223,7 @@ def _central_rows(calibration: BaseCalibrator, frequency_hz: np.ndarray) -> np.n
 
 def _fringe_figure(calibration, learned_name: str, learned, sweep: _Readings):
     """Sweep readings and the learned fringes over the centre stretch (a set: middle window)."""
-    from .plotting import plot_fringes
+    from .figures import plot_fringes
 
     rows = _central_rows(calibration, sweep.frequency_hz)
     model = _central(learned)
@@ -247,7 +244,7 @@ def _fringe_figure(calibration, learned_name: str, learned, sweep: _Readings):
 
 def _object_space_figure(calibration, methods: dict, evaluation: _Readings):
     """Retrieved object samples of each method with a map, centre stretch (a set: middle)."""
-    from .plotting import plot_object_space
+    from .figures import plot_object_space
 
     rows = _central_rows(calibration, evaluation.frequency_hz)
     powers = evaluation.powers_w[rows]
@@ -279,7 +276,7 @@ def report_content(
         JSON-ready numbers shown in the page: ``methods`` (error summaries, Hz),
         ``crlb_rms_hz``, ``evaluated_on``, ``samples``, and ``adjacent`` for sets.
     """
-    from . import plotting
+    from . import figures as plotting
 
     check_fitted(calibration)
     ports = calibration.n_ports_
@@ -329,8 +326,8 @@ def report_content(
 
 def _adjacent_or_reason(calibration: CalibrationSet, powers, truth) -> dict | str:
     try:
-        return calibration.adjacent_evaluation(powers, truth)
-    except ValueError as exc:  # too few windows in the evaluation readings: say why
+        return adjacent_evaluation(calibration, powers, truth)
+    except InputError as exc:  # too few windows in the evaluation readings: say why
         return str(exc)
 
 
@@ -425,7 +422,7 @@ def _adjacent_html(adjacent: dict | str) -> str:
 
 
 def _page(calibration, summary: dict, images: dict[str, bytes]) -> str:
-    from . import __version__
+    from .._version import __version__
 
     figures = "".join(
         f'<figure><img alt="{html.escape(name)}" src="data:image/png;base64,'

@@ -10,10 +10,15 @@ import json
 import math
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from .atomic import atomic_path
-from .base import BaseCalibrator
-from .validation import check_fitted
+from ..atomic import atomic_path
+from ..exceptions import FileFormatError
+from ..validation import check_fitted
+from .registry import calibrator_class, registered
+
+if TYPE_CHECKING:
+    from .base import BaseCalibrator
 
 __all__ = ["save_calibration", "load_calibration", "FORMAT", "SCHEMA_VERSION"]
 
@@ -23,22 +28,9 @@ UNITS = {"frequency": "Hz", "power": "W", "phase": "rad", "delay": "s"}
 
 
 def _package_version() -> str:
-    from . import __version__
+    from .._version import __version__
 
     return __version__
-
-
-def _calibrator_classes() -> dict[str, type[BaseCalibrator]]:
-    """Every calibrator class with a method tag, found by walking the subclass tree."""
-    from . import baselines, calibration, calibration_set  # noqa: F401  (register subclasses)
-
-    found, stack = {}, [BaseCalibrator]
-    while stack:
-        cls = stack.pop()
-        stack.extend(cls.__subclasses__())
-        if cls.method:
-            found[cls.method] = cls
-    return found
 
 
 def calibration_to_dict(calibrator: BaseCalibrator, metadata: dict | None = None) -> dict:
@@ -94,8 +86,8 @@ def save_calibration(calibrator: BaseCalibrator, path, metadata: dict | None = N
         temporary.write_text(text + "\n", encoding="utf-8")
 
 
-def _fail(path, problem: str) -> ValueError:
-    return ValueError(f"{path}: {problem}")
+def _fail(path, problem: str) -> FileFormatError:
+    return FileFormatError(f"{path}: {problem}")
 
 
 def _number(document: dict, key: str, path) -> float:
@@ -126,17 +118,16 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> BaseCalibrat
     """
     if not isinstance(document, dict):
         raise _fail(path, f"calibration fields must be an object, got {type(document).__name__}")
-    classes = _calibrator_classes()
     method = document.get("method")
-    if method not in classes:
-        raise _fail(path, f"unknown calibration method {method!r}; known: {sorted(classes)}")
+    cls = calibrator_class(method)
+    if cls is None:
+        raise _fail(path, f"unknown calibration method {method!r}; known: {sorted(registered())}")
     params = document.get("params")
     state = document.get("state")
     if not isinstance(params, dict) or not isinstance(state, dict):
         raise _fail(path, "fields 'params' and 'state' must be objects")
-    cls = classes[method]
     try:
-        calibrator = cls(**params)
+        calibrator = cls(**cls._params_from_file(params))
     except TypeError as exc:
         raise _fail(path, f"parameters do not fit method {method!r}: {exc}") from exc
     n_ports = document.get("n_ports")
@@ -168,7 +159,7 @@ def load_calibration(path) -> BaseCalibrator:
 
     Raises
     ------
-    ValueError
+    FileFormatError
         When the file is missing, truncated, not JSON, of another format or version, or
         its content is inconsistent. The message names the file and what is wrong.
     """
@@ -176,13 +167,13 @@ def load_calibration(path) -> BaseCalibrator:
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError as exc:
-        raise ValueError(f"{path}: calibration file not found") from exc
+        raise FileFormatError(f"{path}: calibration file not found") from exc
     except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: cannot read calibration file ({exc})") from exc
+        raise FileFormatError(f"{path}: cannot read calibration file ({exc})") from exc
     try:
         document = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ValueError(
+        raise FileFormatError(
             f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}); the file is corrupt or "
             "truncated: write it again with `wavemeter calibrate`"
         ) from exc

@@ -23,29 +23,36 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import BaseCalibrator
-from .baselines import ConventionalCalibrator
-from .calibration import RETRIEVALS, Calibrator
-from .metrics import error_summary_hz, frequency_error_hz
-from .persistence import calibrator_fields, calibrator_from_fields
-from .validation import (
+from ..exceptions import InputError
+from ..model.cone import wrap_to_period
+from ..validation import (
     MIN_SAMPLES,
-    check_choice,
     check_fitted,
     check_frequency,
     check_monitor,
+    check_per_reading,
     check_positive,
     check_powers,
 )
+from .base import BaseCalibrator
+from .files import calibrator_fields, calibrator_from_fields
+from .learned import Calibrator
+from .registry import calibrator_class
 
-__all__ = ["CalibrationSet", "WINDOW_METHODS", "WINDOW_FSR_TOLERANCE"]
+__all__ = ["CalibrationSet", "WINDOW_FSR_TOLERANCE", "clone", "window_label"]
 
-WINDOW_METHODS = ("learned", "conventional")
 #: half width of each window's delay bracket about the global FSR (dispersion is far smaller)
 WINDOW_FSR_TOLERANCE = 0.05
 
 
-def _window_label(edges_hz: np.ndarray, index: int) -> str:
+def clone(calibrator: BaseCalibrator, **settings) -> BaseCalibrator:
+    """A new unfitted calibrator of the same class and settings, with ``settings`` changed."""
+    params = calibrator.get_params()
+    params.update({key: value for key, value in settings.items() if key in params})
+    return type(calibrator)(**params)
+
+
+def window_label(edges_hz: np.ndarray, index: int) -> str:
     return f"window {index} ({edges_hz[index] / 1e12:.6f} to {edges_hz[index + 1] / 1e12:.6f} THz)"
 
 
@@ -58,15 +65,11 @@ class CalibrationSet(BaseCalibrator):
         Design free spectral range (Hz); the global delay search brackets it.
     fsr_tolerance : float
         Relative half width of the global FSR bracket, in (0, 1). Default 0.2.
-    method : {"learned", "conventional"}
-        Calibration of each window: the learned map (:class:`wavemeter.Calibrator`) or the
-        conventional method (:class:`wavemeter.ConventionalCalibrator`).
-    port_phases_rad : None or array_like, shape (n,)
-        Nominal port phases (rad) for the conventional method: used by conventional
-        windows and by the baseline of :meth:`adjacent_evaluation`. Default: equally
-        spaced in port order.
-    retrieval : {"pinv", "ml"}
-        Phase retrieval of learned windows (see :class:`wavemeter.Calibrator`).
+    window : None or calibrator
+        An unfitted single-FSR calibrator whose settings every window copies (its FSR set
+        to the global one and, where it has one, its bracket to +-5 %). Default:
+        ``Calibrator()``; e.g. ``Calibrator(retrieval="ml")`` or
+        ``ConventionalCalibrator(port_phases_rad=...)``.
 
     Attributes
     ----------
@@ -86,48 +89,85 @@ class CalibrationSet(BaseCalibrator):
     calibration_rms_hz_ : float
         RMS frequency error on the sweep itself, each reading given its true frequency as
         the coarse value (Hz).
-
-    Notes
-    -----
-    The instance attribute ``method`` is the window method; the calibration-file tag of the
-    class is ``CalibrationSet.method == "calibration_set"`` (read it from the class).
     """
 
     method = "calibration_set"
+    requires = frozenset({"coarse_hz"})
 
-    def __init__(
-        self,
-        fsr_hz: float = 50e9,
-        fsr_tolerance: float = 0.2,
-        method: str = "learned",
-        port_phases_rad=None,
-        retrieval: str = "pinv",
-    ):
+    def __init__(self, fsr_hz: float = 50e9, fsr_tolerance: float = 0.2, window=None):
         self.fsr_hz = fsr_hz
         self.fsr_tolerance = fsr_tolerance
-        self.method = method
-        self.port_phases_rad = port_phases_rad
-        self.retrieval = retrieval
+        self.window = window
+
+    @property
+    def capabilities(self) -> frozenset[str]:
+        """The window calibrator's capabilities: a set offers what each window offers."""
+        return self._window_template().capabilities
+
+    @property
+    def method_label(self) -> str:
+        """The window method, per FSR (e.g. ``"learned per FSR"``)."""
+        return f"{type(self._window_template()).method} per FSR"
+
+    def _window_template(self) -> BaseCalibrator:
+        return Calibrator() if self.window is None else self.window
 
     def _check_params(self) -> None:
         super()._check_params()
         check_positive("fsr_tolerance", self.fsr_tolerance, upper=1.0)
-        check_choice("method", self.method, WINDOW_METHODS)
-        check_choice("retrieval", self.retrieval, RETRIEVALS)
-        if self.method != "learned" and self.retrieval != "pinv":
-            raise ValueError(
-                f"retrieval={self.retrieval!r} needs method='learned', got method={self.method!r}"
+        template = self._window_template()
+        if (
+            not isinstance(template, BaseCalibrator)
+            or template.requires
+            or isinstance(template, CalibrationSet)
+        ):
+            raise InputError(
+                "window must be an unfitted single-FSR calibrator that needs nothing but the "
+                f"readings (e.g. Calibrator(), ConventionalCalibrator()); got {template!r}"
             )
+
+    def _requirement_reason(self) -> str:
+        return (
+            "a CalibrationSet holds one map per FSR window and needs each reading's "
+            "approximate frequency (Hz, within half an FSR, e.g. the laser set point) to pick "
+            "the window"
+        )
 
     def _window_calibrator(self, fsr_hz: float) -> BaseCalibrator:
-        if self.method == "learned":
-            return Calibrator(
-                fsr_hz=fsr_hz, fsr_tolerance=WINDOW_FSR_TOLERANCE, retrieval=self.retrieval
-            )
-        return self._conventional(fsr_hz)
+        return clone(self._window_template(), fsr_hz=fsr_hz, fsr_tolerance=WINDOW_FSR_TOLERANCE)
 
-    def _conventional(self, fsr_hz: float) -> ConventionalCalibrator:
-        return ConventionalCalibrator(fsr_hz=fsr_hz, port_phases_rad=self.port_phases_rad)
+    def get_params_for_file(self) -> dict:
+        """Settings as JSON-ready values; the window as its tag and settings."""
+        template = self._window_template()
+        return {
+            "fsr_hz": self.fsr_hz,
+            "fsr_tolerance": self.fsr_tolerance,
+            "window": {"method": type(template).method, "params": template.get_params_for_file()},
+        }
+
+    @classmethod
+    def _params_from_file(cls, params: dict) -> dict:
+        """Settings of a file: ``window`` as tag and settings; files of 0.1 name the window
+        ``method`` with ``retrieval`` and ``port_phases_rad`` beside it."""
+        params = dict(params)
+        window = params.pop("window", None)
+        if window is None:
+            tag = params.pop("method", "learned")
+            retrieval = params.pop("retrieval", "pinv")
+            phases = params.pop("port_phases_rad", None)
+            window = {
+                "method": tag,
+                "params": {"retrieval": retrieval}
+                if tag == "learned"
+                else {"port_phases_rad": phases},
+            }
+        if not isinstance(window, dict) or not isinstance(window.get("params"), dict):
+            raise InputError(f"window must be an object with method and params, got {window!r}")
+        window_class = calibrator_class(window.get("method"))
+        if window_class is None or window_class is cls:
+            raise InputError(f"unknown window calibration method {window.get('method')!r}")
+        params["window"] = window_class(**window_class._params_from_file(window["params"]))
+        return params
 
     # ------------------------------------------------------------------ fitting
     def fit(self, powers, frequency_hz, power_monitor_w=None, port_names=None):
@@ -170,7 +210,7 @@ class CalibrationSet(BaseCalibrator):
         low, high = whole.span_hz_
         count = round((high - low) / fsr)
         if count < 1:
-            raise ValueError(
+            raise InputError(
                 f"the sweep spans {(high - low) / 1e9:.6g} GHz, less than half the fitted FSR "
                 f"({fsr / 1e9:.6g} GHz): a calibration set needs a sweep over whole FSRs; use "
                 "wavemeter.Calibrator for a single FSR"
@@ -188,8 +228,8 @@ class CalibrationSet(BaseCalibrator):
                     None if monitor is None else monitor[rows],
                     whole.port_names_,
                 )
-            except ValueError as exc:
-                raise type(exc)(f"{_window_label(edges, index)}: {exc}") from exc
+            except InputError as exc:
+                raise type(exc)(f"{window_label(edges, index)}: {exc}") from exc
             windows.append(window)
         self.delay_s_ = whole.delay_s_
         self.fsr_hz_ = fsr
@@ -200,36 +240,11 @@ class CalibrationSet(BaseCalibrator):
         self.port_names_ = whole.port_names_
         self.window_edges_hz_ = edges
         self.windows_ = windows
-        error = frequency_error_hz(self._predict_readings(powers, frequency), frequency, fsr)
+        error = wrap_to_period(self._predict_readings(powers, frequency) - frequency, fsr)
         self.calibration_rms_hz_ = float(np.sqrt(np.mean(error**2)))
         return self
 
     # ------------------------------------------------------------------ windows
-    def _check_coarse(self, coarse_hz, samples: int) -> np.ndarray:
-        if coarse_hz is None:
-            raise ValueError(
-                "coarse_hz is required: a CalibrationSet holds one map per FSR window and needs "
-                "each reading's approximate frequency (Hz, within half an FSR, e.g. the laser "
-                "set point) to pick the window; got None"
-            )
-        try:
-            coarse = np.array(coarse_hz, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise TypeError(
-                f"coarse_hz must be a number or an array of numbers (Hz), got "
-                f"{type(coarse_hz).__name__}"
-            ) from exc
-        if coarse.ndim == 0:
-            coarse = np.full(samples, float(coarse))
-        if coarse.shape != (samples,):
-            raise ValueError(
-                f"coarse_hz must be one value or one per reading ({samples}), got shape "
-                f"{coarse.shape}"
-            )
-        if not np.all(np.isfinite(coarse)):
-            raise ValueError("coarse_hz contains NaN or inf")
-        return coarse
-
     def covered_hz(self) -> tuple[float, float]:
         """Lowest and highest coarse frequency (Hz) the set has a window for.
 
@@ -258,12 +273,12 @@ class CalibrationSet(BaseCalibrator):
             When a coarse frequency lies outside :meth:`covered_hz`.
         """
         check_fitted(self)
-        coarse = np.atleast_1d(self._check_coarse(coarse_hz, np.size(coarse_hz)))
+        coarse = check_per_reading("coarse_hz", coarse_hz, np.size(coarse_hz))
         low, high = self.covered_hz()
         outside = (coarse < low) | (coarse > high)
         if outside.any():
             first = int(np.flatnonzero(outside)[0])
-            raise ValueError(
+            raise InputError(
                 f"coarse_hz {coarse[first]!r} Hz (reading {first}, zero-based; "
                 f"{int(outside.sum())} in all) is outside the calibrated span "
                 f"{low / 1e12:.6f} to {high / 1e12:.6f} THz: no window has a map there; "
@@ -285,11 +300,14 @@ class CalibrationSet(BaseCalibrator):
     def _predict_readings(self, readings: np.ndarray, coarse: np.ndarray) -> np.ndarray:
         def nearest_alias(window, rows, coarse_rows):
             fine = window.predict(rows)
-            return coarse_rows + frequency_error_hz(fine, coarse_rows, window.fsr_hz_)
+            return coarse_rows + wrap_to_period(fine - coarse_rows, window.fsr_hz_)
 
         return self._per_window(readings, coarse, nearest_alias)
 
-    def predict(self, powers, coarse_hz=None) -> np.ndarray:
+    def _coarse(self, readings: np.ndarray, coarse_hz, temperature_k) -> np.ndarray:
+        return self._check_reading_inputs(readings.shape[0], coarse_hz, temperature_k)["coarse_hz"]
+
+    def predict(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
         """Source frequency (Hz) of each reading.
 
         Parameters
@@ -300,6 +318,8 @@ class CalibrationSet(BaseCalibrator):
             Approximate frequency of each reading (Hz), within half an FSR of the truth
             (e.g. the laser set point). It picks the window, and the window's frequency
             alias (modulo its FSR) nearest to it is returned. Required.
+        temperature_k : None, float or array_like, shape (N,)
+            Accepted for the common prediction API; not used.
 
         Returns
         -------
@@ -307,14 +327,14 @@ class CalibrationSet(BaseCalibrator):
 
         Raises
         ------
-        ValueError
+        InputError
             When ``coarse_hz`` is missing, of the wrong length, not finite, or outside
             :meth:`covered_hz`.
         """
         readings = self._check_readings(powers)
-        return self._predict_readings(readings, self._check_coarse(coarse_hz, readings.shape[0]))
+        return self._predict_readings(readings, self._coarse(readings, coarse_hz, temperature_k))
 
-    def phase(self, powers, coarse_hz=None) -> np.ndarray:
+    def phase(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
         """Interferometer phase (rad) in (-pi, pi], zero at the ``center_hz_`` of each window.
 
         Parameters
@@ -322,103 +342,45 @@ class CalibrationSet(BaseCalibrator):
         powers : array_like, shape (N, n) or (n,)
         coarse_hz : float or array_like, shape (N,)
             Approximate frequency (Hz) that picks the window; see :meth:`predict`.
+        temperature_k : None, float or array_like, shape (N,)
+            Accepted for the common prediction API; not used.
 
         Returns
         -------
         ndarray, shape (N,), rad
         """
         readings = self._check_readings(powers)
-        coarse = self._check_coarse(coarse_hz, readings.shape[0])
+        coarse = self._coarse(readings, coarse_hz, temperature_k)
         return self._per_window(readings, coarse, lambda window, rows, _: window.phase(rows))
 
-    # ------------------------------------------------------------------ evaluation
-    def adjacent_evaluation(self, powers, frequency_hz) -> dict:
-        """Each window's map on its own FSR and on the neighbouring FSRs (paper Fig. 9).
+    def frequency_std_hz(
+        self, powers, *, coarse_hz=None, temperature_k=None, phase_rad=None
+    ) -> np.ndarray:
+        """Per-reading frequency uncertainty (Hz) from the window that retrieves each reading.
 
-        For every window with readings in it and in at least one neighbour, the window's
-        calibration retrieves the readings of its own window and of the adjacent windows
-        (the frequency alias nearest the truth), and the conventional method does the
-        same: it is fitted on the window's own readings of this data (its origin,
-        direction and FSR) and applied to both.
-
-        Parameters
-        ----------
-        powers : array_like, shape (N, n)
-            Port readings over several windows (test data, or the sweep itself).
-        frequency_hz : array_like, shape (N,)
-            True frequency of each reading (Hz).
+        Available when the window calibrator offers it (``"frequency_std"`` in
+        ``capabilities``). ``phase_rad`` (rad, zero at each window's centre) evaluates the
+        bound at given phases instead of the retrieved ones.
 
         Returns
         -------
-        dict
-            JSON-ready. ``"windows"``: one entry per evaluated window with ``window``
-            (index), ``center_hz``, ``fsr_hz``, ``samples_own``, ``samples_adjacent`` and
-            error summaries (``rms_hz``, ``max_hz``, ``p95_hz``, ``p99_hz``, Hz) ``own``,
-            ``adjacent``, ``conventional_own``, ``conventional_adjacent``, plus
-            ``degradation_rms`` (adjacent over own RMS). The same summaries over all
-            evaluated windows at the top level, with ``method`` and ``windows_evaluated``.
-
-        Raises
-        ------
-        ValueError
-            When no window has at least 4 readings of its own and one in a neighbour.
+        ndarray, shape (N,), Hz
         """
+        if "frequency_std" not in self.capabilities:
+            return super().frequency_std_hz(powers)
         readings = self._check_readings(powers)
-        frequency = check_frequency(frequency_hz, readings.shape[0])
-        position = np.floor((frequency - self.window_edges_hz_[0]) / self.fsr_hz_)
-        pooled = {"own": [], "adjacent": [], "conventional_own": [], "conventional_adjacent": []}
-        entries = []
-        for index, window in enumerate(self.windows_):
-            own = position == index
-            neighbours = [k for k in (index - 1, index + 1) if 0 <= k < len(self.windows_)]
-            adjacent = np.isin(position, neighbours)
-            if own.sum() < MIN_SAMPLES or not adjacent.any():
-                continue
-            try:
-                conventional = self._conventional(window.fsr_hz_).fit(readings[own], frequency[own])
-            except ValueError as exc:
-                raise type(exc)(
-                    f"{_window_label(self.window_edges_hz_, index)}, conventional baseline: {exc}"
-                ) from exc
-            errors = {
-                name: frequency_error_hz(
-                    calibrator.predict(readings[rows]), frequency[rows], calibrator.fsr_hz_
-                )
-                for name, calibrator, rows in (
-                    ("own", window, own),
-                    ("adjacent", window, adjacent),
-                    ("conventional_own", conventional, own),
-                    ("conventional_adjacent", conventional, adjacent),
-                )
-            }
-            for name, error in errors.items():
-                pooled[name].append(error)
-            summaries = {name: error_summary_hz(error) for name, error in errors.items()}
-            entries.append(
-                {
-                    "window": index,
-                    "center_hz": window.center_hz_,
-                    "fsr_hz": window.fsr_hz_,
-                    "samples_own": int(own.sum()),
-                    "samples_adjacent": int(adjacent.sum()),
-                    **summaries,
-                    "degradation_rms": summaries["adjacent"]["rms_hz"] / summaries["own"]["rms_hz"],
-                }
+        coarse = self._coarse(readings, coarse_hz, temperature_k)
+        phase = (
+            None if phase_rad is None else check_per_reading("phase_rad", phase_rad, len(coarse))
+        )
+        index = self.window_index(coarse)
+        result = np.empty(readings.shape[0])
+        for window_number in np.unique(index):
+            rows = index == window_number
+            result[rows] = self.windows_[window_number].frequency_std_hz(
+                readings[rows], phase_rad=None if phase is None else phase[rows]
             )
-        if not entries:
-            raise ValueError(
-                f"adjacent evaluation needs readings in a window (at least {MIN_SAMPLES}) and in "
-                "a neighbouring window; the data given covers no such pair of the set's "
-                f"{len(self.windows_)} windows"
-            )
-        totals = {name: error_summary_hz(np.concatenate(parts)) for name, parts in pooled.items()}
-        return {
-            "method": self.method,
-            "windows_evaluated": len(entries),
-            **totals,
-            "degradation_rms": totals["adjacent"]["rms_hz"] / totals["own"]["rms_hz"],
-            "windows": entries,
-        }
+        return result
 
     # ------------------------------------------------------------------ persistence
     def _state(self) -> dict:
@@ -437,17 +399,18 @@ class CalibrationSet(BaseCalibrator):
             or not np.all(np.isfinite(edges))
             or np.any(np.diff(edges) <= 0)
         ):
-            raise ValueError("window_edges_hz must be at least 2 increasing finite frequencies")
+            raise InputError("window_edges_hz must be at least 2 increasing finite frequencies")
         if not isinstance(documents, list) or len(documents) != edges.size - 1:
-            raise ValueError(f"windows must list {edges.size - 1} calibrations, one per window")
+            raise InputError(f"windows must list {edges.size - 1} calibrations, one per window")
         windows = [
             calibrator_from_fields(document, f"window {index}")
             for index, document in enumerate(documents)
         ]
+        expected = type(self._window_template())
         for index, window in enumerate(windows):
-            if type(window).method not in WINDOW_METHODS or window.n_ports_ != self.n_ports_:
-                raise ValueError(
-                    f"window {index} must be a {' or '.join(WINDOW_METHODS)} calibration of "
+            if type(window) is not expected or window.n_ports_ != self.n_ports_:
+                raise InputError(
+                    f"window {index} must be a {expected.method!r} calibration of "
                     f"{self.n_ports_} ports, got {type(window).method!r} with {window.n_ports_}"
                 )
         self.delay_s_ = float(state["delay_s"])

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from .validation import check_choice, check_positive
+from ..exceptions import EdgeMinimumError, InputError
+from ..validation import check_choice, check_positive
 
 __all__ = [
     "DelaySearchResult",
@@ -37,14 +38,6 @@ GRID_POINTS_PER_MINIMUM = 8
 MIN_GRID_POINTS = 17
 #: a fit at the true delay removes all but the noise; a side minimum removes a few per cent
 MIN_EXPLAINED_FRACTION = 0.5
-
-
-class EdgeMinimumError(ValueError):
-    """The true FSR lies outside the bracket searched.
-
-    Raised when the cost is smallest on the edge of the bracket, or when the best delay
-    inside it explains less than half of the fringe power (a side minimum of ``J``).
-    """
 
 
 def _bracket_text(fsr_hz: float, fsr_tolerance: float) -> str:
@@ -80,7 +73,7 @@ def check_fringes_explained(
         readings carry no fringes above the noise).
     """
     if not unfitted_cost > 0:
-        raise ValueError(
+        raise InputError(
             f"unfitted_cost must be > 0 (the readings vary about their mean), got {unfitted_cost!r}"
         )
     explained = 1.0 - cost / unfitted_cost

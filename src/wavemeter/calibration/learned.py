@@ -15,12 +15,12 @@ from __future__ import annotations
 import numpy as np
 from scipy import linalg
 
+from ..model.cone import cone_vectors, delay_phase_rad, phase_to_frequency_hz
+from ..model.limits import crlb_frequency_std
+from ..model.retrieval import cone_ml_phase_rad, source_power_ratio
+from ..validation import check_choice, check_positive
 from .base import BaseCalibrator
-from .cone import cone_vectors, delay_phase_rad, phase_to_frequency_hz
 from .delay_search import SEARCH_METHODS, search_delay
-from .limits import crlb_frequency_std
-from .retrieval import cone_ml_phase_rad, source_power_ratio
-from .validation import check_choice, check_positive
 
 RETRIEVALS = ("pinv", "ml")
 
@@ -136,6 +136,7 @@ class Calibrator(BaseCalibrator):
     """
 
     method = "learned"
+    capabilities = frozenset({"frequency_std", "power_monitor"})
 
     def __init__(
         self,
@@ -197,7 +198,9 @@ class Calibrator(BaseCalibrator):
             phase = cone_ml_phase_rad(powers, self.map_, phase)
         return phase
 
-    def frequency_std_hz(self, powers, phase_rad=None) -> np.ndarray:
+    def frequency_std_hz(
+        self, powers, *, coarse_hz=None, temperature_k=None, phase_rad=None
+    ) -> np.ndarray:
         """Per-reading frequency uncertainty (Hz): the Cramer-Rao bound at the reading.
 
         Evaluated at the retrieved phase (or ``phase_rad``) and the reading's own source
@@ -208,6 +211,8 @@ class Calibrator(BaseCalibrator):
         Parameters
         ----------
         powers : array_like, shape (N, n) or (n,)
+        coarse_hz, temperature_k : None, float or array_like, shape (N,)
+            Accepted for the common prediction API; not needed by this calibrator.
         phase_rad : None or array_like, shape (N,)
             Phase (rad, zero at ``center_hz_``) to evaluate the bound at, e.g. that of the
             true frequency in an evaluation; default: the retrieved phase.
@@ -217,6 +222,7 @@ class Calibrator(BaseCalibrator):
         ndarray, shape (N,), Hz
         """
         readings = self._check_readings(powers)
+        self._check_reading_inputs(readings.shape[0], coarse_hz, temperature_k)
         phase = self._phase(readings) if phase_rad is None else np.asarray(phase_rad, float)
         power = source_power_ratio(readings, self.map_, phase)
         # the bound is linear in the noise: evaluate at unit noise, then scale

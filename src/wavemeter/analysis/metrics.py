@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..model.cone import wrap_to_period
+
 __all__ = ["frequency_error_hz", "error_summary_hz"]
 
 
@@ -14,7 +16,7 @@ def frequency_error_hz(predicted_hz, true_hz, fsr_hz: float) -> np.ndarray:
     the same reading, so errors are compared on the circle.
     """
     error = np.asarray(predicted_hz, dtype=float) - np.asarray(true_hz, dtype=float)
-    return (error + fsr_hz / 2) % fsr_hz - fsr_hz / 2
+    return wrap_to_period(error, fsr_hz)
 
 
 def error_summary_hz(error_hz) -> dict[str, float]:

@@ -1,0 +1,3 @@
+"""The package version, in one place (read by packaging, files and ``--version``)."""
+
+__version__ = "0.2.0"

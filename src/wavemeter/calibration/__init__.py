@@ -1,0 +1,34 @@
+"""Calibrators: the learned map, calibration sets, baselines, and their files.
+
+Importing this package registers every calibrator class under its file tag
+(:mod:`wavemeter.calibration.registry`).
+"""
+
+from .base import BaseCalibrator
+from .baselines import (
+    ConventionalCalibrator,
+    EllipseCalibrator,
+    ExtendedConventionalCalibrator,
+    NonlinearFitCalibrator,
+    PlaneEllipseCalibrator,
+)
+from .files import load_calibration, save_calibration
+from .learned import Calibrator, predict_frequency_hz, retrieve_phase_rad
+from .registry import registered
+from .set import CalibrationSet
+
+__all__ = [
+    "BaseCalibrator",
+    "Calibrator",
+    "CalibrationSet",
+    "ConventionalCalibrator",
+    "EllipseCalibrator",
+    "ExtendedConventionalCalibrator",
+    "NonlinearFitCalibrator",
+    "PlaneEllipseCalibrator",
+    "load_calibration",
+    "predict_frequency_hz",
+    "registered",
+    "retrieve_phase_rad",
+    "save_calibration",
+]

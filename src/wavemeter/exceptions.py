@@ -1,0 +1,61 @@
+"""The one exception family of the package, and the warning a misfit calibration emits.
+
+Library code raises these (never bare ``ValueError``/``TypeError``/``assert``); the command
+line catches :class:`WavemeterError` and ``OSError`` only, so anything else is a bug and
+shows its traceback. Messages say which value is wrong and what is allowed; they never name
+a command-line flag (the CLI adds flag hints where it knows them).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "WavemeterError",
+    "InputError",
+    "FileFormatError",
+    "NotFittedError",
+    "EdgeMinimumError",
+    "CalibrationWarning",
+]
+
+
+class WavemeterError(Exception):
+    """Base of every error the package raises on purpose."""
+
+
+class InputError(WavemeterError, ValueError):
+    """A value given to the library is wrong: its type, shape, range or content."""
+
+
+class FileFormatError(InputError):
+    """A file cannot be read as what it should be: foreign, corrupt, truncated or unsafe."""
+
+
+class NotFittedError(WavemeterError, ValueError, AttributeError):
+    """``predict``/``phase``/``save`` was called on an estimator before ``fit``."""
+
+
+class EdgeMinimumError(InputError):
+    """The delay (FSR) that fits best lies outside the bracket searched.
+
+    Raised when the cost is smallest on the edge of the bracket, or when the best delay
+    inside it explains less than half of the fringe power (a side minimum of ``J``).
+    """
+
+
+class CalibrationWarning(UserWarning):
+    """A calibration fitted, but the data depart from the model in a way that costs accuracy.
+
+    Parameters
+    ----------
+    message : str
+        What was seen, with numbers, and the remedy.
+    cause : str
+        One word naming the departure (e.g. ``"power_drift"``, ``"dead_port"``).
+    remedy : str
+        What the user can do about it.
+    """
+
+    def __init__(self, message: str, cause: str = "other_misfit", remedy: str = ""):
+        super().__init__(message)
+        self.cause = cause
+        self.remedy = remedy
