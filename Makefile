@@ -19,6 +19,7 @@ test: $(BIN)/wavemeter
 lint: $(BIN)/wavemeter
 	$(BIN)/ruff check src tests benchmarks examples
 	$(BIN)/ruff format --check src tests benchmarks examples
+	$(BIN)/lint-imports
 
 bench: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/precision.py

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.cli.main import cli, main
+from wavemeter.cli import cli, main
 from wavemeter.io._reader import ColumnRequest, read_table
 from wavemeter.model.cone import delay_phase_rad
 from wavemeter.progress import chunked

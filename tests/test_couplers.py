@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from wavemeter.exceptions import InputError
-
 from wavemeter.model.couplers import (
     equally_spaced_phases_rad,
     fourier_matrix,

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 import wavemeter as wm
-from wavemeter.cli.main import main
+from wavemeter.cli import main
 
 
 def test_demo_writes_its_files_and_beats_conventional(tmp_path, capsys):

@@ -1,5 +1,5 @@
-"""The ``wavemeter`` command line."""
+"""The ``wavemeter`` command line: one module per command, loaded when it runs."""
 
-from .main import main
+from .app import cli, main
 
-__all__ = ["main"]
+__all__ = ["cli", "main"]

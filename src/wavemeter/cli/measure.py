@@ -1,0 +1,129 @@
+"""`wavemeter measure`: port readings to frequency with a calibration."""
+
+from __future__ import annotations
+
+import click
+import numpy as np
+
+from ..exceptions import InputError
+from ..io._reader import table_format, write_table
+from ..progress import busy, chunked
+from ..units import SPEED_OF_LIGHT_M_S
+from ._common import (
+    FORMAT,
+    FREQUENCY,
+    QUIET,
+    about,
+    check_ports,
+    column_options,
+    column_request,
+    load,
+    method_label,
+    names,
+    out_option,
+    read,
+    say,
+)
+
+
+def _coarse(calibration, cal_path, table, coarse_hz):
+    """Coarse frequency per reading for a calibration set (None for a single map)."""
+    if "coarse_hz" not in calibration.requires:
+        return None
+    if table.coarse_hz is not None:
+        return table.coarse_hz
+    if coarse_hz is not None:
+        return np.full(table.n_rows, coarse_hz)
+    low, high = calibration.covered_hz()
+    raise InputError(
+        f"{cal_path} is a per-FSR calibration set ({len(calibration.windows_)} windows, "
+        f"{low / 1e12:.6f} to {high / 1e12:.6f} THz): it needs a coarse frequency per "
+        "reading to pick the window; pass --coarse COL or --coarse-hz VALUE"
+    )
+
+
+@click.command()
+@click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
+@click.argument("data", type=click.Path(dir_okay=False))
+@out_option("Output file: frequency_hz, wavelength_nm, phase_rad per input row.")
+@click.option("--keep", metavar="COL,COL,..", help="Input columns to copy into the output.")
+@FORMAT
+@click.option(
+    "--coarse",
+    "coarse_column",
+    metavar="COL",
+    help="Coarse frequency or wavelength column (calibration sets).",
+)
+@click.option(
+    "--coarse-hz",
+    type=FREQUENCY,
+    help="One coarse frequency for every reading, e.g. 193.4THz (calibration sets).",
+)
+@click.option(
+    "--uncertainty",
+    is_flag=True,
+    help="Also write frequency_std_hz: the per-reading Cramer-Rao bound at the detector noise "
+    "estimated from the calibration (learned single-map calibrations).",
+)
+@column_options(axis=False)
+@QUIET
+def measure(
+    calibration_file,
+    data,
+    out_path,
+    keep,
+    file_format,
+    coarse_column,
+    coarse_hz,
+    uncertainty,
+    **options,
+):
+    """Turn port readings into frequency with a calibration.
+
+    Writes one row per input row, in order: frequency_hz, wavelength_nm (vacuum) and
+    phase_rad at full float64 precision, with --uncertainty frequency_std_hz, then the
+    --keep columns. Rows skipped with --drop-invalid are written as NaN.
+
+    \b
+    Example:
+      wavemeter measure chip.wmcal.json readings.csv -o frequencies.csv --keep time_s
+    """
+    calibration = load(calibration_file)
+    table_format(out_path, file_format)  # reject a bad format before the work
+    if uncertainty and "frequency_std" not in calibration.capabilities:
+        raise InputError(
+            f"{calibration_file}: --uncertainty needs a learned calibration (single or per "
+            f"FSR), not a {method_label(calibration)} calibration"
+        )
+    request = column_request(options, coarse=coarse_column, keep=names(keep) or ())
+    table = read(
+        data, request, need_x=False, drop_invalid=options["drop_invalid"], quiet=options["quiet"]
+    )
+    check_ports(calibration, calibration_file, table, explicit=request.ports is not None)
+    valid = table.valid_only()
+    coarse = _coarse(calibration, calibration_file, valid, coarse_hz)
+    frequency = np.full(table.n_rows, np.nan)
+    phase = np.full(table.n_rows, np.nan)
+    std = np.full(table.n_rows, np.nan)
+    rows = np.flatnonzero(~table.invalid)
+    for block in chunked(valid.n_rows, f"measuring {data}", quiet=options["quiet"]):
+        extra = {} if coarse is None else {"coarse_hz": coarse[block]}
+        with about(data):
+            frequency[rows[block]] = calibration.predict(valid.powers_w[block], **extra)
+            phase[rows[block]] = calibration.phase(valid.powers_w[block], **extra)
+            if uncertainty:
+                std[rows[block]] = calibration.frequency_std_hz(valid.powers_w[block], **extra)
+    columns = {
+        "frequency_hz": frequency,
+        "wavelength_nm": SPEED_OF_LIGHT_M_S / frequency * 1e9,
+        "phase_rad": phase,
+        **({"frequency_std_hz": std} if uncertainty else {}),
+    }
+    for name, values in table.kept.items():
+        columns.setdefault(name, values)
+    with busy(f"writing {out_path}", quiet=options["quiet"]):
+        write_table(out_path, columns, file_format)
+    say(options["quiet"], f"wrote {out_path} ({table.n_rows} rows)")
+
+
+command = measure

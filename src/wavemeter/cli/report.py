@@ -1,0 +1,62 @@
+"""`wavemeter report`: an HTML report of a calibration on its sweep."""
+
+from __future__ import annotations
+
+import click
+
+from ..progress import busy
+from ._common import (
+    PORT_PHASES,
+    QUIET,
+    check_ports,
+    column_options,
+    column_request,
+    load,
+    out_option,
+    port_phases_rad,
+    read,
+    say,
+)
+
+
+@click.command()
+@click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
+@click.argument("sweep", type=click.Path(dir_okay=False))
+@click.argument("test", required=False, type=click.Path(dir_okay=False))
+@out_option("HTML report to write; figures go beside it as PNG files.")
+@PORT_PHASES
+@column_options()
+@QUIET
+def report(calibration_file, sweep, test, out_path, port_phases_deg, **options):
+    """Write an HTML report with figures of a calibration on its sweep (and a test file).
+
+    \b
+    Example:
+      wavemeter report chip.wmcal.json sweep.csv sweep-test.csv -o report.html
+    """
+    from ..report.html import write_report
+
+    calibration = load(calibration_file)
+    request = column_request(options)
+    tables = []
+    for path in (sweep, test):
+        if path is None:
+            tables.append(None)
+            continue
+        table = read(
+            path, request, need_x=True, drop_invalid=options["drop_invalid"], quiet=options["quiet"]
+        ).valid_only()
+        check_ports(calibration, calibration_file, table, request.ports is not None)
+        tables.append(table)
+    with busy(f"writing {out_path}", quiet=options["quiet"]):
+        written = write_report(
+            calibration,
+            tables[0],
+            tables[1],
+            out_html=out_path,
+            port_phases_rad=port_phases_rad(port_phases_deg),
+        )
+    say(options["quiet"], f"wrote {', '.join(str(path) for path in written)}")
+
+
+command = report
