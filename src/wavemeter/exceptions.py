@@ -23,7 +23,20 @@ class WavemeterError(Exception):
 
 
 class InputError(WavemeterError, ValueError):
-    """A value given to the library is wrong: its type, shape, range or content."""
+    """A value given to the library is wrong: its type, shape, range or content.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong with which value, and what is allowed.
+    parameter : str, optional
+        The library parameter the value came through (e.g. ``"fsr_hz"``, ``"x_unit"``,
+        ``"force"``); the command line uses it to name its own option in a hint.
+    """
+
+    def __init__(self, message: str = "", *, parameter: str | None = None):
+        super().__init__(message)
+        self.parameter = parameter
 
 
 class FileFormatError(InputError):
