@@ -12,6 +12,11 @@ the devices on which its model is exact and its estimator efficient:
 
 The conventional method and Kleijn's fit are not exact on impaired devices (an ideal map;
 the sum of port powers as source power), so their recovery clauses use an ideal device.
+
+Enrolment is automatic: a test class is made for every class in the calibration registry
+(every calibrator with a file tag), with the per-class settings of ``CASES`` where the
+defaults do not fit; a new calibrator cannot skip the contract. Each call passes the
+per-reading inputs the class declares in ``requires`` (the truth as ``coarse_hz``).
 """
 
 from __future__ import annotations
@@ -23,6 +28,8 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
+from wavemeter.calibration.base import BaseCalibrator
+from wavemeter.calibration.registry import registered
 
 POWER_W = 1e-3
 NOISE_W = 5e-7  # Table 1: 5e-4 mW at 1 mW
@@ -47,8 +54,8 @@ def simulated(kind: str, ports: int, noise_w: float):
     """Sweep (powers, frequencies) and test (powers, frequencies) of one device."""
     device = make_device(kind, ports)
     sweep_hz = device.sweep_hz(SWEEP_SAMPLES)
-    half = device.true_fsr_hz / 2
-    test_hz = device.center_hz + np.random.default_rng(13).uniform(-half, half, TEST_SAMPLES)
+    # inside the calibrated span: a calibration set refuses readings beyond it
+    test_hz = np.random.default_rng(13).uniform(sweep_hz[0], sweep_hz[-1], TEST_SAMPLES)
     sweep = device.powers(sweep_hz, POWER_W, noise_w, rng=11)
     test = device.powers(test_hz, POWER_W, noise_w, rng=12)
     for array in (sweep_hz, test_hz, sweep, test):
@@ -71,6 +78,11 @@ def bound_rms_hz(device, frequency_hz, ports, known_power: bool) -> float:
     else:
         per_sample = wm.crlb_frequency_std(matrix, phase, POWER_W, NOISE_W, device.true_fsr_hz)
     return float(np.sqrt(np.mean(per_sample**2)))
+
+
+def reading_inputs(calibrator, frequency_hz) -> dict:
+    """The per-reading inputs a calibrator declares it needs, from the true frequencies."""
+    return {"coarse_hz": frequency_hz} if "coarse_hz" in calibrator.requires else {}
 
 
 def rms(values) -> float:
@@ -103,13 +115,15 @@ class CalibratorContract:
     # ------------------------------------------------------------------ recovery
     def test_recovers_exact_device_without_noise(self):
         cal, device, test, test_hz = self.fitted(self.exact_device, 0.0)
-        error = wm.frequency_error_hz(cal.predict(test), test_hz, device.true_fsr_hz)
+        predicted = cal.predict(test, **reading_inputs(cal, test_hz))
+        error = wm.frequency_error_hz(predicted, test_hz, device.true_fsr_hz)
         assert np.max(np.abs(error)) <= NOISELESS_HZ
         assert abs(cal.fsr_hz_ / device.true_fsr_hz - 1) < 1e-12
 
     def test_noise_limited_on_efficient_device(self):
         cal, device, test, test_hz = self.fitted(self.efficient_device, NOISE_W)
-        error = wm.frequency_error_hz(cal.predict(test), test_hz, device.true_fsr_hz)
+        predicted = cal.predict(test, **reading_inputs(cal, test_hz))
+        error = wm.frequency_error_hz(predicted, test_hz, device.true_fsr_hz)
         used = range(self.ports) if self.used_ports is None else self.used_ports
         bound = bound_rms_hz(device, test_hz, used, self.known_power)
         excess = self.estimator_excess(device, test_hz)
@@ -118,59 +132,62 @@ class CalibratorContract:
 
     # ------------------------------------------------------------------ estimator shape
     def test_fit_returns_self_and_prediction_shape(self):
-        device, sweep, sweep_hz, test, _ = simulated("table1", self.ports, NOISE_W)
+        device, sweep, sweep_hz, test, test_hz = simulated("table1", self.ports, NOISE_W)
         cal = self.make()
         assert cal.fit(sweep, sweep_hz) is cal
-        predicted = cal.predict(test[:7])
+        first = reading_inputs(cal, test_hz[:7])
+        predicted = cal.predict(test[:7], **first)
         assert predicted.shape == (7,)
         assert np.all(np.abs(predicted - cal.center_hz_) <= cal.fsr_hz_ / 2)
-        assert cal.predict(test[0]).shape == (1,)
-        assert cal.phase(test[:7]).shape == (7,)
+        assert cal.predict(test[0], **reading_inputs(cal, test_hz[0])).shape == (1,)
+        assert cal.phase(test[:7], **first).shape == (7,)
 
     def test_inputs_not_modified(self):
-        _, sweep, sweep_hz, test, _ = simulated("table1", self.ports, NOISE_W)
-        writable = [np.array(a) for a in (sweep, sweep_hz, test)]
+        _, sweep, sweep_hz, test, test_hz = simulated("table1", self.ports, NOISE_W)
+        writable = [np.array(a) for a in (sweep, sweep_hz, test, test_hz)]
         copies = [a.copy() for a in writable]
         cal = self.make().fit(writable[0], writable[1])
-        cal.predict(writable[2])
-        cal.phase(writable[2])
+        cal.predict(writable[2], **reading_inputs(cal, writable[3]))
+        cal.phase(writable[2], **reading_inputs(cal, writable[3]))
         for array, copy in zip(writable, copies, strict=True):
             assert array.tobytes() == copy.tobytes()
 
     def test_save_load_round_trip_is_bit_exact(self, tmp_path):
-        cal, _, test, _ = self.fitted("table1", NOISE_W)
+        cal, _, test, test_hz = self.fitted("table1", NOISE_W)
         path = tmp_path / "cal.wmcal.json"
         cal.save(path)
         loaded = wm.load_calibration(path)
         assert type(loaded) is type(cal)
         assert loaded.get_params_for_file() == cal.get_params_for_file()
-        assert loaded.predict(test).tobytes() == cal.predict(test).tobytes()
-        assert loaded.phase(test).tobytes() == cal.phase(test).tobytes()
+        inputs = reading_inputs(cal, test_hz)
+        assert loaded.predict(test, **inputs).tobytes() == cal.predict(test, **inputs).tobytes()
+        assert loaded.phase(test, **inputs).tobytes() == cal.phase(test, **inputs).tobytes()
         assert loaded.fsr_hz_ == cal.fsr_hz_
         assert loaded.center_hz_ == cal.center_hz_
 
     def test_predict_before_fit_raises(self):
-        _, _, _, test, _ = simulated("table1", self.ports, NOISE_W)
+        _, _, _, test, test_hz = simulated("table1", self.ports, NOISE_W)
+        inputs = reading_inputs(self.make(), test_hz)
         with pytest.raises(wm.NotFittedError, match="not fitted"):
-            self.make().predict(test)
+            self.make().predict(test, **inputs)
         with pytest.raises(wm.NotFittedError, match="not fitted"):
-            self.make().phase(test)
+            self.make().phase(test, **inputs)
 
     def test_rejects_nan_rows(self):
         _, sweep, sweep_hz, _, _ = simulated("table1", self.ports, NOISE_W)
         bad = np.array(sweep)
         bad[5, 1] = np.nan
-        with pytest.raises(ValueError, match=r"NaN or inf in rows \[5\]"):
+        with pytest.raises(wm.InputError, match=r"NaN or inf in rows \[5\]"):
             self.make().fit(bad, sweep_hz)
 
     def test_rejects_wrong_port_count(self):
-        cal, _, test, _ = self.fitted("table1", NOISE_W)
-        with pytest.raises(ValueError, match=f"but the calibration has {self.ports}"):
-            cal.predict(np.column_stack([test, test[:, :1]]))
+        cal, _, test, test_hz = self.fitted("table1", NOISE_W)
+        with pytest.raises(wm.InputError, match=f"but the calibration has {self.ports}"):
+            cal.predict(np.column_stack([test, test[:, :1]]), **reading_inputs(cal, test_hz))
 
     def test_rejects_fewer_than_four_samples(self):
         _, sweep, sweep_hz, _, _ = simulated("table1", self.ports, NOISE_W)
-        with pytest.raises(ValueError, match="at least 4 samples, got 3"):
+        with pytest.raises(wm.InputError, match="at least 4 samples, got 3"):
             self.make().fit(sweep[::300][:3], sweep_hz[::300][:3])
 
     def test_learned_attributes_end_in_underscore(self):
@@ -189,47 +206,116 @@ class CalibratorContract:
         assert clone.get_params() == cal.get_params()
         assert repr(clone) == repr(cal)
 
+    # ------------------------------------------------------------------ one prediction API
+    def test_declared_inputs_are_required_by_name(self):
+        cal, _, test, _ = self.fitted("table1", NOISE_W)
+        for name in sorted(cal.requires):
+            with pytest.raises(wm.InputError, match=f"needs {name}"):
+                cal.predict(test[:3])
+            with pytest.raises(wm.InputError, match=f"needs {name}"):
+                cal.phase(test[:3])
 
-class TestLearned(CalibratorContract):
-    make = staticmethod(wm.Calibrator)
-    efficient_device = "table1"  # the paper's claim: noise-limited on an impaired device
+    def test_frequency_std_is_offered_exactly_where_declared(self):
+        cal, _, test, test_hz = self.fitted("table1", NOISE_W)
+        inputs = reading_inputs(cal, test_hz[:5])
+        if "frequency_std" in cal.capabilities:
+            std = cal.frequency_std_hz(test[:5], **inputs)
+            assert std.shape == (5,) and np.all(np.isfinite(std) & (std > 0))
+        else:
+            with pytest.raises(wm.InputError, match="no per-reading uncertainty"):
+                cal.frequency_std_hz(test[:5], **inputs)
 
-    def estimator_excess(self, device, test_hz):
-        """The pseudo-inverse ignores the cone: first-order noise ``|A+^T u_t| sigma / P``."""
-        phase = 2 * np.pi * (test_hz - device.center_hz) * device.delay_s
-        matrix = device.true_map()
-        tangent = np.stack([-np.sin(phase), np.cos(phase), np.zeros_like(phase)], axis=-1)
-        pinv_std = np.linalg.norm(tangent @ np.linalg.pinv(matrix), axis=1) * NOISE_W / POWER_W
-        first_order = rms(pinv_std) * device.true_fsr_hz / (2 * np.pi)
-        return first_order / bound_rms_hz(device, test_hz, range(self.ports), False)
+    def test_score_is_minus_the_rms_error(self):
+        cal, device, test, test_hz = self.fitted("table1", NOISE_W)
+        inputs = reading_inputs(cal, test_hz)
+        error = wm.frequency_error_hz(cal.predict(test, **inputs), test_hz, cal.fsr_hz_)
+        assert cal.score(test, test_hz, **inputs) == pytest.approx(-rms(error), rel=1e-12)
 
-
-class TestLearnedConeML(CalibratorContract):
-    make = staticmethod(functools.partial(wm.Calibrator, retrieval="ml"))
-    efficient_device = "table1"  # the cone-constrained ML phase attains the bound itself
-
-
-class TestConventional(CalibratorContract):
-    make = staticmethod(wm.ConventionalCalibrator)
-    exact_device = "ideal"  # the ideal map is the model; on Table 1 it is off by ~0.5 GHz
-
-
-class TestExtendedConventional(CalibratorContract):
-    make = staticmethod(wm.ExtendedConventionalCalibrator)
-    known_power = True  # the offsets are absolute powers
-
-
-class TestNonlinearFit(CalibratorContract):
-    make = staticmethod(wm.NonlinearFitCalibrator)
-    exact_device = "ideal"  # the sum of port powers is the source power only when ideal
+    def test_set_params_changes_a_setting_and_names_unknown_ones(self):
+        cal = self.make()
+        name, value = next(iter(cal.get_params().items()))
+        assert cal.set_params(**{name: value}) is cal
+        with pytest.raises(wm.InputError, match="'no_such_setting' is not a setting"):
+            cal.set_params(no_such_setting=1)
 
 
-class TestEllipse(CalibratorContract):
-    make = staticmethod(wm.EllipseCalibrator)
-    ports = 4
-    used_ports = (0, 1)  # in quadrature on a 90-degree hybrid: a circle, Heydemann efficient
-    known_power = True  # a fixed ellipse assumes the calibration power
+def pinv_excess(self, device, test_hz):
+    """The pseudo-inverse ignores the cone: first-order noise ``|A+^T u_t| sigma / P``."""
+    phase = 2 * np.pi * (test_hz - device.center_hz) * device.delay_s
+    matrix = device.true_map()
+    tangent = np.stack([-np.sin(phase), np.cos(phase), np.zeros_like(phase)], axis=-1)
+    pinv_std = np.linalg.norm(tangent @ np.linalg.pinv(matrix), axis=1) * NOISE_W / POWER_W
+    first_order = rms(pinv_std) * device.true_fsr_hz / (2 * np.pi)
+    return first_order / bound_rms_hz(device, test_hz, range(self.ports), False)
 
 
-class TestPlaneEllipse(CalibratorContract):
-    make = staticmethod(wm.PlaneEllipseCalibrator)
+#: per file tag: (case name, settings that differ from CalibratorContract's); a registered
+#: class missing here runs the contract with the defaults
+CASES = {
+    "learned": [
+        # the paper's claim: noise-limited on an impaired device
+        ("", {"efficient_device": "table1", "estimator_excess": pinv_excess}),
+        # the cone-constrained ML phase attains the bound itself
+        (
+            "ConeML",
+            {
+                "make": staticmethod(functools.partial(wm.Calibrator, retrieval="ml")),
+                "efficient_device": "table1",
+            },
+        ),
+    ],
+    # the ideal map is the model; on Table 1 it is off by ~0.5 GHz
+    "conventional": [("", {"exact_device": "ideal"})],
+    # the offsets are absolute powers
+    "extended_conventional": [("", {"known_power": True})],
+    # the sum of port powers is the source power only when ideal
+    "nonlinear_fit": [("", {"exact_device": "ideal"})],
+    # in quadrature on a 90-degree hybrid: a circle, Heydemann efficient; a fixed ellipse
+    # assumes the calibration power
+    "ellipse": [("", {"ports": 4, "used_ports": (0, 1), "known_power": True})],
+    # one window over the one-FSR sweep: the learned map's contract, reached via coarse_hz
+    "calibration_set": [
+        ("", {"efficient_device": "table1", "estimator_excess": pinv_excess}),
+        (
+            "ConventionalWindows",
+            {
+                "make": staticmethod(
+                    functools.partial(wm.CalibrationSet, window=wm.ConventionalCalibrator())
+                ),
+                "exact_device": "ideal",
+            },
+        ),
+    ],
+}
+
+
+def _enrol() -> list[str]:
+    """A contract test class per registered calibrator (and case), put in this module."""
+    names = []
+    for tag, cls in registered().items():
+        for suffix, settings in CASES.get(tag, [("", {})]):
+            name = f"Test{cls.__name__}{suffix}"
+            globals()[name] = type(name, (CalibratorContract,), {"make": cls, **settings})
+            names.append(name)
+    return names
+
+
+ENROLLED = _enrol()
+
+
+def test_every_calibrator_class_is_registered_and_enrolled():
+    """Every concrete class with a file tag is in the registry, and so in the contract."""
+    found, stack = set(), [BaseCalibrator]
+    while stack:
+        cls = stack.pop()
+        stack.extend(cls.__subclasses__())
+        if cls.__dict__.get("method"):
+            found.add(cls)
+    assert found == set(registered().values())
+    assert set(CASES) <= set(registered())  # no settings for a tag that no longer exists
+    assert len(ENROLLED) == sum(len(CASES.get(tag, [None])) for tag in registered())
+
+
+def test_a_second_class_with_a_taken_tag_is_refused():
+    with pytest.raises(wm.WavemeterError, match="'learned' .* is already used by"):
+        type("Impostor", (BaseCalibrator,), {"method": "learned"})
