@@ -65,7 +65,10 @@ def _write(path, document):
         (lambda d: d.update(method="magic"), "unknown calibration method 'magic'"),
         (lambda d: d.update(fsr_hz="fast"), "field 'fsr_hz' must be a finite number"),
         (lambda d: d.update(n_ports=5), "port_names' must list 5 names"),
-        (lambda d: d["state"].update(map=[[1, 2, 3]] * 3), r"map must be 4 x 3 finite numbers"),
+        (
+            lambda d: d["state"].update(map=[[1, 2, 3]] * 3),
+            r"field 'map' must be 4 x 3 finite numbers",
+        ),
         (lambda d: d["state"].pop("delay_s"), "invalid 'learned' calibration state"),
         (lambda d: d["params"].update(colour="red"), "parameters do not fit method"),
     ],

@@ -9,11 +9,18 @@ Every calibrator answers ``predict``, ``phase`` and ``frequency_std_hz`` with th
 keywords (``coarse_hz``, ``temperature_k``). What a class needs besides the readings it
 declares in ``requires``; what it can do beyond ``predict`` in ``capabilities``. Callers
 (the command line among them) read those declarations instead of testing types.
+
+``fit`` checks the sweep before any method-specific work, in one place for every class:
+the design FSR against the sweep's own fringes (:mod:`wavemeter.calibration.fsr_guard`,
+which keeps the delay search bounded), then every port's fringe
+(:mod:`wavemeter.calibration.diagnostics`); what it finds is kept in ``diagnostics_``.
+``summary()`` reports the fit (:mod:`wavemeter.calibration.summary`).
 """
 
 from __future__ import annotations
 
 import inspect
+import warnings
 from typing import ClassVar
 
 import numpy as np
@@ -29,11 +36,16 @@ from ..validation import (
     check_positive,
     check_powers,
 )
+from .delay_search import DEFAULT_FSR_TOLERANCE
+from .diagnostics import check_port_health, port_health
+from .fsr_guard import MIN_SPAN_FSR, check_design_fsr
 from .registry import register
+from .summary import FitReport, FitValue
 
 __all__ = ["BaseCalibrator", "MIN_SPAN_FSR", "READING_INPUTS", "CAPABILITIES"]
 
-MIN_SPAN_FSR = 0.1
+#: largest condition number of a loaded map: beyond it the map has lost a dimension
+MAX_MAP_CONDITION = 1e10
 #: data a calibrator may require per reading, besides the port powers
 READING_INPUTS = ("coarse_hz", "temperature_k")
 #: what a calibrator may offer besides predict/phase
@@ -48,6 +60,8 @@ class BaseCalibrator:
     requires: ClassVar[frozenset[str]] = frozenset()
     #: optional features (names from CAPABILITIES) the class provides
     capabilities: ClassVar[frozenset[str]] = frozenset({"power_monitor"})
+    #: ports with a fringe the method needs among those it reads (the cone model: 3)
+    fringe_ports_needed: ClassVar[int] = 3
     #: learned attributes common to every calibrator, saved by every calibration file
     common_attributes: ClassVar[tuple[str, ...]] = (
         "fsr_hz_",
@@ -109,7 +123,13 @@ class BaseCalibrator:
 
     def __repr__(self) -> str:
         params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
-        return f"{type(self).__name__}({params})"
+        text = f"{type(self).__name__}({params})"
+        if hasattr(self, "fsr_hz_"):
+            text += (
+                f" fitted: FSR {self.fsr_hz_ / 1e9:.6g} GHz, {self.n_ports_} ports, "
+                f"{self.n_samples_} samples, RMS {self.calibration_rms_hz_ / 1e6:.3g} MHz"
+            )
+        return text
 
     @classmethod
     def _params_from_file(cls, params: dict) -> dict:
@@ -126,6 +146,14 @@ class BaseCalibrator:
 
     def _check_params(self) -> None:
         check_positive("fsr_hz", self.fsr_hz)
+
+    def _fsr_tolerance(self) -> float:
+        """Relative half width of the FSR bracket the fit searches around ``fsr_hz``."""
+        return DEFAULT_FSR_TOLERANCE
+
+    def _ports_read(self, ports: int) -> list[int]:
+        """Indices of the ports the method reads (all, unless a method picks some)."""
+        return list(range(ports))
 
     # ------------------------------------------------------------------ fitting
     def fit(self, powers, frequency_hz, power_monitor_w=None, port_names=None):
@@ -145,23 +173,49 @@ class BaseCalibrator:
         Returns
         -------
         self
+
+        Raises
+        ------
+        InputError
+            For readings or settings that are wrong; with ``parameter="fsr_hz"`` when the
+            design FSR cannot be right for this sweep (the message gives the sweep's own
+            FSR); naming the ports when fewer than 3 carry a fringe.
+        EdgeMinimumError
+            When the best delay lies outside the FSR bracket searched.
+
+        Warns
+        -----
+        CalibrationWarning
+            Cause ``"dead_port"``: a port is dead, stuck or saturated but 3 others carry
+            fringes; the evidence is kept in ``diagnostics_``.
         """
         self._check_params()
         powers = check_powers(powers, min_samples=MIN_SAMPLES)
         frequency = check_frequency(frequency_hz, powers.shape[0])
         monitor = check_monitor(power_monitor_w, powers.shape[0])
-        low, high = float(frequency.min()), float(frequency.max())
-        if high - low < MIN_SPAN_FSR * self.fsr_hz:
-            raise InputError(
-                f"the sweep spans {(high - low) / 1e9:.6g} GHz, less than {MIN_SPAN_FSR:g} of the "
-                f"FSR ({self.fsr_hz / 1e9:.6g} GHz): sweep over at least "
-                f"{MIN_SPAN_FSR * self.fsr_hz / 1e9:.6g} GHz, ideally a whole FSR"
-            )
         n_ports = powers.shape[1]
         names = [f"p{k + 1}" for k in range(n_ports)] if port_names is None else list(port_names)
         if len(names) != n_ports or not all(isinstance(name, str) for name in names):
             raise InputError(f"port_names must be {n_ports} strings, got {port_names!r}")
-        self.center_hz_ = 0.5 * (low + high)
+        scale = None if monitor is None else monitor / monitor.mean()
+        # before any delay grid: a design FSR the sweep cannot resolve or contradicts
+        estimate = check_design_fsr(
+            powers,
+            frequency,
+            fsr_hz=float(self.fsr_hz),
+            fsr_tolerance=self._fsr_tolerance(),
+            scale=scale,
+        )
+        low, high = float(frequency.min()), float(frequency.max())
+        center = 0.5 * (low + high)
+        delay = 1.0 / self.fsr_hz if estimate is None else estimate.delay_s
+        health = port_health(powers, frequency, center, delay, names, scale)
+        notes = check_port_health(
+            [health[k] for k in self._ports_read(n_ports)],
+            powers.shape[0],
+            needed=self.fringe_ports_needed,
+        )
+        self.center_hz_ = center
         self.span_hz_ = (low, high)
         self.n_ports_ = n_ports
         self.n_samples_ = powers.shape[0]
@@ -169,6 +223,15 @@ class BaseCalibrator:
         self._fit(powers, frequency, monitor)
         error = wrap_to_period(self._predict_checked(powers) - frequency, self.fsr_hz_)
         self.calibration_rms_hz_ = float(np.sqrt(np.mean(error**2)))
+        self.diagnostics_ = {
+            "fsr_estimate_hz": None if estimate is None else estimate.fsr_hz,
+            "ports": [port.to_dict() for port in health],
+            "warnings": [
+                {"cause": note.cause, "message": str(note), "remedy": note.remedy} for note in notes
+            ],
+        }
+        for note in notes:
+            warnings.warn(note, stacklevel=2)
         return self
 
     def _fit(self, powers: np.ndarray, frequency_hz: np.ndarray, monitor: np.ndarray | None):
@@ -267,6 +330,47 @@ class BaseCalibrator:
             error = wrap_to_period(error, self.fsr_hz_)
         return -float(np.sqrt(np.mean(error**2)))
 
+    # ------------------------------------------------------------------ reporting
+    def summary(self) -> FitReport:
+        """The fit report: learned values with standard errors, settings, diagnostics.
+
+        Returns
+        -------
+        FitReport
+            ``report["fsr_hz"].value`` / ``.stderr`` (Hz), ``report.as_dict()``
+            (JSON-ready), ``str(report)`` (aligned text).
+        """
+        check_fitted(self)
+        values = {
+            "fsr_hz": FitValue(self.fsr_hz_, self._fsr_std_hz(), "Hz"),
+            "design_fsr_hz": FitValue(float(self.fsr_hz), None, "Hz"),
+            "center_hz": FitValue(self.center_hz_, None, "Hz"),
+            "calibration_rms_hz": FitValue(self.calibration_rms_hz_, None, "Hz"),
+            **self._summary_values(),
+        }
+        return FitReport(
+            method=type(self).method,
+            method_label=self.method_label,
+            settings=self.get_params_for_file(),
+            values=values,
+            ports=tuple(self.port_names_),
+            samples=self.n_samples_,
+            span_hz=tuple(self.span_hz_),
+            diagnostics=self.diagnostics_,
+            windows=self._window_reports(),
+        )
+
+    def _fsr_std_hz(self) -> float | None:
+        """Standard error of the fitted FSR (Hz), where the method knows it."""
+        return None
+
+    def _summary_values(self) -> dict:
+        """Method-specific learned values for :meth:`summary` (name -> FitValue)."""
+        return {}
+
+    def _window_reports(self) -> tuple:
+        return ()
+
     # ------------------------------------------------------------------ persistence
     def _state(self) -> dict:
         """Method-specific learned state as JSON-ready values."""
@@ -276,14 +380,27 @@ class BaseCalibrator:
         raise NotImplementedError
 
     def _check_state(self) -> None:
-        """Check a loaded state: ``map_`` (when the method has one) is finite, (n, 3)."""
+        """Check a loaded state against the model: a full-rank finite (n, 3) map (when the
+        method has one) and a delay that is ``1 / fsr_hz`` (when it has one)."""
         matrix = getattr(self, "map_", None)
-        if matrix is not None and (
-            matrix.shape != (self.n_ports_, 3) or not np.all(np.isfinite(matrix))
+        if matrix is not None:
+            if matrix.shape != (self.n_ports_, 3) or not np.all(np.isfinite(matrix)):
+                raise InputError(
+                    f"map must be {self.n_ports_} x 3 finite numbers, got shape {matrix.shape}"
+                )
+            singular = np.linalg.svd(matrix, compute_uv=False)
+            if not (singular[-1] > 0 and singular[0] / singular[-1] < MAX_MAP_CONDITION):
+                raise InputError(
+                    f"map must have full rank 3 (condition number below {MAX_MAP_CONDITION:g}), "
+                    f"got singular values {singular.tolist()}"
+                )
+        delay = getattr(self, "delay_s_", None)
+        if delay is not None and not (
+            np.isfinite(delay) and delay > 0 and abs(delay * self.fsr_hz_ - 1.0) < 1e-9
         ):
-            raise InputError(f"map must be {self.n_ports_} x 3 finite numbers, got {matrix.shape}")
-        if not (self.fsr_hz_ > 0 and self.span_hz_[0] <= self.span_hz_[1]):
-            raise InputError("fsr_hz must be > 0 and span_hz must be [low, high]")
+            raise InputError(
+                f"delay_s {delay!r} must be > 0 and equal 1 / fsr_hz ({1.0 / self.fsr_hz_!r} s)"
+            )
 
     def save(self, path) -> None:
         """Write the calibration to a versioned JSON file (atomically)."""

@@ -12,6 +12,10 @@ best grid point lies in it whenever the true delay is inside the bracket. When t
 delay lies outside, the best grid point is on the bracket edge, or (for ``K`` of a few or
 more) on a side minimum inside; given the cost of a model that explains no fringe at all,
 :func:`check_fringes_explained` tells the two apart.
+
+The scan has ``8 K (u_hi - u_lo)`` points (``u`` the delay relative to design); brackets
+that need more than ``MAX_GRID_POINTS`` are refused before anything is evaluated, so the
+memory and the number of cost evaluations are bounded whatever the inputs.
 """
 
 from __future__ import annotations
@@ -26,22 +30,44 @@ from ..exceptions import EdgeMinimumError, InputError
 from ..validation import check_choice, check_positive
 
 __all__ = [
+    "DEFAULT_FSR_TOLERANCE",
     "DelaySearchResult",
     "EdgeMinimumError",
+    "MAX_GRID_POINTS",
     "check_fringes_explained",
+    "frequency_text",
     "search_delay",
     "SEARCH_METHODS",
 ]
 
 SEARCH_METHODS = ("golden", "brent")
+#: relative half width of the FSR bracket of calibrators that have no setting for it
+DEFAULT_FSR_TOLERANCE = 0.2
 GRID_POINTS_PER_MINIMUM = 8
 MIN_GRID_POINTS = 17
+#: largest scan: 8 points per side-minimum spacing, e.g. +-20 % on a sweep of 1200 FSRs
+MAX_GRID_POINTS = 4096
 #: a fit at the true delay removes all but the noise; a side minimum removes a few per cent
 MIN_EXPLAINED_FRACTION = 0.5
+
+_PREFIXES = ((1e12, "THz"), (1e9, "GHz"), (1e6, "MHz"), (1e3, "kHz"))
+
+
+def frequency_text(value_hz: float, digits: int = 6) -> str:
+    """A frequency with the largest SI prefix that keeps it >= 1, ``digits`` significant."""
+    for factor, unit in _PREFIXES:
+        if abs(value_hz) >= factor:
+            return f"{value_hz / factor:.{digits}g} {unit}"
+    return f"{value_hz:.{digits}g} Hz"
 
 
 def _bracket_text(fsr_hz: float, fsr_tolerance: float) -> str:
     return f"fsr_hz={fsr_hz / 1e9:.6g} GHz, fsr_tolerance={fsr_tolerance:g}"
+
+
+def _largest_tolerance(width: float) -> float:
+    """The tolerance ``t`` whose bracket ``1/(1-t) - 1/(1+t) = 2t / (1 - t^2)`` is ``width``."""
+    return (np.sqrt(1.0 + width**2) - 1.0) / width
 
 
 def check_fringes_explained(
@@ -150,6 +176,9 @@ def search_delay(
     EdgeMinimumError
         When the smallest cost lies on an edge of the bracket, or (with ``unfitted_cost``)
         when the best delay inside it is a side minimum.
+    InputError
+        When the bracket needs more than ``MAX_GRID_POINTS`` scan points
+        (``parameter="fsr_tolerance"``); nothing is evaluated then.
     """
     fsr_hz = check_positive("fsr_hz", fsr_hz)
     fsr_tolerance = check_positive("fsr_tolerance", fsr_tolerance, upper=1.0)
@@ -157,7 +186,19 @@ def search_delay(
     design_delay = 1.0 / fsr_hz
     # Search the dimensionless delay u = tau / tau_design; FSR = fsr_hz / u.
     u_lo, u_hi = 1.0 / (1.0 + fsr_tolerance), 1.0 / (1.0 - fsr_tolerance)
+    span_hz = check_positive("span_hz", span_hz)
     step = fsr_hz / (GRID_POINTS_PER_MINIMUM * span_hz)
+    needed = (u_hi - u_lo) / step + 1.0
+    if needed > MAX_GRID_POINTS:
+        largest = _largest_tolerance((MAX_GRID_POINTS - 1) * step)
+        raise InputError(
+            f"the FSR bracket ({_bracket_text(fsr_hz, fsr_tolerance)}) on a sweep over "
+            f"{span_hz / fsr_hz:.6g} FSRs needs {needed:.3g} trial delays to keep "
+            f"{GRID_POINTS_PER_MINIMUM} per side-minimum spacing, more than the "
+            f"{MAX_GRID_POINTS} allowed: narrow fsr_tolerance to at most {largest:.3g} "
+            "(with fsr_hz close to the true FSR), or calibrate on a shorter sweep",
+            parameter="fsr_tolerance",
+        )
     points = max(MIN_GRID_POINTS, int(np.ceil((u_hi - u_lo) / step)) + 1)
     grid = np.linspace(u_lo, u_hi, points)
 

@@ -1,32 +1,41 @@
 """The learned calibration of the paper (Section II.C): closed-form map, 1-D delay search.
 
-For a trial delay ``tau`` the object vectors ``x_k = m_k [cos t_k, sin t_k, sqrt 2]``
-(``t_k = 2 pi (f_k - f0) tau``, ``m_k`` the monitored power or 1) are known, and the map
-minimising ``J = mean ||p_k - A x_k||^2`` is the linear least-squares solution
-``A = Ryx Rxx^-1`` (Eq. 20-23), computed here by an orthogonal factorisation of the
-``N x 3`` object matrix rather than by inverting ``Rxx``. ``tau`` minimises ``J(tau)``.
-Retrieval: ``x_hat = A+ p``, ``t = atan2(x_hat_2, x_hat_1)``, ``f = f0 + t / (2 pi tau)``.
+For a trial delay ``tau`` the map ``A`` is a linear least-squares fit to the sweep
+(:mod:`wavemeter.calibration.linear_map`, Eq. 20-23); ``tau`` minimises ``J(tau)``
+(:mod:`wavemeter.calibration.delay_search`). Retrieval: ``x_hat = A+ p``,
+``t = atan2(x_hat_2, x_hat_1)``, ``f = f0 + t / (2 pi tau)``.
+
+The standard error of the delay follows from the curvature of ``J`` at its minimum and
+the noise estimate ``s``: ``var(tau) = 2 s^2 / (N J''(tau))`` (Gauss-Newton, map profiled
+out), and ``sigma_FSR = FSR^2 sigma_tau``.
 
 The pure functions here and the :class:`Calibrator` methods compute the same numbers.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import linalg
 
-from ..model.cone import cone_vectors, delay_phase_rad, phase_to_frequency_hz
+from ..model.cone import phase_to_frequency_hz
 from ..model.limits import crlb_frequency_std
 from ..model.retrieval import cone_ml_phase_rad, source_power_ratio
 from ..validation import check_choice, check_positive
 from .base import BaseCalibrator
-from .delay_search import SEARCH_METHODS, search_delay
+from .delay_search import SEARCH_METHODS, DelaySearchResult, search_delay
+from .files import state_array, state_float
+from .linear_map import delay_information, fit_map, map_cost, object_vectors, unfitted_cost
+from .summary import FitValue
 
 RETRIEVALS = ("pinv", "ml")
 
 __all__ = [
     "Calibrator",
+    "LearnedFit",
     "RETRIEVALS",
+    "fit_learned_map",
     "object_vectors",
     "fit_map",
     "map_cost",
@@ -34,48 +43,6 @@ __all__ = [
     "retrieve_phase_rad",
     "predict_frequency_hz",
 ]
-
-
-def object_vectors(frequency_hz, center_hz: float, delay_s: float, scale=None) -> np.ndarray:
-    """Object vectors (N, 3) for known frequencies under a trial delay.
-
-    ``scale`` is the power monitor reading per sample (any linear unit) or None for a
-    constant source power.
-    """
-    phase = delay_phase_rad(frequency_hz, center_hz, delay_s)
-    return cone_vectors(phase, 1.0 if scale is None else scale)
-
-
-def fit_map(objects: np.ndarray, powers: np.ndarray) -> np.ndarray:
-    """Least-squares map ``A`` (n, 3) with ``powers ~ objects @ A.T`` (Eq. 23).
-
-    Solved by a rank-revealing QR factorisation of ``objects`` (LAPACK ``gelsy``).
-    """
-    solution, *_ = linalg.lstsq(objects, powers, lapack_driver="gelsy", check_finite=False)
-    return solution.T
-
-
-def map_cost(objects: np.ndarray, powers: np.ndarray) -> tuple[np.ndarray, float]:
-    """Fitted map and its cost ``J = mean_k ||p_k - A x_k||^2`` (Eq. 20), W^2.
-
-    The residual is formed explicitly (not from ``|p|^2 - |Q^T p|^2``) so that ``J`` keeps
-    full relative precision down to noiseless data.
-    """
-    matrix = fit_map(objects, powers)
-    residual = powers - objects @ matrix.T
-    return matrix, float(np.einsum("ij,ij->", residual, residual) / powers.shape[0])
-
-
-def unfitted_cost(powers: np.ndarray, scale=None) -> float:
-    """Cost ``J`` (W^2) of the model with no fringe: readings proportional to the power.
-
-    The least-squares fit keeps only the cone-axis column ``sqrt(2) m_k`` (``m_k`` the
-    relative monitored power, or 1), i.e. the readings about their (power-weighted) mean.
-    A fit at the true delay removes nearly all of this; a side minimum of ``J`` only a
-    little (:func:`wavemeter.delay_search.check_fringes_explained`).
-    """
-    axis = object_vectors(np.zeros(powers.shape[0]), 0.0, 0.0, scale)[:, 2:]
-    return map_cost(axis, powers)[1]
 
 
 def retrieve_phase_rad(powers, map_pinv: np.ndarray) -> np.ndarray:
@@ -88,6 +55,101 @@ def retrieve_phase_rad(powers, map_pinv: np.ndarray) -> np.ndarray:
 def predict_frequency_hz(powers, map_: np.ndarray, center_hz: float, fsr_hz: float) -> np.ndarray:
     """Frequency (Hz) of readings (N, n) under a map (n, 3): pinv, arctangent, FSR scale."""
     return phase_to_frequency_hz(retrieve_phase_rad(powers, linalg.pinv(map_)), center_hz, fsr_hz)
+
+
+@dataclass(frozen=True)
+class LearnedFit:
+    """Outcome of :func:`fit_learned_map`.
+
+    Attributes
+    ----------
+    delay_s : float
+        Delay ``tau`` at the minimum of ``J`` (s).
+    delay_std_s : float or None
+        Its standard error (s): ``sqrt(s^2 / G)`` with ``s`` the noise estimate and ``G``
+        the Gauss-Newton curvature (:func:`wavemeter.calibration.linear_map.delay_information`),
+        i.e. ``var(tau) = 2 s^2 / (N J''(tau))``.
+    map_ : ndarray, shape (n, 3)
+        Least-squares map at ``delay_s`` (W).
+    cost : float
+        ``J`` at ``delay_s`` (W^2).
+    noise_std_w : float
+        Detector noise estimate (W): ``sqrt(N J / (N n - 3 n - 1))``, the residual corrected
+        for the ``3 n + 1`` fitted values.
+    search : DelaySearchResult
+        Scan and refinement of ``J(tau)``.
+    """
+
+    delay_s: float
+    delay_std_s: float | None
+    map_: np.ndarray
+    cost: float
+    noise_std_w: float
+    search: DelaySearchResult
+
+
+def fit_learned_map(
+    powers: np.ndarray,
+    frequency_hz: np.ndarray,
+    center_hz: float,
+    *,
+    fsr_hz: float,
+    fsr_tolerance: float,
+    scale=None,
+    search: str = "golden",
+    xtol: float = 1e-12,
+) -> LearnedFit:
+    """Search the delay minimising ``J`` and fit the map there (paper Section II.C).
+
+    Parameters
+    ----------
+    powers : ndarray, shape (N, n)
+        Validated calibration readings (W).
+    frequency_hz : ndarray, shape (N,)
+        Known frequencies (Hz).
+    center_hz : float
+        Phase origin (Hz).
+    fsr_hz, fsr_tolerance : float
+        Design FSR (Hz) and the relative half width of the bracket searched.
+    scale : None or ndarray, shape (N,)
+        Relative monitored source power per reading.
+    search : {"golden", "brent"}
+        Refinement of the delay after the scan.
+    xtol : float
+        Relative tolerance on the delay.
+
+    Returns
+    -------
+    LearnedFit
+    """
+
+    def cost(delay_s: float) -> float:
+        return map_cost(object_vectors(frequency_hz, center_hz, delay_s, scale), powers)[1]
+
+    result = search_delay(
+        cost,
+        fsr_hz=fsr_hz,
+        fsr_tolerance=fsr_tolerance,
+        span_hz=float(np.ptp(frequency_hz)),
+        method=search,
+        xtol=xtol,
+        unfitted_cost=unfitted_cost(powers, scale),
+    )
+    matrix, cost_value = map_cost(
+        object_vectors(frequency_hz, center_hz, result.delay_s, scale), powers
+    )
+    samples, ports = powers.shape
+    dof = max(samples * ports - 3 * ports - 1, 1)
+    noise = float(np.sqrt(cost_value * samples / dof))
+    information = delay_information(frequency_hz, center_hz, result.delay_s, matrix, scale)
+    return LearnedFit(
+        delay_s=result.delay_s,
+        delay_std_s=noise / np.sqrt(information) if information > 0 else None,
+        map_=matrix,
+        cost=cost_value,
+        noise_std_w=noise,
+        search=result,
+    )
 
 
 class Calibrator(BaseCalibrator):
@@ -117,6 +179,9 @@ class Calibrator(BaseCalibrator):
         Moore-Penrose inverse of ``map_``.
     delay_s_ : float
         Fitted delay imbalance ``tau`` (s).
+    delay_std_s_ : float or None
+        Standard error of ``delay_s_`` (s); None when loaded from a file of version 0.1.
+        The FSR's is ``fsr_hz_**2 * delay_std_s_`` (``summary()["fsr_hz"].stderr``).
     fsr_hz_ : float
         Calibrated FSR ``1 / tau`` (Hz).
     center_hz_ : float
@@ -133,6 +198,9 @@ class Calibrator(BaseCalibrator):
         Scan and refinement of ``J(tau)`` (not saved to file).
     calibration_rms_hz_ : float
         RMS frequency error on the calibration sweep itself (Hz).
+    diagnostics_ : dict
+        The sweep's own FSR estimate, every port's fringe amplitude and significance, and
+        the warnings the fit emitted (saved to file).
     """
 
     method = "learned"
@@ -159,34 +227,39 @@ class Calibrator(BaseCalibrator):
         check_positive("xtol", self.xtol, upper=1.0)
         check_choice("retrieval", self.retrieval, RETRIEVALS)
 
+    def _fsr_tolerance(self) -> float:
+        return self.fsr_tolerance
+
     def _fit(self, powers, frequency_hz, monitor):
-        scale = None if monitor is None else monitor / monitor.mean()
-        center = self.center_hz_
-
-        def cost(delay_s: float) -> float:
-            return map_cost(object_vectors(frequency_hz, center, delay_s, scale), powers)[1]
-
-        result = search_delay(
-            cost,
+        fit = fit_learned_map(
+            powers,
+            frequency_hz,
+            self.center_hz_,
             fsr_hz=self.fsr_hz,
             fsr_tolerance=self.fsr_tolerance,
-            span_hz=self.span_hz_[1] - self.span_hz_[0],
-            method=self.search,
+            scale=None if monitor is None else monitor / monitor.mean(),
+            search=self.search,
             xtol=self.xtol,
-            unfitted_cost=unfitted_cost(powers, scale),
         )
-        matrix, cost_value = map_cost(
-            object_vectors(frequency_hz, center, result.delay_s, scale), powers
-        )
-        samples, ports = powers.shape
-        dof = max(samples * ports - 3 * ports - 1, 1)
-        self.delay_search_ = result
-        self.delay_s_ = result.delay_s
-        self.fsr_hz_ = 1.0 / result.delay_s
-        self.cost_ = cost_value
-        self.residual_rms_ = float(np.sqrt(cost_value / ports))
-        self.noise_std_w_ = float(np.sqrt(cost_value * samples / dof))
-        self._set_map(matrix)
+        self.delay_search_ = fit.search
+        self.delay_s_ = fit.delay_s
+        self.delay_std_s_ = fit.delay_std_s
+        self.fsr_hz_ = 1.0 / fit.delay_s
+        self.cost_ = fit.cost
+        self.residual_rms_ = float(np.sqrt(fit.cost / powers.shape[1]))
+        self.noise_std_w_ = fit.noise_std_w
+        self._set_map(fit.map_)
+
+    def _fsr_std_hz(self) -> float | None:
+        """``FSR^2 sigma_tau`` (Hz); None for a file of 0.1, which did not keep it."""
+        return None if self.delay_std_s_ is None else self.fsr_hz_**2 * self.delay_std_s_
+
+    def _summary_values(self) -> dict:
+        return {
+            "delay_s": FitValue(self.delay_s_, self.delay_std_s_, "s"),
+            "noise_std_w": FitValue(self.noise_std_w_, None, "W"),
+            "cost_w2": FitValue(self.cost_, None, "W^2"),
+        }
 
     def _set_map(self, matrix: np.ndarray) -> None:
         self.map_ = matrix
@@ -233,14 +306,21 @@ class Calibrator(BaseCalibrator):
         return {
             "map": self.map_.tolist(),
             "delay_s": self.delay_s_,
+            "delay_std_s": self.delay_std_s_,
             "cost_w2": self.cost_,
             "residual_rms_w": self.residual_rms_,
             "noise_std_w": self.noise_std_w_,
         }
 
     def _set_state(self, state: dict) -> None:
-        self._set_map(np.array(state["map"], dtype=float))
-        self.delay_s_ = float(state["delay_s"])
-        self.cost_ = float(state["cost_w2"])
-        self.residual_rms_ = float(state["residual_rms_w"])
-        self.noise_std_w_ = float(state["noise_std_w"])
+        self._set_map(state_array(state, "map", (self.n_ports_, 3)))
+        self.delay_s_ = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
+        # files of 0.1 have no standard error of the delay
+        self.delay_std_s_ = (
+            state_float(state, "delay_std_s", minimum=0.0)
+            if state.get("delay_std_s") is not None
+            else None
+        )
+        self.cost_ = state_float(state, "cost_w2", minimum=0.0)
+        self.residual_rms_ = state_float(state, "residual_rms_w", minimum=0.0)
+        self.noise_std_w_ = state_float(state, "noise_std_w", minimum=0.0)

@@ -21,9 +21,11 @@ window's readings modulo the FSR it picks the alias nearest the coarse value.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import CalibrationWarning, InputError
 from ..model.cone import wrap_to_period
 from ..validation import (
     MIN_SAMPLES,
@@ -35,7 +37,7 @@ from ..validation import (
     check_powers,
 )
 from .base import BaseCalibrator
-from .files import calibrator_fields, calibrator_from_fields
+from .files import calibrator_fields, calibrator_from_fields, state_array, state_float
 from .learned import Calibrator
 from .registry import calibrator_class
 
@@ -80,6 +82,8 @@ class CalibrationSet(BaseCalibrator):
         Window boundaries (Hz), exactly one global FSR apart, centred on the sweep.
     delay_s_ : float
         Global delay ``tau`` (s) fitted on the whole sweep.
+    delay_std_s_ : float or None
+        Its standard error (s); None when loaded from a file of version 0.1.
     fsr_hz_ : float
         Global FSR ``1 / tau`` (Hz).
     center_hz_ : float
@@ -89,6 +93,8 @@ class CalibrationSet(BaseCalibrator):
     calibration_rms_hz_ : float
         RMS frequency error on the sweep itself, each reading given its true frequency as
         the coarse value (Hz).
+    diagnostics_ : dict
+        Those of the whole-sweep fit: the sweep's own FSR, port health, warnings.
     """
 
     method = "calibration_set"
@@ -222,16 +228,23 @@ class CalibrationSet(BaseCalibrator):
             rows = position == index
             window = self._window_calibrator(fsr)
             try:
-                window.fit(
-                    powers[rows],
-                    frequency[rows],
-                    None if monitor is None else monitor[rows],
-                    whole.port_names_,
-                )
+                # the whole-sweep fit has warned about the ports once already
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", CalibrationWarning)
+                    window.fit(
+                        powers[rows],
+                        frequency[rows],
+                        None if monitor is None else monitor[rows],
+                        whole.port_names_,
+                    )
             except InputError as exc:
-                raise type(exc)(f"{window_label(edges, index)}: {exc}") from exc
+                raise type(exc)(
+                    f"{window_label(edges, index)}: {exc}", parameter=exc.parameter
+                ) from exc
             windows.append(window)
         self.delay_s_ = whole.delay_s_
+        self.delay_std_s_ = whole.delay_std_s_
+        self.diagnostics_ = whole.diagnostics_
         self.fsr_hz_ = fsr
         self.center_hz_ = whole.center_hz_
         self.span_hz_ = whole.span_hz_
@@ -382,23 +395,27 @@ class CalibrationSet(BaseCalibrator):
             )
         return result
 
+    # ------------------------------------------------------------------ reporting
+    def _fsr_std_hz(self) -> float | None:
+        """Standard error of the global FSR (Hz), from the whole-sweep fit."""
+        return None if self.delay_std_s_ is None else self.fsr_hz_**2 * self.delay_std_s_
+
+    def _window_reports(self) -> tuple:
+        return tuple(window.summary() for window in self.windows_)
+
     # ------------------------------------------------------------------ persistence
     def _state(self) -> dict:
         return {
             "delay_s": self.delay_s_,
+            "delay_std_s": self.delay_std_s_,
             "window_edges_hz": self.window_edges_hz_.tolist(),
             "windows": [calibrator_fields(window) for window in self.windows_],
         }
 
     def _set_state(self, state: dict) -> None:
-        edges = np.array(state["window_edges_hz"], dtype=float)
-        documents = state["windows"]
-        if (
-            edges.ndim != 1
-            or edges.size < 2
-            or not np.all(np.isfinite(edges))
-            or np.any(np.diff(edges) <= 0)
-        ):
+        edges = state_array(state, "window_edges_hz", (None,))
+        documents = state.get("windows")
+        if edges.size < 2 or np.any(np.diff(edges) <= 0):
             raise InputError("window_edges_hz must be at least 2 increasing finite frequencies")
         if not isinstance(documents, list) or len(documents) != edges.size - 1:
             raise InputError(f"windows must list {edges.size - 1} calibrations, one per window")
@@ -413,6 +430,12 @@ class CalibrationSet(BaseCalibrator):
                     f"window {index} must be a {expected.method!r} calibration of "
                     f"{self.n_ports_} ports, got {type(window).method!r} with {window.n_ports_}"
                 )
-        self.delay_s_ = float(state["delay_s"])
+        self.delay_s_ = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
+        # files of 0.1 have no standard error of the delay
+        self.delay_std_s_ = (
+            state_float(state, "delay_std_s", minimum=0.0)
+            if state.get("delay_std_s") is not None
+            else None
+        )
         self.window_edges_hz_ = edges
         self.windows_ = windows

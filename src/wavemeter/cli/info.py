@@ -1,41 +1,149 @@
-"""`wavemeter info`: what a calibration file holds."""
+"""`wavemeter info`: what a calibration file holds.
+
+Everything printed comes from the file, so it passes through :func:`printable` first: a
+crafted port name or metadata value cannot send escape sequences to the terminal.
+"""
 
 from __future__ import annotations
 
-import json
+import re
 from pathlib import Path
 
 import click
 
-from ._common import (
-    load,
-    summary_lines,
+from ..exceptions import FileFormatError
+from ._common import printable
+
+#: extensions of the data files the readers take (sweeps, readings), never calibrations
+DATA_EXTENSIONS = frozenset(
+    {".csv", ".tsv", ".txt", ".dat", ".h5", ".hdf5", ".hdf", ".mat", ".npz", ".npy", ".parquet"}
 )
+#: leading bytes of binary data formats: HDF5 (and MAT v7.3), MAT v5, NPZ (zip), Parquet, NPY
+DATA_SIGNATURES = (b"\x89HDF\r\n\x1a\n", b"MATLAB 5.0", b"PK\x03\x04", b"PAR1", b"\x93NUMPY")
+PEEK_BYTES = 4096
+LABEL_WIDTH = 17
+_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+_DELIMITERS = re.compile(r"[,;\t]")
+#: metadata entries of the sweep line (shown there when the file names its sweep)
+_SWEEP = {"sweep_file", "rows", "x_column", "x_unit", "port_units"}
+#: metadata entries with lines of their own (the rest follow, one per line)
+_OWN_LINES = {"port_columns", "monitor_column", "temperature_column", "temperature_k_range"}
+
+
+def _line(label: str, text: str) -> str:
+    return printable(f"{label:<{LABEL_WIDTH}}{text}")
+
+
+def _looks_like_table(head: bytes) -> bool:
+    """A text file whose first non-comment line is a header and the next a row of numbers."""
+    try:
+        text = head.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = head.decode("latin-1")
+    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
+    if len(lines) < 2 or not _DELIMITERS.search(lines[0]):
+        return False
+    header = [cell.strip() for cell in _DELIMITERS.split(lines[0])]
+    row = [cell.strip() for cell in _DELIMITERS.split(lines[1])]
+    return (
+        len(header) == len(row) >= 2
+        and not all(_NUMBER.match(cell) for cell in header)
+        and all(_NUMBER.match(cell) for cell in row)
+    )
+
+
+def is_data_file(path) -> bool:
+    """Whether ``path`` is a data file (sweep or readings) rather than a calibration.
+
+    Judged by a known data extension, a binary data signature, or a text table (a header
+    row followed by a row of numbers) in the first ``PEEK_BYTES`` bytes.
+    """
+    path = Path(path)
+    if path.suffix.lower() in DATA_EXTENSIONS:
+        return True
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(PEEK_BYTES)
+    except OSError:
+        return False
+    return head.startswith(DATA_SIGNATURES) or _looks_like_table(head)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def metadata_lines(metadata: dict) -> list[str]:
+    """Every entry of a calibration file's metadata: where the sweep came from and how
+    its columns were read, then any other notes."""
+    lines = []
+    shown = set(_OWN_LINES)
+    if metadata.get("sweep_file") is not None:
+        shown |= _SWEEP
+        units = metadata.get("port_units")
+        unit_text = (
+            ", ".join(sorted({str(unit or "relative") for unit in units}))
+            if isinstance(units, list)
+            else "?"
+        )
+        lines.append(
+            _line(
+                "sweep",
+                f"{metadata['sweep_file']} ({metadata.get('rows')} rows, axis "
+                f"{metadata.get('x_column')} in {metadata.get('x_unit')}, ports in {unit_text})",
+            )
+        )
+    columns = metadata.get("port_columns")
+    if isinstance(columns, list):
+        lines.append(_line("port columns", ", ".join(map(str, columns))))
+    lines.append(_line("monitor column", metadata.get("monitor_column") or "none"))
+    span = metadata.get("temperature_k_range")
+    if isinstance(span, list) and len(span) == 2 and all(map(_is_number, span)):
+        lines.append(
+            _line(
+                "temperature",
+                f"{span[0]:.6g} to {span[1]:.6g} K (column {metadata.get('temperature_column')})",
+            )
+        )
+    else:
+        lines.append(_line("temperature", "not recorded"))
+    for key, value in metadata.items():
+        if key not in shown:
+            lines.append(_line(str(key), value))
+    return lines
 
 
 @click.command()
 @click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
 def info(calibration_file):
-    """Print a summary of a calibration file.
+    """Print everything a calibration file holds: settings, fitted values, diagnostics.
 
     \b
     Example:
       wavemeter info chip.wmcal.json
     """
-    calibration = load(calibration_file)
-    document = json.loads(Path(calibration_file).read_text(encoding="utf-8"))
+    from ..calibration.files import read_calibration_file
+
+    try:
+        content = read_calibration_file(calibration_file)
+    except FileFormatError as exc:
+        path = Path(calibration_file)
+        if path.exists() and is_data_file(path):
+            raise FileFormatError(
+                printable(
+                    f"{calibration_file} is a data file, not a calibration file; calibrate it "
+                    f"with `wavemeter calibrate {calibration_file} -o cal.wmcal.json`"
+                )
+            ) from exc
+        raise FileFormatError(printable(str(exc))) from exc
     click.echo(
-        f"{calibration_file}: wavemeter {document.get('wavemeter_version')} calibration, "
-        f"created {document.get('created_utc')}"
-    )
-    click.echo("\n".join(summary_lines(calibration)))
-    source = document.get("metadata") or {}
-    if source.get("sweep_file"):
-        units = ", ".join(sorted({unit or "relative" for unit in source.get("port_units", [])}))
-        click.echo(
-            f"sweep            {source['sweep_file']} ({source.get('rows')} rows, axis "
-            f"{source.get('x_column')} in {source.get('x_unit')}, ports in {units})"
+        printable(
+            f"{calibration_file}: wavemeter {content.wavemeter_version} calibration "
+            f"(schema {content.schema_version}), created {content.created_utc}"
         )
+    )
+    click.echo(printable(content.calibrator.summary().text))
+    click.echo("\n".join(metadata_lines(content.metadata)))
 
 
 command = info

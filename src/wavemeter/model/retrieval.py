@@ -68,10 +68,13 @@ def cone_ml_phase_rad(powers, map_: np.ndarray, start_rad, iterations: int = 3) 
         den = _rows_dot(u, gram_u)
         den_1 = 2.0 * _rows_dot(du, gram_u)
         den_2 = 2.0 * (_rows_dot(ddu, gram_u) + _rows_dot(du, gram_du))
-        slope = 2.0 * num_1 / num - den_1 / den
-        curvature = 2.0 * (num_2 * num - num_1**2) / num**2 - (den_2 * den - den_1**2) / den**2
-        # a maximum has negative curvature; elsewhere (far from it) do not step
-        step = np.where(curvature < 0, -slope / np.where(curvature < 0, curvature, -1.0), 0.0)
+        # a maximum has negative curvature; elsewhere (far from it, or where the reading
+        # has no projection on the cone: u . b = 0) do not step
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            slope = 2.0 * num_1 / num - den_1 / den
+            curvature = 2.0 * (num_2 * num - num_1**2) / num**2 - (den_2 * den - den_1**2) / den**2
+            step = np.where(curvature < 0, -slope / np.where(curvature < 0, curvature, -1.0), 0.0)
+        step = np.where(np.isfinite(step), step, 0.0)
         phase = phase + np.clip(step, -MAX_NEWTON_STEP_RAD, MAX_NEWTON_STEP_RAD)
     return wrap_phase_rad(phase)
 

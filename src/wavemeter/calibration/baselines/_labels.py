@@ -19,19 +19,17 @@ import numpy as np
 from ...exceptions import InputError
 from ...model.cone import wrap_phase_rad
 from ..base import BaseCalibrator
-from ..delay_search import EdgeMinimumError, search_delay
+from ..delay_search import DEFAULT_FSR_TOLERANCE, EdgeMinimumError, search_delay
+from ..files import state_float
+from ..summary import FitValue
 
 __all__ = [
-    "FSR_TOLERANCE",
     "LabelLockedCalibrator",
     "PhaseLock",
     "lock_phase",
     "locking_spread",
     "phase_locking",
 ]
-
-#: relative half width of the FSR bracket searched around the design FSR
-FSR_TOLERANCE = 0.2
 
 
 def phase_locking(phase_rad: np.ndarray, offset_hz: np.ndarray, delay_s: float) -> complex:
@@ -69,7 +67,12 @@ class PhaseLock:
 
 
 def lock_phase(
-    phase_rad, offset_hz, *, fsr_hz: float, span_hz: float, fsr_tolerance: float = FSR_TOLERANCE
+    phase_rad,
+    offset_hz,
+    *,
+    fsr_hz: float,
+    span_hz: float,
+    fsr_tolerance: float = DEFAULT_FSR_TOLERANCE,
 ) -> PhaseLock:
     """Direction, delay and origin that lock a raw phase to known frequencies.
 
@@ -148,12 +151,20 @@ class LabelLockedCalibrator(BaseCalibrator):
     def _phase(self, powers):
         return wrap_phase_rad(self.direction_ * self._raw_phase(powers) - self.phase_origin_rad_)
 
+    def _summary_values(self) -> dict:
+        return {
+            "direction": FitValue(float(self.direction_)),
+            "phase_origin_rad": FitValue(self.phase_origin_rad_, None, "rad"),
+        }
+
     def _lock_state(self) -> dict:
         return {"direction": self.direction_, "phase_origin_rad": self.phase_origin_rad_}
 
     def _set_lock_state(self, state: dict) -> None:
-        direction = int(state["direction"])
-        if direction not in (1, -1):
-            raise InputError(f"direction must be 1 or -1, got {state['direction']!r}")
-        self.direction_ = direction
-        self.phase_origin_rad_ = float(state["phase_origin_rad"])
+        direction = state.get("direction")
+        if isinstance(direction, bool) or direction not in (1, -1):
+            raise InputError(f"field 'direction' must be 1 or -1, got {direction!r:.40}")
+        self.direction_ = int(direction)
+        self.phase_origin_rad_ = state_float(
+            state, "phase_origin_rad", minimum=-np.pi, maximum=np.pi
+        )

@@ -12,6 +12,7 @@ import numpy as np
 
 from ...exceptions import InputError
 from ...model.couplers import equally_spaced_phases_rad, orthonormal_map
+from ..files import state_array
 from ._labels import LabelLockedCalibrator, phase_locking
 
 __all__ = ["ConventionalCalibrator", "phase_locking"]
@@ -66,5 +67,5 @@ class ConventionalCalibrator(LabelLockedCalibrator):
         return {"map": self.map_.tolist(), **self._lock_state()}
 
     def _set_state(self, state: dict) -> None:
-        self.map_ = np.array(state["map"], dtype=float)
+        self.map_ = state_array(state, "map", (self.n_ports_, 3))
         self._set_lock_state(state)

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...exceptions import InputError
+from ..files import state_float
 from ._labels import LabelLockedCalibrator
 
 __all__ = [
@@ -71,13 +72,11 @@ class FringeEllipse:
     @classmethod
     def from_dict(cls, state: dict) -> FringeEllipse:
         """Inverse of :meth:`to_dict`; checks that the ellipse is proper."""
-        ellipse = cls(**{name: float(state[name]) for name in cls.__dataclass_fields__})
-        values = np.array(list(ellipse.to_dict().values()))
+        if not isinstance(state, dict):
+            raise InputError(f"an ellipse must be an object, got {type(state).__name__}")
+        ellipse = cls(**{name: state_float(state, name) for name in cls.__dataclass_fields__})
         if not (
-            np.all(np.isfinite(values))
-            and ellipse.amplitude_x > 0
-            and ellipse.amplitude_y > 0
-            and 0 < ellipse.phase_rad < np.pi
+            ellipse.amplitude_x > 0 and ellipse.amplitude_y > 0 and 0 < ellipse.phase_rad < np.pi
         ):
             raise InputError(
                 "an ellipse needs finite parameters, amplitudes > 0 and 0 < phase_rad < pi, "
@@ -261,6 +260,7 @@ class EllipseCalibrator(LabelLockedCalibrator):
     """
 
     method = "ellipse"
+    fringe_ports_needed = 2
 
     def __init__(self, fsr_hz: float = 50e9, ports=(0, 1)):
         self.fsr_hz = fsr_hz
@@ -278,13 +278,15 @@ class EllipseCalibrator(LabelLockedCalibrator):
         ):
             raise InputError(f"ports must be two different port indices >= 0, got {ports!r}")
 
+    def _ports_read(self, ports: int) -> list[int]:
+        if max(self.ports) >= ports:
+            raise InputError(
+                f"ports must index the {ports} port columns (0..{ports - 1}), got {self.ports!r}"
+            )
+        return list(self.ports)
+
     def _fit(self, powers, frequency_hz, monitor):
         first, second = self.ports
-        if max(first, second) >= powers.shape[1]:
-            raise InputError(
-                f"ports must index the {powers.shape[1]} port columns (0..{powers.shape[1] - 1}), "
-                f"got {self.ports!r}"
-            )
         if powers.shape[0] < MIN_ELLIPSE_POINTS:
             raise InputError(
                 f"the ellipse method needs at least {MIN_ELLIPSE_POINTS} samples, "
@@ -303,5 +305,12 @@ class EllipseCalibrator(LabelLockedCalibrator):
         return {"ellipse": self.ellipse_.to_dict(), **self._lock_state()}
 
     def _set_state(self, state: dict) -> None:
-        self.ellipse_ = FringeEllipse.from_dict(state["ellipse"])
+        self.ellipse_ = FringeEllipse.from_dict(state.get("ellipse"))
         self._set_lock_state(state)
+
+    def _check_state(self) -> None:
+        super()._check_state()
+        if max(self.ports) >= self.n_ports_:
+            raise InputError(
+                f"ports {self.ports!r} must index the {self.n_ports_} ports of the calibration"
+            )

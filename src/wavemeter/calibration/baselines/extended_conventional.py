@@ -22,8 +22,10 @@ from scipy import linalg
 
 from ...exceptions import InputError
 from ..base import BaseCalibrator
-from ..learned import Calibrator
-from ._labels import FSR_TOLERANCE
+from ..delay_search import DEFAULT_FSR_TOLERANCE
+from ..files import state_array, state_float
+from ..learned import fit_learned_map
+from ..summary import FitValue
 
 __all__ = ["ExtendedConventionalCalibrator"]
 
@@ -49,6 +51,8 @@ class ExtendedConventionalCalibrator(BaseCalibrator):
         Least-squares weights ``W`` giving ``[cos t, sin t]`` from ``p - c``.
     delay_s_ : float
         Fitted delay ``tau`` (s).
+    delay_std_s_ : float or None
+        Its standard error (s), as for :class:`wavemeter.Calibrator`.
     fsr_hz_, center_hz_, span_hz_, calibration_rms_hz_ : see :class:`wavemeter.Calibrator`.
     """
 
@@ -58,12 +62,18 @@ class ExtendedConventionalCalibrator(BaseCalibrator):
         self.fsr_hz = fsr_hz
 
     def _fit(self, powers, frequency_hz, monitor):
-        fringes = Calibrator(fsr_hz=self.fsr_hz, fsr_tolerance=FSR_TOLERANCE).fit(
-            powers, frequency_hz, power_monitor_w=monitor
+        fringes = fit_learned_map(
+            powers,
+            frequency_hz,
+            self.center_hz_,
+            fsr_hz=self.fsr_hz,
+            fsr_tolerance=DEFAULT_FSR_TOLERANCE,
+            scale=None if monitor is None else monitor / monitor.mean(),
         )
         in_phase, quadrature, axial = fringes.map_.T
-        self.delay_s_ = fringes.delay_s_
-        self.fsr_hz_ = 1.0 / fringes.delay_s_
+        self.delay_s_ = fringes.delay_s
+        self.delay_std_s_ = fringes.delay_std_s
+        self.fsr_hz_ = 1.0 / fringes.delay_s
         self._set_fringes(
             offsets_w=np.sqrt(2.0) * axial,
             amplitudes_w=np.hypot(in_phase, quadrature),
@@ -84,23 +94,35 @@ class ExtendedConventionalCalibrator(BaseCalibrator):
         quadratures = (powers - self.offsets_w_) @ self.quadrature_weights_.T
         return np.arctan2(quadratures[:, 1], quadratures[:, 0])
 
+    def _fsr_std_hz(self) -> float | None:
+        return None if self.delay_std_s_ is None else self.fsr_hz_**2 * self.delay_std_s_
+
+    def _summary_values(self) -> dict:
+        return {"delay_s": FitValue(self.delay_s_, self.delay_std_s_, "s")}
+
     def _state(self) -> dict:
         return {
             "offsets_w": self.offsets_w_.tolist(),
             "amplitudes_w": self.amplitudes_w_.tolist(),
             "port_phases_rad": self.port_phases_rad_.tolist(),
             "delay_s": self.delay_s_,
+            "delay_std_s": self.delay_std_s_,
         }
 
     def _set_state(self, state: dict) -> None:
         fringes = [
-            np.array(state[key], dtype=float)
+            state_array(state, key, (self.n_ports_,))
             for key in ("offsets_w", "amplitudes_w", "port_phases_rad")
         ]
-        if any(v.shape != (self.n_ports_,) or not np.all(np.isfinite(v)) for v in fringes):
-            raise InputError(
-                f"offsets_w, amplitudes_w and port_phases_rad must be {self.n_ports_} finite "
-                "numbers each"
-            )
-        self.delay_s_ = float(state["delay_s"])
+        if np.any(fringes[1] < 0):
+            raise InputError(f"field 'amplitudes_w' must be >= 0, got {fringes[1].tolist()}")
+        self.delay_s_ = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
+        # files of 0.1 have no standard error of the delay
+        self.delay_std_s_ = (
+            state_float(state, "delay_std_s", minimum=0.0)
+            if state.get("delay_std_s") is not None
+            else None
+        )
         self._set_fringes(*fringes)
+        if not np.all(np.isfinite(self.quadrature_weights_)):
+            raise InputError("the fringes of amplitudes_w and port_phases_rad are degenerate")

@@ -45,6 +45,8 @@ from ...exceptions import InputError
 from ...model.couplers import mmi_matrix, port_phases_rad
 from ...validation import as_rng, check_positive
 from ..base import BaseCalibrator
+from ..files import state_array, state_float
+from ..summary import FitValue
 
 __all__ = [
     "ConvergenceShare",
@@ -276,6 +278,14 @@ class NonlinearFitCalibrator(BaseCalibrator):
             phase = phase - np.where(curvature > 0, slope / curvature, 0.0)
         return np.angle(np.exp(1j * phase))
 
+    def _summary_values(self) -> dict:
+        return {
+            "delay_s": FitValue(self.delay_s_, None, "s"),
+            "converged": FitValue(float(self.converged_)),
+            "nfev": FitValue(float(self.nfev_)),
+            "cost_w2": FitValue(self.cost_, None, "W^2"),
+        }
+
     def _state(self) -> dict:
         return {
             "magnitudes": self.magnitudes_.tolist(),
@@ -290,24 +300,22 @@ class NonlinearFitCalibrator(BaseCalibrator):
 
     def _set_state(self, state: dict) -> None:
         n = self.n_ports_
-        magnitudes = np.array(state["magnitudes"], dtype=float)
-        phases = np.array(state["port_phases_rad"], dtype=float)
-        delay = float(state["delay_s"])
-        if (
-            magnitudes.shape != (n, 2)
-            or phases.shape != (n,)
-            or not (np.all(np.isfinite(magnitudes)) and np.all(np.isfinite(phases)))
-            or not (np.isfinite(delay) and delay > 0)
-        ):
+        magnitudes = state_array(state, "magnitudes", (n, 2))
+        if np.any(magnitudes < 0):
+            raise InputError(f"field 'magnitudes' must be >= 0, got {magnitudes.tolist()}")
+        phases = state_array(state, "port_phases_rad", (n,))
+        delay = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
+        converged, message = state.get("converged"), state.get("fit_message")
+        if not isinstance(converged, bool) or not isinstance(message, str):
             raise InputError(
-                f"magnitudes must be {n} x 2 and port_phases_rad {n} finite numbers, delay_s > 0"
+                "fields 'converged' (true or false) and 'fit_message' (text) are needed"
             )
         self._set_parameters(magnitudes, phases, delay)
-        self.converged_ = bool(state["converged"])
-        self.fit_status_ = int(state["fit_status"])
-        self.fit_message_ = str(state["fit_message"])
-        self.nfev_ = int(state["nfev"])
-        self.cost_ = float(state["cost_w2"])
+        self.converged_ = converged
+        self.fit_status_ = int(state_float(state, "fit_status", minimum=-1, maximum=4))
+        self.fit_message_ = message
+        self.nfev_ = int(state_float(state, "nfev", minimum=0))
+        self.cost_ = state_float(state, "cost_w2", minimum=0.0)
 
 
 @dataclass(frozen=True)

@@ -28,10 +28,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...exceptions import InputError
+from ..files import state_array
 from ._labels import LabelLockedCalibrator
 from .ellipse import MIN_ELLIPSE_POINTS, FringeEllipse, ellipse_phase, fit_ellipse
 
 __all__ = ["PlaneEllipse", "PlaneEllipseCalibrator", "fit_plane_ellipse", "plane_ellipse_phase"]
+
+#: a loaded plane frame must be orthonormal to this accuracy (it is saved exactly)
+FRAME_ATOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -67,18 +71,21 @@ class PlaneEllipse:
 
     @classmethod
     def from_dict(cls, state: dict, ports: int) -> PlaneEllipse:
-        """Inverse of :meth:`to_dict`; checks shapes and finiteness for ``ports`` ports."""
-        origin = np.array(state["origin"], dtype=float)
-        basis = np.array(state["basis"], dtype=float)
-        normal = np.array(state["normal"], dtype=float)
-        if origin.shape != (ports,) or basis.shape != (ports, 2) or normal.shape != (ports,):
+        """Inverse of :meth:`to_dict`; checks shapes, finiteness and geometry for ``ports``
+        ports: ``basis`` orthonormal, ``normal`` a unit vector orthogonal to it with
+        ``normal . origin > 0``."""
+        if not isinstance(state, dict):
+            raise InputError(f"a plane ellipse must be an object, got {type(state).__name__}")
+        origin = state_array(state, "origin", (ports,))
+        basis = state_array(state, "basis", (ports, 2))
+        normal = state_array(state, "normal", (ports,))
+        frame = np.column_stack([basis, normal])
+        if not (np.allclose(frame.T @ frame, np.eye(3), atol=FRAME_ATOL) and normal @ origin > 0):
             raise InputError(
-                f"plane needs origin ({ports},), basis ({ports}, 2) and normal ({ports},), got "
-                f"{origin.shape}, {basis.shape} and {normal.shape}"
+                "plane basis and normal must be orthonormal, with the origin on the side the "
+                "normal points to"
             )
-        if not all(np.all(np.isfinite(v)) for v in (origin, basis, normal)):
-            raise InputError("plane origin, basis and normal must be finite")
-        return cls(origin, basis, normal, FringeEllipse.from_dict(state["ellipse"]))
+        return cls(origin, basis, normal, FringeEllipse.from_dict(state.get("ellipse")))
 
 
 def _plane_coordinates(origin, basis, normal, powers: np.ndarray) -> np.ndarray:
@@ -206,5 +213,5 @@ class PlaneEllipseCalibrator(LabelLockedCalibrator):
         return {"plane_ellipse": self.plane_ellipse_.to_dict(), **self._lock_state()}
 
     def _set_state(self, state: dict) -> None:
-        self.plane_ellipse_ = PlaneEllipse.from_dict(state["plane_ellipse"], self.n_ports_)
+        self.plane_ellipse_ = PlaneEllipse.from_dict(state.get("plane_ellipse"), self.n_ports_)
         self._set_lock_state(state)

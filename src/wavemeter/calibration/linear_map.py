@@ -1,0 +1,111 @@
+"""The linear least-squares map of the learned method and its cost, for a trial delay.
+
+For a trial delay ``tau`` the object vectors ``x_k = m_k [cos t_k, sin t_k, sqrt 2]``
+(``t_k = 2 pi (f_k - f0) tau``, ``m_k`` the relative monitored power or 1) are known, and
+the map minimising ``J = mean ||p_k - A x_k||^2`` is the linear least-squares solution
+``A = Ryx Rxx^-1`` (paper Eq. 20-23), computed by an orthogonal factorisation of the
+``N x 3`` object matrix rather than by inverting ``Rxx``. Only ``tau`` is nonlinear.
+
+These pure functions serve the learned calibrator, the check of a design FSR against the
+sweep (:mod:`wavemeter.calibration.fsr_guard`) and the port diagnostics.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import linalg
+
+from ..model.cone import cone_vectors, delay_phase_rad
+
+__all__ = [
+    "object_vectors",
+    "fit_map",
+    "map_cost",
+    "unfitted_cost",
+    "delay_information",
+]
+
+
+def object_vectors(frequency_hz, center_hz: float, delay_s: float, scale=None) -> np.ndarray:
+    """Object vectors (N, 3) for known frequencies under a trial delay.
+
+    ``scale`` is the power monitor reading per sample (any linear unit) or None for a
+    constant source power.
+    """
+    phase = delay_phase_rad(frequency_hz, center_hz, delay_s)
+    return cone_vectors(phase, 1.0 if scale is None else scale)
+
+
+def fit_map(objects: np.ndarray, powers: np.ndarray) -> np.ndarray:
+    """Least-squares map ``A`` (n, 3) with ``powers ~ objects @ A.T`` (Eq. 23).
+
+    Solved by a rank-revealing QR factorisation of ``objects`` (LAPACK ``gelsy``).
+    """
+    solution, *_ = linalg.lstsq(objects, powers, lapack_driver="gelsy", check_finite=False)
+    return solution.T
+
+
+def map_cost(objects: np.ndarray, powers: np.ndarray) -> tuple[np.ndarray, float]:
+    """Fitted map and its cost ``J = mean_k ||p_k - A x_k||^2`` (Eq. 20), W^2.
+
+    The residual is formed explicitly (not from ``|p|^2 - |Q^T p|^2``) so that ``J`` keeps
+    full relative precision down to noiseless data.
+    """
+    matrix = fit_map(objects, powers)
+    residual = powers - objects @ matrix.T
+    return matrix, float(np.einsum("ij,ij->", residual, residual) / powers.shape[0])
+
+
+def unfitted_cost(powers: np.ndarray, scale=None) -> float:
+    """Cost ``J`` (W^2) of the model with no fringe: readings proportional to the power.
+
+    The least-squares fit keeps only the cone-axis column ``sqrt(2) m_k`` (``m_k`` the
+    relative monitored power, or 1), i.e. the readings about their (power-weighted) mean.
+    A fit at the true delay removes nearly all of this; a side minimum of ``J`` only a
+    little (:func:`wavemeter.calibration.delay_search.check_fringes_explained`).
+    """
+    axis = object_vectors(np.zeros(powers.shape[0]), 0.0, 0.0, scale)[:, 2:]
+    return map_cost(axis, powers)[1]
+
+
+def delay_information(
+    frequency_hz, center_hz: float, delay_s: float, map_: np.ndarray, scale=None
+) -> float:
+    """Gauss-Newton curvature of the summed squared residual in the delay, map profiled out.
+
+    With ``S(tau) = N J(tau)`` the summed squared residual after the best map for each
+    ``tau``, the Gauss-Newton approximation of its curvature at the minimum is
+    ``S''(tau) = 2 G``, ``G = ||(I - Pi_X) D A^T||_F^2``, where ``D = dX/dtau`` (N, 3) is
+    the derivative of the object matrix and ``Pi_X`` the projector onto its columns (the
+    directions the map can absorb). With white noise of variance ``s^2`` per reading the
+    Fisher information on ``tau`` is ``G / s^2``, so ``var(tau) = s^2 / G
+    = 2 s^2 / (N J''(tau))``.
+
+    Parameters
+    ----------
+    frequency_hz : ndarray, shape (N,)
+        Calibration frequencies (Hz).
+    center_hz : float
+        Phase origin (Hz).
+    delay_s : float
+        Delay at the minimum of ``J`` (s).
+    map_ : ndarray, shape (n, 3)
+        Fitted map at that delay (W).
+    scale : None or ndarray, shape (N,)
+        Relative monitored power per reading.
+
+    Returns
+    -------
+    float
+        ``G`` in W^2 / s^2.
+    """
+    offset = np.asarray(frequency_hz, dtype=float) - center_hz
+    phase = delay_phase_rad(frequency_hz, center_hz, delay_s)
+    power = np.ones_like(offset) if scale is None else np.asarray(scale, dtype=float)
+    objects = cone_vectors(phase, power)
+    tangent = np.stack([-np.sin(phase), np.cos(phase), np.zeros_like(phase)], axis=-1)
+    derivative = tangent * (2.0 * np.pi * offset * power)[:, None]
+    image = derivative @ np.asarray(map_, dtype=float).T
+    basis, _ = linalg.qr(objects, mode="economic", check_finite=False)
+    off_model = image - basis @ (basis.T @ image)
+    return float(np.einsum("ij,ij->", off_model, off_model))
