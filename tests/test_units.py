@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from wavemeter.exceptions import InputError
 from wavemeter.units import (
     FREQUENCY_UNITS,
     POWER_UNITS,
@@ -16,6 +17,9 @@ from wavemeter.units import (
     canonical_unit,
     hz_to_axis,
     parse_frequency_hz,
+    parse_optical_frequency_hz,
+    parse_power_w,
+    parse_quantity,
     power_to_w,
     temperature_to_k,
     w_to_power,
@@ -88,17 +92,21 @@ def test_temperature_to_kelvin():
 @pytest.mark.parametrize(
     ("values", "unit", "expected"),
     [
-        ([1530.0, 1560.0], "THz", "values 1530-1560 labelled THz look like nm; use --x-unit nm"),
-        ([193.4e12, 193.5e12], "THz", "look like Hz; use --x-unit Hz"),
-        ([192.0, 196.0], "nm", "look like THz; use --x-unit THz"),
-        ([1.53, 1.56], "nm", "look like um; use --x-unit um"),
+        (
+            [1530.0, 1560.0],
+            "THz",
+            "values 1530-1560 labelled THz look like nm; give the axis unit nm",
+        ),
+        ([193.4e12, 193.5e12], "THz", "look like Hz; give the axis unit Hz"),
+        ([192.0, 196.0], "nm", "look like THz; give the axis unit THz"),
+        ([1.53, 1.56], "nm", "look like um; give the axis unit um"),
         ([1.0, 5.0], "Hz", "are not optical"),
     ],
 )
 def test_implausible_axis_suggests_the_unit_it_looks_like(values, unit, expected):
-    with pytest.raises(ValueError, match="column 'freq'") as err:
+    with pytest.raises(InputError, match="column 'freq'") as err:
         axis_to_hz(values, unit, "freq")
-    assert expected in str(err.value)
+    assert expected in str(err.value) and err.value.parameter == "x_unit"
 
 
 @pytest.mark.parametrize(
@@ -120,6 +128,59 @@ def test_parse_frequency_with_unit(text, hz):
 def test_parse_frequency_rejects_other_text(text):
     with pytest.raises(ValueError, match="--fsr"):
         parse_frequency_hz(text, "--fsr")
+
+
+@pytest.mark.parametrize(
+    ("text", "watts"),
+    [
+        ("1mW", 1e-3),
+        ("5e-7 W", 5e-7),
+        ("0.5 uW", 5e-7),
+        ("500nW", 5e-7),
+        ("0dBm", 1e-3),
+        ("-30 dBm", 1e-6),
+        ("1e-3", 1e-3),  # bare: W
+        ("2 µW", 2e-6),
+    ],
+)
+def test_parse_power_with_unit(text, watts):
+    assert parse_power_w(text, "--power") == pytest.approx(watts, rel=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("1V", "--power '1V': V is a relative detector scale, not a power"),
+        ("1 mA", "--power: unknown power unit 'mA'"),
+        ("loud", "--power 'loud' is not a number with an optional unit (e.g. 1mW"),
+        ("1e999 W", "--power '1e999 W' is not a finite number"),
+    ],
+)
+def test_parse_power_rejects_other_text(text, expected):
+    with pytest.raises(ValueError) as err:
+        parse_power_w(text, "--power")
+    assert expected in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("text", "hz"),
+    [
+        ("193.4THz", 193.4e12),
+        ("1550nm", 299792458 / 1550e-9),
+        ("1.55 um", 299792458 / 1.55e-6),
+        ("1.934e14", 1.934e14),
+    ],
+)
+def test_parse_optical_frequency_takes_a_vacuum_wavelength(text, hz):
+    assert parse_optical_frequency_hz(text) == pytest.approx(hz, rel=1e-15)
+
+
+def test_parse_quantity_keeps_the_number_and_says_whether_a_unit_was_given():
+    assert parse_quantity("50", "frequency") == (50.0, None)
+    assert parse_quantity(" 50 ghz ", "frequency") == (50.0, "GHz")
+    assert parse_quantity("-3dbm", "power") == (-3.0, "dBm")
+    with pytest.raises(ValueError, match="wavelength must be > 0"):
+        parse_optical_frequency_hz("0nm")
 
 
 @given(

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import secrets
 import stat
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -15,12 +15,6 @@ __all__ = ["atomic_path", "check_output", "STDOUT"]
 
 #: the output path that means standard output
 STDOUT = "-"
-
-
-def _umask() -> int:
-    current = os.umask(0)
-    os.umask(current)
-    return current
 
 
 def check_output(path, *, inputs=(), force: bool = False) -> None:
@@ -79,20 +73,33 @@ def check_output(path, *, inputs=(), force: bool = False) -> None:
 def atomic_path(path) -> Iterator[Path]:
     """Yield a temporary path in the target's folder; on success rename it onto ``path``.
 
-    On any exception the temporary file is removed and ``path`` is left untouched, so a
-    failed write never leaves a partial output file.
+    On any exception, also ``KeyboardInterrupt`` and the ``SystemExit`` the command line
+    raises on SIGTERM and SIGHUP, the temporary file is removed and ``path`` is left
+    untouched, so a failed write never leaves a partial output file.
+
+    Raises
+    ------
+    InputError
+        When ``path`` is empty, is an existing folder, or its folder does not exist.
     """
+    if not str(path):
+        raise InputError("the output file name is empty: give a file name")
     target = Path(path)
+    if target.is_dir():
+        raise InputError(f"cannot write {target}: it is a folder; give a file name")
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(f"cannot write {target}: folder {folder} does not exist")
-    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-    os.close(handle)
-    os.chmod(temporary, 0o666 & ~_umask())  # mkstemp creates 0600; give the usual mode
+    # the name is chosen before the file exists, so that a signal arriving at any point
+    # after the file is created finds it in the cleanup below (64 random bits: no clash)
+    temporary = folder / f".{target.name}.{secrets.token_hex(8)}.tmp"
     try:
-        yield Path(temporary)
+        # exclusive creation, mode 0666 less the umask, as an ordinary new file
+        os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        yield temporary
         os.replace(temporary, target)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(temporary)
+    except BaseException as exc:
+        if not (isinstance(exc, FileExistsError) and exc.filename == str(temporary)):
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(temporary)
         raise

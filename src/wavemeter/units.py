@@ -30,7 +30,10 @@ __all__ = [
     "power_to_w",
     "w_to_power",
     "temperature_to_k",
+    "parse_quantity",
     "parse_frequency_hz",
+    "parse_optical_frequency_hz",
+    "parse_power_w",
 ]
 
 SPEED_OF_LIGHT_M_S = 299_792_458.0
@@ -86,7 +89,7 @@ def canonical_unit(unit: str, kind: str, label: str | None = None) -> str:
 
     Raises
     ------
-    ValueError
+    InputError
         When the unit is unknown or of another kind; the message lists the allowed units.
     """
     allowed = _KINDS[kind]
@@ -115,7 +118,7 @@ def axis_to_hz(values, unit: str, column: str = "frequency axis") -> np.ndarray:
 
     Raises
     ------
-    ValueError
+    InputError
         For an unknown unit, or values that are not optical frequencies in that unit
         (the message suggests the unit they look like).
     """
@@ -153,7 +156,7 @@ def _plausible(frequency_range: tuple[float, float]) -> bool:
 
 
 def check_optical_frequency(frequency_hz, raw_values, unit: str | None, column: str) -> None:
-    """Raise ValueError unless the finite frequencies lie in the optical band (100-1000 THz).
+    """Raise InputError unless the finite frequencies lie in the optical band (100-1000 THz).
 
     Parameters
     ----------
@@ -174,10 +177,10 @@ def check_optical_frequency(frequency_hz, raw_values, unit: str | None, column: 
     shown = f"{raw[0]:.6g}-{raw[1]:.6g}" if raw else "the values"
     label = f"labelled {unit}" if unit else "without a unit"
     if guesses:
-        hint = f"look like {guesses[0]}; use --x-unit {guesses[0]}"
+        hint = f"look like {guesses[0]}; give the axis unit {guesses[0]}"
     else:
         hint = "are not optical (100-1000 THz, 300-3000 nm) in any unit; check the column"
-    raise InputError(f"column {column!r}: values {shown} {label} {hint}")
+    raise InputError(f"column {column!r}: values {shown} {label} {hint}", parameter="x_unit")
 
 
 def _range_in(raw: tuple[float, float], unit: str) -> tuple[float, float]:
@@ -219,6 +222,48 @@ def temperature_to_k(values, unit: str, column: str = "temperature") -> np.ndarr
 
 
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s].*)?$")
+_EXAMPLES = {
+    "frequency": "50GHz, 49.69 GHz, 5e10",
+    "axis": "193.4THz, 1550nm, 1.934e14",
+    "power": "1mW, 5e-7 W, -30dBm",
+}
+
+
+def parse_quantity(text, kind: str, name: str = "value") -> tuple[float, str | None]:
+    """The number and canonical unit of text such as ``50GHz``, ``1 mW`` or ``5e-7``.
+
+    Parameters
+    ----------
+    text : str
+        A number with an optional unit, with or without a space between them.
+    kind : {"frequency", "axis", "power"}
+        What the unit must measure (``"axis"``: frequency or vacuum wavelength).
+    name : str
+        What the value is (``"--fsr"``, ``"fsr_hz"``), named in the error.
+
+    Returns
+    -------
+    number : float
+        The number as written.
+    unit : str or None
+        Its canonical unit, None for a bare number.
+
+    Raises
+    ------
+    InputError
+        When the text is not a finite number with an optional unit of that kind.
+    """
+    match = _QUANTITY.match(str(text))
+    if not match:
+        raise InputError(
+            f"{name} {text!r} is not a number with an optional unit (e.g. {_EXAMPLES[kind]}); "
+            f"units: {', '.join(_KINDS[kind])}"
+        )
+    number, unit = match.groups()
+    value = float(number)
+    if not np.isfinite(value):
+        raise InputError(f"{name} {text!r} is not a finite number")
+    return value, canonical_unit(unit.strip(), kind, name) if unit else None
 
 
 def parse_frequency_hz(text, name: str = "frequency") -> float:
@@ -226,15 +271,43 @@ def parse_frequency_hz(text, name: str = "frequency") -> float:
 
     Raises
     ------
-    ValueError
+    InputError
         When the text is not a number with an optional frequency unit.
     """
-    match = _QUANTITY.match(str(text))
-    if not match:
-        raise InputError(
-            f"{name} {text!r} is not a number with an optional unit "
-            f"(e.g. 50GHz, 49.69 GHz, 5e10); units: {', '.join(FREQUENCY_UNITS)}"
-        )
-    number, unit = match.groups()
-    exponent = FREQUENCY_UNITS[canonical_unit(unit.strip(), "frequency", name)] if unit else 0
-    return float(_scaled(np.float64(number), exponent))
+    number, unit = parse_quantity(text, "frequency", name)
+    return float(_scaled(np.float64(number), FREQUENCY_UNITS[unit] if unit else 0))
+
+
+def parse_optical_frequency_hz(text, name: str = "frequency") -> float:
+    """An optical frequency (Hz) from a frequency or a vacuum wavelength: ``193.4THz``,
+    ``1550nm``, ``1.934e14`` (Hz).
+
+    Raises
+    ------
+    InputError
+        When the text is not a number with an optional frequency or wavelength unit, or a
+        wavelength is not positive.
+    """
+    number, unit = parse_quantity(text, "axis", name)
+    if unit in WAVELENGTH_UNITS:
+        if not number > 0:
+            raise InputError(f"{name} {text!r}: a wavelength must be > 0")
+        return float(_wavelength_constant(unit) / np.float64(number))
+    return float(_scaled(np.float64(number), FREQUENCY_UNITS[unit] if unit else 0))
+
+
+def parse_power_w(text, name: str = "power") -> float:
+    """A power (W) from text such as ``1mW``, ``5e-7 W``, ``-30dBm`` or ``1e-3`` (W).
+
+    Raises
+    ------
+    InputError
+        When the text is not a number with an optional power unit; ``V`` (a relative
+        detector scale) is not a power.
+    """
+    number, unit = parse_quantity(text, "power", name)
+    if unit == "V":
+        raise InputError(f"{name} {text!r}: V is a relative detector scale, not a power")
+    if unit == "dBm":
+        return float(power_to_w(number, "dBm"))
+    return float(_scaled(np.float64(number), POWER_UNITS[unit] if unit else 0))

@@ -1,34 +1,71 @@
-"""What the commands share: option decorators, parameter types, reading, messages."""
+"""What the commands share: option decorators, parameter types, reading, writing, messages."""
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import unicodedata
+from pathlib import Path
 
 import click
 import numpy as np
 
+from ..atomic import check_output
 from ..exceptions import InputError, WavemeterError
-from ..io import ColumnRequest, read_table
-from ..io._reader import FORMATS, port_key
+from ..io import FORMATS, ColumnRequest, port_key, read_table, table_format
 from ..progress import busy
-from ..units import SPEED_OF_LIGHT_M_S, parse_frequency_hz
+from ..units import SPEED_OF_LIGHT_M_S
+from ._params import FREQUENCY, FSR, AliasedOption, FrequencyParam
+from ._streams import STDIN_LABEL, is_stdio
+
+__all__ = [
+    "FREQUENCY",
+    "FSR",
+    "FrequencyParam",
+    "QUIET",
+    "FORMAT",
+    "FORCE",
+    "PORT_PHASES",
+    "printable",
+    "say",
+    "note",
+    "about",
+    "names",
+    "port_phases_rad",
+    "setting",
+    "out_option",
+    "column_options",
+    "column_request",
+    "output_format",
+    "read",
+    "load",
+    "check_ports",
+    "method_label",
+    "summary_lines",
+    "fsr_text",
+    "optical_text",
+    "noise_text",
+]
+
+#: Unicode categories never printed: controls (C0, C1, DEL), format characters (bidi
+#: overrides, zero-width marks) and lone surrogates
+_UNPRINTED_CATEGORIES = ("Cc", "Cf", "Cs")
 
 
-class FrequencyParam(click.ParamType):
-    """A frequency with an optional unit: ``50GHz``, ``49.69 GHz``, ``5e10`` (Hz)."""
+def printable(text) -> str:
+    """``str(text)`` with control characters (ESC, other C0/C1, DEL), bidi overrides and other
+    format characters replaced by ``?``; tab and newline are kept.
 
-    name = "FREQUENCY"
-
-    def convert(self, value, param, ctx):
-        if isinstance(value, float):
-            return value
-        try:
-            return parse_frequency_hz(value, "value")
-        except ValueError as exc:
-            self.fail(str(exc), param, ctx)
-
-
-FREQUENCY = FrequencyParam()
+    Everything the command line prints that may come from a file or the user (names,
+    values, error messages) goes through this, so a file cannot drive the terminal; the
+    ``?`` shows that something was there rather than hiding it.
+    """
+    return "".join(
+        char
+        if char in "\n\t" or unicodedata.category(char) not in _UNPRINTED_CATEGORIES
+        else "?"
+        for char in str(text)
+    )
 
 
 def names(text: str | None) -> tuple[str, ...] | None:
@@ -52,14 +89,23 @@ def port_phases_rad(text: str | None) -> np.ndarray | None:
         ) from exc
 
 
-def say(quiet: bool, text: str) -> None:
+def say(quiet: bool, text: str, *, err: bool = False) -> None:
+    """Print a result line (stdout, or stderr with ``err``) unless ``quiet``."""
     if not quiet:
-        click.echo(text)
+        click.echo(printable(text), err=err)
 
 
 def note(quiet: bool, text: str) -> None:
+    """Print ``note: text`` on stderr unless ``quiet``."""
     if not quiet:
-        click.echo(f"note: {text}", err=True)
+        click.echo(f"note: {printable(text)}", err=True)
+
+
+def _renamed(exc: WavemeterError, text: str) -> WavemeterError:
+    """An error of the same type and parameter with another message."""
+    renamed = type(exc)(text)
+    renamed.parameter = getattr(exc, "parameter", None)
+    return renamed
 
 
 @contextlib.contextmanager
@@ -70,7 +116,34 @@ def about(path):
     except WavemeterError as exc:
         if str(exc).startswith(str(path)):
             raise
-        raise type(exc)(f"{path}: {exc}") from exc
+        raise _renamed(exc, f"{path}: {exc}") from exc
+
+
+@contextlib.contextmanager
+def _stdin_named(path):
+    """Errors about stdin (``-``) name it ``<stdin>``."""
+    try:
+        yield
+    except WavemeterError as exc:
+        prefix = f"{path}: "
+        if not is_stdio(path) or not str(exc).startswith(prefix):
+            raise
+        raise _renamed(exc, f"{STDIN_LABEL}: {str(exc)[len(prefix) :]}") from exc
+
+
+def fsr_text(fsr_hz: float) -> str:
+    """An FSR as every command prints it: ``49.584877 GHz``."""
+    return f"{fsr_hz / 1e9:.6f} GHz"
+
+
+def optical_text(frequency_hz: float) -> str:
+    """An optical frequency as every command prints it: ``193.399988 THz (1550.1162 nm)``."""
+    return f"{frequency_hz / 1e12:.6f} THz ({SPEED_OF_LIGHT_M_S / frequency_hz * 1e9:.4f} nm)"
+
+
+def noise_text(noise_w: float) -> str:
+    """A detector noise standard deviation as every command prints it: ``5.012e-07 W``."""
+    return f"{noise_w:.4g} W"
 
 
 # ---------------------------------------------------------------------------- shared options
@@ -79,24 +152,41 @@ FORMAT = click.option(
     "--format",
     "file_format",
     type=click.Choice(FORMATS),
-    help="File format (default: from the extension, else CSV).",
+    help="File format (default: from the extension; CSV for '-', stdout).",
 )
 PORT_PHASES = click.option(
     "--port-phases-deg",
     metavar="DEG,DEG,..",
     help="Nominal port phases (deg) for the conventional method (default 360 j / n).",
 )
+FORCE = click.option("--force", is_flag=True, help="Replace an existing output file.")
 
 
-def setting(name: str, default, kind, help_text: str):
-    """An option with a default, shown in ``--help``."""
-    return click.option(name, default=default, show_default=True, type=kind, help=help_text)
+def setting(name: str, default, kind, help_text: str, *, dest=None, aliases=(), metavar=None):
+    """An option with a default, shown in ``--help``; ``aliases`` are old names that still
+    work but are not shown."""
+    declarations = [name, *aliases, *([dest] if dest else [])]
+    return click.option(
+        *declarations,
+        cls=AliasedOption,
+        hidden_aliases=aliases,
+        default=default,
+        show_default=True,
+        type=kind,
+        metavar=metavar,
+        help=help_text,
+    )
 
 
 def out_option(help_text: str):
-    """The required ``-o/--out`` file option."""
+    """The required ``-o/--out`` file option (``-`` is stdout)."""
     return click.option(
-        "-o", "--out", "out_path", required=True, type=click.Path(dir_okay=False), help=help_text
+        "-o",
+        "--out",
+        "out_path",
+        required=True,
+        type=click.Path(dir_okay=False, allow_dash=True),
+        help=help_text,
     )
 
 
@@ -168,27 +258,45 @@ def column_request(options: dict, **extra) -> ColumnRequest:
 
 
 def read(path, request: ColumnRequest, *, need_x: bool, drop_invalid: bool, quiet: bool):
-    """Read a data file; with ``drop_invalid`` skip bad rows and say how many.
+    """Read a data file (``-``: stdin); with ``drop_invalid`` skip bad rows and say how many.
 
     Files with known frequencies (``need_x``: sweeps, test files) also get their power
-    monitor and temperature columns; readings to measure need neither."""
-    with busy(f"reading {path}", quiet=quiet):
+    monitor and temperature columns; readings to measure need neither. The table's
+    ``source`` is the name the user gave (``<stdin>`` for ``-``)."""
+    label = STDIN_LABEL if is_stdio(path) else path
+    with busy(printable(f"reading {label}"), quiet=quiet), _stdin_named(path):
         table = read_table(
             path, request, need_x=need_x, find_extras=need_x, allow_invalid=drop_invalid
         )
+    if is_stdio(path):
+        table = dataclasses.replace(table, source=Path(STDIN_LABEL))
     if table.invalid.any():
         note(
             quiet,
-            f"{path}: skipped {int(table.invalid.sum())} invalid row(s), first: "
+            f"{table.source}: skipped {int(table.invalid.sum())} invalid row(s), first: "
             f"{table.describe_invalid(3)}",
         )
     return table
 
 
 def load(path):
+    """A calibration from its file (not stdin: a calibration is small and named)."""
     from ..calibration.files import load_calibration
 
+    if is_stdio(path):
+        raise InputError("a calibration is read from its file, not from stdin ('-')")
     return load_calibration(path)
+
+
+def output_format(path, file_format: str | None, *, inputs=(), force: bool = False) -> str:
+    """Check a table output before any work and return the format to write it in.
+
+    The output must not be an input, must be a regular file (or ``-``, stdout) and may
+    replace an existing file only with ``force``; its extension must be one the writer
+    knows unless ``file_format`` is given.
+    """
+    check_output(path, inputs=inputs, force=force)
+    return table_format(path, file_format)
 
 
 def check_ports(calibration, cal_path, table, explicit: bool) -> None:
@@ -216,27 +324,6 @@ def method_label(calibration) -> str:
 
 
 def summary_lines(calibration) -> list[str]:
-    """Human summary of a fitted calibration."""
-    low, high = calibration.span_hz_
-    centre = calibration.center_hz_
-    design = calibration.get_params()["fsr_hz"]
-    lines = [
-        f"method           {method_label(calibration)}",
-        f"FSR              {calibration.fsr_hz_ / 1e9:.6f} GHz (design {design / 1e9:g} GHz)",
-        f"centre           {centre / 1e12:.6f} THz ({SPEED_OF_LIGHT_M_S / centre * 1e9:.4f} nm)",
-        f"span             {low / 1e12:.6f} to {high / 1e12:.6f} THz "
-        f"({(high - low) / 1e9:.4f} GHz)",
-        f"ports            {calibration.n_ports_}: {', '.join(calibration.port_names_)}",
-        f"samples          {calibration.n_samples_}",
-        f"calibration RMS  {calibration.calibration_rms_hz_ / 1e6:.4f} MHz",
-    ]
-    if hasattr(calibration, "noise_std_w_"):
-        lines.append(f"noise estimate   {calibration.noise_std_w_:.4g} W (calibration residual)")
-    if "coarse_hz" in calibration.requires:
-        lines.append("windows          centre THz      FSR GHz   samples   RMS MHz")
-        for index, window in enumerate(calibration.windows_):
-            lines.append(
-                f"  {index:<14} {window.center_hz_ / 1e12:>10.6f} {window.fsr_hz_ / 1e9:>12.6f} "
-                f"{window.n_samples_:>9} {window.calibration_rms_hz_ / 1e6:>9.4f}"
-            )
-    return lines
+    """The fit report of a fitted calibration (values with standard errors, noise, the
+    health of every port, warnings), one line per entry."""
+    return calibration.summary().text.splitlines()

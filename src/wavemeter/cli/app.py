@@ -2,21 +2,27 @@
 
 ``wavemeter --help`` lists the commands from the table below without importing them, so it
 costs little more than importing click. Errors: :class:`wavemeter.WavemeterError` and
-``OSError`` become one ``error:`` line and exit code 2; anything else is a bug and shows its
-traceback.
+``OSError`` become one ``error:`` line (control characters stripped, the option that sets
+the library parameter at fault named) and exit code 2; anything else is a bug and shows its
+traceback. SIGTERM and SIGHUP end a command like Ctrl-C does, so a half-written output's
+temporary file is removed; the exit code is 128 + the signal number.
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import re
+import signal
 import sys
+import threading
 
 import click
 
 from .._version import __version__
 from ..exceptions import WavemeterError
 
-__all__ = ["main", "cli", "COMMANDS"]
+__all__ = ["main", "cli", "COMMANDS", "OPTION_OF_PARAMETER"]
 
 #: command -> one-line help shown by ``wavemeter --help``; the module is ``wavemeter.cli.<name>``
 COMMANDS = {
@@ -67,21 +73,121 @@ def cli(ctx):
         click.echo(ctx.get_help())
 
 
-def main(argv=None) -> int:
-    """Run the command line; return the exit code (0 ok, 2 user error)."""
+#: library parameter (``InputError.parameter``, or named in a message) -> the option that
+#: sets it; a command may name it differently. A hint is given only when the running
+#: command has that option.
+OPTION_OF_PARAMETER = {
+    "force": "--force",
+    "fsr_hz": "--fsr",
+    "fsr_tolerance": "--fsr-tolerance",
+    "x": "--x",
+    "x_unit": "--x-unit",
+    "ports": "--ports",
+    "power_unit": "--power-unit",
+    "drop_invalid": "--drop-invalid",
+    "monitor": "--monitor",
+    "temperature": "--temperature",
+    "coarse": "--coarse",
+    "coarse_hz": "--coarse-frequency",
+    "keep": "--keep",
+    "port_phases_rad": "--port-phases-deg",
+    "retrieval": "--retrieval",
+    "file_format": "--format",
+    "power_w": "--power",
+    "noise_w": "--noise",
+    "samples": "--samples",
+    "span_fsr": "--span-fsr",
+    "power_fluctuation": "--power-fluctuation",
+}
+_OPTION_IN_COMMAND = {
+    "simulate": {"x_unit": "--write-axis-unit", "power_unit": "--write-power-unit"},
+}
+
+
+def _command_name(argv) -> str | None:
+    args = sys.argv[1:] if argv is None else list(argv)
+    return next((arg for arg in args if not arg.startswith("-")), None)
+
+
+def _option_hint(exc: Exception, message: str, command_name: str | None) -> str:
+    """`` (use --force)`` or `` (fsr_tolerance: --fsr-tolerance, fsr_hz: --fsr)``: the
+    options of the running command that set the parameters the error is about."""
+    if command_name not in COMMANDS:
+        return ""
+    command = cli.get_command(None, command_name)
+    flags = {flag for param in command.params for flag in getattr(param, "opts", ())}
+    parameter = getattr(exc, "parameter", None)
+    found = {
+        name: match.start()
+        for name in OPTION_OF_PARAMETER
+        if ("_" in name or name == parameter)
+        and (match := re.search(rf"\b{name}\b", message)) is not None
+    }
+    named = sorted(found, key=found.get)
+    wanted = list(dict.fromkeys([*([parameter] if parameter else []), *named]))
+    options = {**OPTION_OF_PARAMETER, **_OPTION_IN_COMMAND.get(command_name, {})}
+    parts = [
+        f"{name}: {options[name]}" if name in named else f"use {options[name]}"
+        for name in wanted
+        if options.get(name) in flags
+    ]
+    return f" ({', '.join(parts)})" if parts else ""
+
+
+def _error_text(exc: Exception) -> str:
+    """The message of an error, without Python's ``[Errno N]`` decoration."""
+    if isinstance(exc, OSError) and exc.strerror:
+        name = exc.filename2 if exc.filename2 is not None else exc.filename
+        return f"{name}: {exc.strerror}" if name is not None else exc.strerror
+    return str(exc) or type(exc).__name__
+
+
+def _error_line(text: str) -> str:
+    """``error: text`` on one line, without control characters."""
+    from ._common import printable
+
+    return "error: " + " ".join(printable(text).split())
+
+
+def _exit_on_signal(signum, frame):
+    raise SystemExit(128 + signum)
+
+
+@contextlib.contextmanager
+def _signals_end_the_command():
+    """SIGTERM and SIGHUP raise SystemExit(128 + signum) while a command runs, so that
+    cleanup (temporary files) happens as for Ctrl-C; the old handlers come back after."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {}
+    for name in ("SIGTERM", "SIGHUP"):
+        number = getattr(signal, name, None)
+        if number is not None:
+            previous[number] = signal.signal(number, _exit_on_signal)
     try:
-        cli.main(args=argv, prog_name="wavemeter", standalone_mode=False)
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def main(argv=None) -> int:
+    """Run the command line; return the exit code (0 ok, 2 user error, 130 interrupted)."""
+    try:
+        with _signals_end_the_command():
+            cli.main(args=argv, prog_name="wavemeter", standalone_mode=False)
     except click.exceptions.Exit as exc:
         return exc.exit_code
     except click.exceptions.Abort:
-        click.echo("error: aborted", err=True)
-        return 2
+        click.echo("error: interrupted", err=True)
+        return 130
     except click.ClickException as exc:
-        click.echo(f"error: {exc.format_message()}", err=True)
+        click.echo(_error_line(exc.format_message()), err=True)
         return 2
     except (WavemeterError, OSError) as exc:
-        message = " ".join(str(exc).split()) or type(exc).__name__
-        click.echo(f"error: {message}", err=True)
+        message = _error_text(exc)
+        click.echo(_error_line(message + _option_hint(exc, message, _command_name(argv))), err=True)
         return 2
     return 0
 

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
+from ..atomic import check_output
 from ..exceptions import InputError
 from ..progress import busy
 from ._common import (
-    FREQUENCY,
+    FORCE,
+    FSR,
     PORT_PHASES,
     QUIET,
     about,
@@ -15,10 +19,13 @@ from ._common import (
     column_request,
     out_option,
     port_phases_rad,
+    printable,
     read,
+    say,
     setting,
     summary_lines,
 )
+from ._streams import is_stdio, output_path
 
 
 def _fit(options: dict, table, phases):
@@ -36,8 +43,19 @@ def _fit(options: dict, table, phases):
         calibrator = ConventionalCalibrator(fsr_hz=fsr, port_phases_rad=phases)
     if options["per_fsr"]:
         calibrator = CalibrationSet(fsr, tolerance, window=calibrator)
-    with busy(f"calibrating on {table.source}", quiet=options["quiet"]), about(table.source):
+    description = printable(f"calibrating on {table.source}")
+    with busy(description, quiet=options["quiet"]), about(table.source):
         return calibrator.fit(table.powers_w, table.x_hz, table.monitor_w, list(table.port_names))
+
+
+def _check_calibration_output(out_path, sweep, force: bool) -> None:
+    """Before any work: the output is not the sweep, may be replaced, and is JSON."""
+    check_output(out_path, inputs=(sweep,), force=force)
+    if not is_stdio(out_path) and Path(out_path).suffix.lower() != ".json":
+        raise InputError(
+            f"cannot write {out_path}: a calibration file is JSON; give a name ending in "
+            ".json (e.g. chip.wmcal.json), or - for stdout"
+        )
 
 
 def _metadata(table) -> dict:
@@ -61,8 +79,8 @@ def _metadata(table) -> dict:
 
 @click.command()
 @click.argument("sweep", type=click.Path(dir_okay=False))
-@out_option("Calibration file to write (JSON, e.g. chip.wmcal.json).")
-@setting("--fsr", "50GHz", FREQUENCY, "Design FSR: 50GHz, '49.69 GHz', 5e10 (Hz).")
+@out_option("Calibration file to write: JSON, e.g. chip.wmcal.json ('-' for stdout).")
+@setting("--fsr", "50GHz", FSR, "Design FSR: 50GHz, '49.69 GHz'; a bare number is in Hz (5e10).")
 @setting(
     "--fsr-tolerance",
     0.2,
@@ -91,12 +109,14 @@ def _metadata(table) -> dict:
     help="Calibrate each FSR of a multi-FSR sweep on its own (a calibration set).",
 )
 @column_options()
+@FORCE
 @QUIET
-def calibrate(sweep, out_path, port_phases_deg, **options):
+def calibrate(sweep, out_path, port_phases_deg, force, **options):
     """Learn a calibration from a sweep of known frequencies.
 
-    SWEEP is a CSV/TSV, HDF5, MAT, NPZ or Parquet file with a frequency or wavelength
-    column and three or more port columns.
+    SWEEP is a CSV/TSV, HDF5, MAT, NPZ or Parquet file ('-' for stdin) with a frequency
+    or wavelength column and three or more port columns. The calibration file must not
+    exist unless --force is given; with -o - it goes to stdout and the summary to stderr.
 
     \b
     Example:
@@ -106,20 +126,25 @@ def calibrate(sweep, out_path, port_phases_deg, **options):
     """
     from ..calibration.files import save_calibration
 
+    _check_calibration_output(out_path, sweep, force)
     request = column_request(options)
+    quiet = options["quiet"]
     table = read(
-        sweep, request, need_x=True, drop_invalid=options["drop_invalid"], quiet=options["quiet"]
+        sweep, request, need_x=True, drop_invalid=options["drop_invalid"], quiet=quiet
     ).valid_only()
     calibration = _fit(options, table, port_phases_rad(port_phases_deg))
-    save_calibration(calibration, out_path, _metadata(table))
-    if not options["quiet"]:
-        click.echo(
-            f"calibrated {sweep}: {table.n_rows} rows, axis {table.x_column} ({table.x_unit}), "
-            f"ports {', '.join(table.port_names)}"
-            + (f", monitor {table.monitor_column}" if table.monitor_column else "")
-        )
-        click.echo("\n".join(summary_lines(calibration)))
-        click.echo(f"wrote {out_path}")
+    with output_path(out_path) as target:
+        save_calibration(calibration, target, _metadata(table))
+    to_stderr = is_stdio(out_path)
+    say(
+        quiet,
+        f"calibrated {table.source}: {table.n_rows} rows, axis {table.x_column} "
+        f"({table.x_unit}), ports {', '.join(table.port_names)}"
+        + (f", monitor {table.monitor_column}" if table.monitor_column else ""),
+        err=to_stderr,
+    )
+    say(quiet, "\n".join(summary_lines(calibration)), err=to_stderr)
+    say(quiet, f"wrote {'the calibration to stdout' if to_stderr else out_path}", err=to_stderr)
 
 
 command = calibrate

@@ -6,12 +6,12 @@ import click
 import numpy as np
 
 from ..exceptions import InputError
-from ..io._reader import table_format, write_table
+from ..io import write_table
 from ..progress import busy, chunked
 from ..units import SPEED_OF_LIGHT_M_S
 from ._common import (
+    FORCE,
     FORMAT,
-    FREQUENCY,
     QUIET,
     about,
     check_ports,
@@ -21,9 +21,13 @@ from ._common import (
     method_label,
     names,
     out_option,
+    output_format,
+    printable,
     read,
     say,
 )
+from ._params import OPTICAL_FREQUENCY, AliasedOption
+from ._streams import is_stdio
 
 
 def _coarse(calibration, cal_path, table, coarse_hz):
@@ -38,14 +42,14 @@ def _coarse(calibration, cal_path, table, coarse_hz):
     raise InputError(
         f"{cal_path} is a per-FSR calibration set ({len(calibration.windows_)} windows, "
         f"{low / 1e12:.6f} to {high / 1e12:.6f} THz): it needs a coarse frequency per "
-        "reading to pick the window; pass --coarse COL or --coarse-hz VALUE"
+        "reading to pick the window; pass --coarse COL or --coarse-frequency VALUE"
     )
 
 
 @click.command()
 @click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
 @click.argument("data", type=click.Path(dir_okay=False))
-@out_option("Output file: frequency_hz, wavelength_nm, phase_rad per input row.")
+@out_option("Output file: frequency_hz, wavelength_nm, phase_rad per input row ('-': stdout).")
 @click.option("--keep", metavar="COL,COL,..", help="Input columns to copy into the output.")
 @FORMAT
 @click.option(
@@ -55,9 +59,14 @@ def _coarse(calibration, cal_path, table, coarse_hz):
     help="Coarse frequency or wavelength column (calibration sets).",
 )
 @click.option(
+    "--coarse-frequency",
     "--coarse-hz",
-    type=FREQUENCY,
-    help="One coarse frequency for every reading, e.g. 193.4THz (calibration sets).",
+    "coarse_hz",
+    cls=AliasedOption,
+    hidden_aliases=("--coarse-hz",),
+    type=OPTICAL_FREQUENCY,
+    help="One coarse frequency for every reading, 193.4THz or 1550nm; a bare number is in Hz "
+    "(calibration sets).",
 )
 @click.option(
     "--uncertainty",
@@ -66,6 +75,7 @@ def _coarse(calibration, cal_path, table, coarse_hz):
     "estimated from the calibration (learned single-map calibrations).",
 )
 @column_options(axis=False)
+@FORCE
 @QUIET
 def measure(
     calibration_file,
@@ -76,29 +86,33 @@ def measure(
     coarse_column,
     coarse_hz,
     uncertainty,
+    force,
     **options,
 ):
     """Turn port readings into frequency with a calibration.
 
     Writes one row per input row, in order: frequency_hz, wavelength_nm (vacuum) and
     phase_rad at full float64 precision, with --uncertainty frequency_std_hz, then the
-    --keep columns. Rows skipped with --drop-invalid are written as NaN.
+    --keep columns. Rows skipped with --drop-invalid are written as NaN. DATA '-' is
+    read from stdin; with -o - the table goes to stdout (CSV unless --format) and
+    messages to stderr. An existing output is replaced only with --force.
 
     \b
     Example:
       wavemeter measure chip.wmcal.json readings.csv -o frequencies.csv --keep time_s
     """
+    quiet = options["quiet"]
+    file_format = output_format(
+        out_path, file_format, inputs=(calibration_file, data), force=force
+    )  # before any work
     calibration = load(calibration_file)
-    table_format(out_path, file_format)  # reject a bad format before the work
     if uncertainty and "frequency_std" not in calibration.capabilities:
         raise InputError(
             f"{calibration_file}: --uncertainty needs a learned calibration (single or per "
             f"FSR), not a {method_label(calibration)} calibration"
         )
     request = column_request(options, coarse=coarse_column, keep=names(keep) or ())
-    table = read(
-        data, request, need_x=False, drop_invalid=options["drop_invalid"], quiet=options["quiet"]
-    )
+    table = read(data, request, need_x=False, drop_invalid=options["drop_invalid"], quiet=quiet)
     check_ports(calibration, calibration_file, table, explicit=request.ports is not None)
     valid = table.valid_only()
     coarse = _coarse(calibration, calibration_file, valid, coarse_hz)
@@ -106,9 +120,10 @@ def measure(
     phase = np.full(table.n_rows, np.nan)
     std = np.full(table.n_rows, np.nan)
     rows = np.flatnonzero(~table.invalid)
-    for block in chunked(valid.n_rows, f"measuring {data}", quiet=options["quiet"]):
+    description = printable(f"measuring {table.source}")
+    for block in chunked(valid.n_rows, description, quiet=quiet):
         extra = {} if coarse is None else {"coarse_hz": coarse[block]}
-        with about(data):
+        with about(table.source):
             frequency[rows[block]] = calibration.predict(valid.powers_w[block], **extra)
             phase[rows[block]] = calibration.phase(valid.powers_w[block], **extra)
             if uncertainty:
@@ -121,9 +136,10 @@ def measure(
     }
     for name, values in table.kept.items():
         columns.setdefault(name, values)
-    with busy(f"writing {out_path}", quiet=options["quiet"]):
+    with busy(printable(f"writing {out_path}"), quiet=quiet):
         write_table(out_path, columns, file_format)
-    say(options["quiet"], f"wrote {out_path} ({table.n_rows} rows)")
+    written = "stdout" if is_stdio(out_path) else out_path
+    say(quiet, f"wrote {written} ({table.n_rows} rows)", err=is_stdio(out_path))
 
 
 command = measure

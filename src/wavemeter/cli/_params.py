@@ -1,0 +1,180 @@
+"""What options accept: physical quantities with units, and old option names kept hidden.
+
+Every physical quantity on the command line is a number with a unit (``50GHz``, ``1 mW``,
+``-30dBm``, ``1550nm``); a bare number is in SI units (Hz, W). A bare frequency below
+1 MHz is refused as a probable missing unit before any work starts.
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+import click
+
+from ..exceptions import InputError
+from ..units import (
+    OPTICAL_BAND_HZ,
+    SPEED_OF_LIGHT_M_S,
+    parse_frequency_hz,
+    parse_optical_frequency_hz,
+    parse_power_w,
+    parse_quantity,
+)
+
+__all__ = [
+    "AliasedOption",
+    "FrequencyParam",
+    "OpticalFrequencyParam",
+    "PowerParam",
+    "FREQUENCY",
+    "FSR",
+    "OPTICAL_FREQUENCY",
+    "POWER",
+    "NOISE_POWER",
+    "BARE_FREQUENCY_LIMIT_HZ",
+]
+
+#: a bare number below this, given for a frequency, is taken as a missing unit
+BARE_FREQUENCY_LIMIT_HZ = 1e6
+
+
+class AliasedOption(click.Option):
+    """An option whose old names still work but are not shown in ``--help`` or errors.
+
+    Parameters
+    ----------
+    hidden_aliases : sequence of str
+        Old option names (e.g. ``"--power-w"``), also listed among the declarations.
+    """
+
+    def __init__(self, *args, hidden_aliases=(), **kwargs):
+        super().__init__(*args, **kwargs)
+        self.hidden_aliases = frozenset(hidden_aliases)
+
+    @contextlib.contextmanager
+    def _shown_names(self):
+        opts = self.opts
+        self.opts = [name for name in opts if name not in self.hidden_aliases]
+        try:
+            yield
+        finally:
+            self.opts = opts
+
+    def get_help_record(self, ctx):
+        with self._shown_names():
+            return super().get_help_record(ctx)
+
+    def get_error_hint(self, ctx):
+        with self._shown_names():
+            return super().get_error_hint(ctx)
+
+
+class FrequencyParam(click.ParamType):
+    """A frequency with a unit: ``50GHz``, ``49.69 GHz``; a bare number is in Hz.
+
+    Parameters
+    ----------
+    quantity : str, optional
+        What the frequency is, for the missing-unit message (``"an FSR an optical
+        interferometer has"``); None accepts any bare number.
+    likely_unit : str
+        The unit a bare number probably missed (``"GHz"``), suggested in that message.
+    """
+
+    name = "FREQUENCY"
+
+    def __init__(self, quantity: str | None = None, likely_unit: str = "GHz"):
+        self.quantity = quantity
+        self.likely_unit = likely_unit
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float):
+            return value
+        try:
+            number, unit = parse_quantity(value, "frequency", "value")
+            frequency_hz = parse_frequency_hz(value, "value")
+        except InputError as exc:
+            self.fail(str(exc), param, ctx)
+        if self.quantity is None:
+            return frequency_hz
+        if unit is None and abs(number) < BARE_FREQUENCY_LIMIT_HZ:
+            self.fail(
+                f"{value} is a bare number, so in Hz; {number:g} Hz is not {self.quantity}; "
+                f"did you mean {number:g}{self.likely_unit}?",
+                param,
+                ctx,
+            )
+        if not frequency_hz > 0:
+            self.fail(f"{value}: must be > 0", param, ctx)
+        return frequency_hz
+
+
+class OpticalFrequencyParam(click.ParamType):
+    """An optical frequency or vacuum wavelength: ``193.4THz``, ``1550nm``; bare: Hz."""
+
+    name = "FREQUENCY"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float):
+            return value
+        try:
+            number, unit = parse_quantity(value, "axis", "value")
+            frequency_hz = parse_optical_frequency_hz(value, "value")
+        except InputError as exc:
+            self.fail(str(exc), param, ctx)
+        low, high = OPTICAL_BAND_HZ
+        if low <= frequency_hz <= high:
+            return frequency_hz
+        if unit is None:
+            guesses = [
+                guess
+                for guess, hz in (("THz", number * 1e12), ("nm", SPEED_OF_LIGHT_M_S / number * 1e9))
+                if number > 0 and low <= hz <= high
+            ]
+            hint = f"did you mean {number:g}{guesses[0]}?" if guesses else "write the unit"
+            self.fail(
+                f"{value} is a bare number, so in Hz; {number:g} Hz is not an optical "
+                f"frequency; {hint}",
+                param,
+                ctx,
+            )
+        self.fail(f"{value} is not an optical frequency (100-1000 THz, 300-3000 nm)", param, ctx)
+
+
+class PowerParam(click.ParamType):
+    """A power: ``1mW``, ``5e-7 W``, ``-30dBm``; a bare number is in W.
+
+    Parameters
+    ----------
+    allow_zero : bool
+        Whether 0 W is allowed (a noise level), else the power must be > 0.
+    """
+
+    name = "POWER"
+
+    def __init__(self, allow_zero: bool = False):
+        self.allow_zero = allow_zero
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float):
+            return value
+        try:
+            power_w = parse_power_w(value, "value")
+        except InputError as exc:
+            self.fail(str(exc), param, ctx)
+        if power_w < 0 or (power_w == 0 and not self.allow_zero):
+            bound = ">= 0" if self.allow_zero else "> 0"
+            self.fail(f"{value}: must be {bound}", param, ctx)
+        return power_w
+
+
+#: any frequency; a bare number is in Hz
+FREQUENCY = FrequencyParam()
+#: a free spectral range: refuses a bare number below 1 MHz (``--fsr 50`` meant 50GHz)
+FSR = FrequencyParam("an FSR an optical interferometer has", "GHz")
+#: an optical frequency (100-1000 THz) given as a frequency or a vacuum wavelength
+OPTICAL_FREQUENCY = OpticalFrequencyParam()
+#: a source power (> 0)
+POWER = PowerParam()
+#: a noise standard deviation in power (>= 0)
+NOISE_POWER = PowerParam(allow_zero=True)
