@@ -1,4 +1,10 @@
-"""Evaluation of calibrations on readings of known frequency."""
+"""Evaluation of calibrations on readings of known frequency.
+
+Errors are taken against the true frequency as given (absolute): a single-FSR calibration
+returns the alias within half an FSR of its centre, so a reading whose truth lies outside
+the calibrated span is wrong by whole FSRs and counts as such. The error modulo each
+calibration's FSR is reported beside it, labelled, for the precision within one FSR.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +13,186 @@ import numpy as np
 from ..calibration.baselines import ConventionalCalibrator
 from ..calibration.set import clone, window_label
 from ..exceptions import InputError
-from ..validation import MIN_SAMPLES, check_frequency
+from ..model.cone import wrap_phase_rad
+from ..validation import MIN_SAMPLES, check_frequency, check_per_reading, check_powers
 from .metrics import error_summary_hz, frequency_error_hz
 
-__all__ = ["adjacent_evaluation"]
+__all__ = ["adjacent_evaluation", "crlb_per_reading_hz", "evaluate_calibrations"]
+
+
+def _reading_inputs(calibration, coarse_hz) -> dict:
+    """Keyword inputs besides the powers that ``calibration`` needs per reading."""
+    return {"coarse_hz": coarse_hz} if "coarse_hz" in calibration.requires else {}
+
+
+def _single_maps(calibration) -> list:
+    """The single-FSR calibrations a calibration retrieves with: a set's windows, or itself."""
+    return calibration.windows_ if "coarse_hz" in calibration.requires else [calibration]
+
+
+def _calibrated_range_hz(calibration) -> tuple[float, float]:
+    """Lowest and highest frequency (Hz) the calibration was fitted for: the sweep span of
+    a single-FSR calibration, the range a set's windows cover."""
+    if "coarse_hz" in calibration.requires:
+        return calibration.covered_hz()
+    low, high = calibration.span_hz_
+    return float(low), float(high)
+
+
+def crlb_per_reading_hz(calibration, powers_w, frequency_hz) -> np.ndarray | None:
+    """Per-reading Cramer-Rao standard deviation (Hz) at the true frequency.
+
+    The bound under the calibration's own model: its fitted map, FSR and noise (estimated
+    from the calibration residual), at the phase the true frequency has under that map
+    (:meth:`~wavemeter.Calibrator.frequency_std_hz` with ``phase_rad``). A calibration
+    set evaluates each reading under the window its true frequency falls in.
+
+    Parameters
+    ----------
+    calibration : BaseCalibrator
+        A fitted calibration; one without the ``"frequency_std"`` capability gives None.
+    powers_w : array_like, shape (N, n)
+        Port readings, in the unit of the calibration sweep.
+    frequency_hz : array_like, shape (N,)
+        True frequency of each reading (Hz).
+
+    Returns
+    -------
+    ndarray, shape (N,), Hz, or None
+
+    Raises
+    ------
+    InputError
+        When the readings or frequencies are malformed, or (for a set) a true frequency
+        lies outside the range its windows cover.
+    """
+    if "frequency_std" not in calibration.capabilities:
+        return None
+    readings = check_powers(powers_w)
+    truth = check_frequency(frequency_hz, readings.shape[0])
+    maps = _single_maps(calibration)
+    if "coarse_hz" in calibration.requires:
+        index = calibration.window_index(truth)
+    else:
+        index = np.zeros(truth.size, dtype=int)
+    center_hz = np.array([single.center_hz_ for single in maps])[index]
+    fsr_hz = np.array([single.fsr_hz_ for single in maps])[index]
+    phase = wrap_phase_rad(2.0 * np.pi * (truth - center_hz) / fsr_hz)
+    inputs = _reading_inputs(calibration, truth)
+    return calibration.frequency_std_hz(readings, phase_rad=phase, **inputs)
+
+
+def _noise_std_w(calibration) -> float:
+    """Detector noise (W) a calibration estimated from its residual (a set: window mean)."""
+    return float(np.mean([single.noise_std_w_ for single in _single_maps(calibration)]))
+
+
+def _method_figures(calibration, readings, truth, coarse) -> dict:
+    """Absolute and modulo-FSR error figures of one calibration (see evaluate_calibrations)."""
+    predicted = calibration.predict(readings, **_reading_inputs(calibration, coarse))
+    error = predicted - truth
+    absolute = error_summary_hz(error)
+    low, high = _calibrated_range_hz(calibration)
+    fsr = calibration.fsr_hz_
+    return {
+        "rms_abs_hz": absolute["rms_hz"],
+        "max_abs_hz": absolute["max_hz"],
+        "p95_abs_hz": absolute["p95_hz"],
+        "p99_abs_hz": absolute["p99_hz"],
+        "rms_mod_fsr_hz": error_summary_hz(frequency_error_hz(predicted, truth, fsr))["rms_hz"],
+        "fsr_hz": float(fsr),
+        "span_hz": [low, high],
+        "outside_span_fraction": float(np.mean((truth < low) | (truth > high))),
+        "gross_error_fraction": float(np.mean(np.abs(error) > 0.5 * fsr)),
+    }
+
+
+def evaluate_calibrations(calibrations, powers_w, frequency_hz, *, coarse_hz=None) -> dict:
+    """Frequency errors of calibrations on readings of known frequency, against the CRLB.
+
+    Each calibration retrieves every reading as it would in use; the error is the
+    retrieved minus the true frequency as given (absolute). A single-FSR calibration
+    returns the alias within half an FSR of its centre, so a reading whose truth lies
+    outside the calibrated span is wrong by whole FSRs, and so is every reading of a
+    calibration whose FSR is an alias of the device's. The error modulo the calibration's
+    FSR shows the precision within one FSR.
+
+    Parameters
+    ----------
+    calibrations : mapping of str to BaseCalibrator
+        Fitted calibrations by label, e.g. ``{"learned": cal, "conventional": conv}``.
+    powers_w : array_like, shape (N, n)
+        Port readings, in the unit of the calibration sweeps.
+    frequency_hz : array_like, shape (N,)
+        True frequency of each reading (Hz).
+    coarse_hz : None or array_like, shape (N,)
+        Coarse frequency of each reading (Hz) for calibrations that need one
+        (``"coarse_hz"`` in ``requires``, e.g. a calibration set, where it picks the
+        window); default: the true frequency, which tests the calibration but not the
+        coarse values one would have in use.
+
+    Returns
+    -------
+    dict
+        JSON-ready. ``"methods"``: per label ``rms_abs_hz``, ``max_abs_hz``,
+        ``p95_abs_hz``, ``p99_abs_hz`` (absolute error, Hz), ``rms_mod_fsr_hz`` (error
+        modulo the calibration's FSR, Hz), ``fsr_hz``, ``span_hz`` (calibrated span, a
+        set: the range its windows cover), ``outside_span_fraction`` (share of readings
+        whose truth lies outside it), ``gross_error_fraction`` (share with an absolute
+        error over half an FSR) and, when a bound is known, ``rms_abs_over_crlb`` and
+        ``rms_mod_fsr_over_crlb``. At the top level: ``samples``; ``coarse_from``
+        (``"coarse_hz"``, ``"truth"``, or None when no calibration needs one);
+        ``crlb_rms_hz`` (RMS of :func:`crlb_per_reading_hz` under the first calibration
+        with the ``"frequency_std"`` capability), ``crlb_method`` (its label) and
+        ``noise_std_w`` (its noise estimate, W), all None when none has it.
+
+    Raises
+    ------
+    InputError
+        When no calibration is given, the readings or frequencies are malformed, or a
+        calibration cannot retrieve them (wrong port count; for a set, a coarse value
+        outside the range its windows cover).
+    """
+    if not calibrations:
+        raise InputError("no calibration to evaluate; give at least one", parameter="calibrations")
+    readings = check_powers(powers_w)
+    truth = check_frequency(frequency_hz, readings.shape[0])
+    coarse = truth
+    if coarse_hz is not None:
+        coarse = check_per_reading("coarse_hz", coarse_hz, truth.size)
+    coarse_from = None
+    if any("coarse_hz" in calibration.requires for calibration in calibrations.values()):
+        coarse_from = "truth" if coarse_hz is None else "coarse_hz"
+    methods = {
+        label: _method_figures(calibration, readings, truth, coarse)
+        for label, calibration in calibrations.items()
+    }
+    summary = {
+        "samples": int(truth.size),
+        "coarse_from": coarse_from,
+        "crlb_rms_hz": None,
+        "crlb_method": None,
+        "noise_std_w": None,
+        "methods": methods,
+    }
+    bounded = [
+        label
+        for label, calibration in calibrations.items()
+        if "frequency_std" in calibration.capabilities
+    ]
+    if bounded:
+        label = bounded[0]
+        bound = crlb_per_reading_hz(calibrations[label], readings, truth)
+        crlb_rms = float(np.sqrt(np.mean(bound**2)))
+        summary.update(
+            crlb_rms_hz=crlb_rms,
+            crlb_method=label,
+            noise_std_w=_noise_std_w(calibrations[label]),
+        )
+        for figures in methods.values():
+            figures["rms_abs_over_crlb"] = figures["rms_abs_hz"] / crlb_rms
+            figures["rms_mod_fsr_over_crlb"] = figures["rms_mod_fsr_hz"] / crlb_rms
+    return summary
 
 
 def adjacent_evaluation(calibration, powers, frequency_hz, baseline=None) -> dict:
@@ -41,7 +223,8 @@ def adjacent_evaluation(calibration, powers, frequency_hz, baseline=None) -> dic
         (index), ``center_hz``, ``fsr_hz``, ``samples_own``, ``samples_adjacent`` and
         error summaries (``rms_hz``, ``max_hz``, ``p95_hz``, ``p99_hz``, Hz) ``own``,
         ``adjacent``, ``conventional_own``, ``conventional_adjacent``, plus
-        ``degradation_rms`` (adjacent over own RMS). The same summaries over all
+        ``degradation_rms`` (adjacent over own RMS) and ``conventional_degradation_rms``
+        (the same for the conventional method). The same summaries over all
         evaluated windows at the top level, with ``method`` and ``windows_evaluated``.
 
     Raises
@@ -89,7 +272,7 @@ def adjacent_evaluation(calibration, powers, frequency_hz, baseline=None) -> dic
                 "samples_own": int(own.sum()),
                 "samples_adjacent": int(adjacent.sum()),
                 **summaries,
-                "degradation_rms": summaries["adjacent"]["rms_hz"] / summaries["own"]["rms_hz"],
+                **_degradations(summaries),
             }
         )
     if not entries:
@@ -103,6 +286,15 @@ def adjacent_evaluation(calibration, powers, frequency_hz, baseline=None) -> dic
         "method": type(calibration.windows_[0]).method,
         "windows_evaluated": len(entries),
         **totals,
-        "degradation_rms": totals["adjacent"]["rms_hz"] / totals["own"]["rms_hz"],
+        **_degradations(totals),
         "windows": entries,
+    }
+
+
+def _degradations(summaries: dict) -> dict:
+    """Adjacent over own RMS error, of the calibration and of the conventional baseline."""
+    return {
+        "degradation_rms": summaries["adjacent"]["rms_hz"] / summaries["own"]["rms_hz"],
+        "conventional_degradation_rms": summaries["conventional_adjacent"]["rms_hz"]
+        / summaries["conventional_own"]["rms_hz"],
     }

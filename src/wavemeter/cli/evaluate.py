@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 import click
-import numpy as np
 
 from ..exceptions import InputError
 from ._common import (
@@ -18,21 +17,17 @@ from ._common import (
     column_request,
     load,
     method_label,
+    noise_text,
+    note,
     port_phases_rad,
     read,
+    say,
 )
-
-
-def _noise_std_w(calibration) -> float:
-    """Detector noise (W) of a learned calibration's residual (mean over a set's windows)."""
-    if "coarse_hz" in calibration.requires:
-        return float(np.mean([window.noise_std_w_ for window in calibration.windows_]))
-    return calibration.noise_std_w_
 
 
 def _other_method(calibration, sweep, options, phases):
     """The other method (learned <-> conventional) fitted on the sweep file."""
-    from ..report.html import comparison_calibration
+    from ..report.content import comparison_calibration
 
     request = column_request(options)
     table = read(
@@ -45,62 +40,163 @@ def _other_method(calibration, sweep, options, phases):
         )
 
 
-def _evaluation(calibrations: dict, table) -> dict:
-    """Error summaries (Hz) of each calibration on a table with known frequencies, and the
-    Cramer-Rao bound of the first learned one."""
-    from ..analysis.metrics import error_summary_hz, frequency_error_hz
-    from ..report.html import crlb_per_reading_hz
+#: a single-FSR calibration whose span exceeds its FSR by more than this is an aliased fit
+#: or was fitted over several FSRs (a one-FSR sweep stops one step short of the FSR)
+SPAN_OVER_FSR_LIMIT = 1.05
+ERROR_HEADER = ("RMS MHz", "max MHz", "p95 MHz", "p99 MHz", "RMS/CRLB")
+FSR_HEADER = ("RMS mod FSR MHz", "RMS/CRLB", "FSR GHz", "outside span", "gross error")
 
-    truth = table.x_hz
-    coarse = table.coarse_hz if table.coarse_hz is not None else truth
-    results, bound, noise = {}, None, None
-    for label, calibration in calibrations.items():
-        extra = {"coarse_hz": coarse} if "coarse_hz" in calibration.requires else {}
-        predicted = calibration.predict(table.powers_w, **extra)
-        error = frequency_error_hz(predicted, truth, calibration.fsr_hz_)
-        results[label] = error_summary_hz(error)
-        if bound is None:
-            bound = crlb_per_reading_hz(calibration, table.powers_w, truth)
-            noise = None if bound is None else _noise_std_w(calibration)
-    summary = {"methods": results, "crlb_rms_hz": None, "noise_std_w": noise}
-    if bound is not None:
-        crlb_rms = float(np.sqrt(np.mean(bound**2)))
-        summary["crlb_rms_hz"] = crlb_rms
-        for stats in results.values():
-            stats["rms_over_crlb"] = stats["rms_hz"] / crlb_rms
-    return summary
+
+def _percent(fraction: float) -> str:
+    return f"{100 * fraction:.3g} %"
+
+
+def _ratio(value) -> str:
+    return "-" if value is None else f"{value:.3f}"
+
+
+def _table(labels, header, rows) -> list[str]:
+    """Lines of a table: a method column, then right-aligned cells under ``header``."""
+    width = max(len(label) for label in labels) + 2
+    widths = [max(12, len(title) + 2) for title in header]
+
+    def line(first: str, cells) -> str:
+        return f"{first:<{width}}" + "".join(
+            f"{cell:>{cell_width}}" for cell, cell_width in zip(cells, widths, strict=True)
+        )
+
+    return [line("method", header)] + [
+        line(label, cells) for label, cells in zip(labels, rows, strict=True)
+    ]
 
 
 def _print_evaluation(report: dict) -> None:
-    click.echo(
+    say(
+        False,
         f"{report['test_file']}: {report['samples']} readings, truth {report['truth_column']} "
-        f"({report['truth_unit']})"
+        f"({report['truth_unit']})",
     )
-    width = max(len(label) for label in report["methods"]) + 2
-    header = ("RMS MHz", "max MHz", "p95 MHz", "p99 MHz", "RMS/CRLB")
-    click.echo(f"{'method':<{width}}" + "".join(f"{h:>12}" for h in header))
-    for label, stats in report["methods"].items():
-        ratio = stats.get("rms_over_crlb")
-        cells = [stats[key] / 1e6 for key in ("rms_hz", "max_hz", "p95_hz", "p99_hz")]
-        click.echo(
-            f"{label:<{width}}"
-            + "".join(f"{value:>12.4f}" for value in cells)
-            + (f"{ratio:>12.3f}" if ratio is not None else f"{'-':>12}")
-        )
+    methods = report["methods"]
+    labels = list(methods)
+    say(False, "absolute error (retrieved minus true frequency):")
+    rows = [
+        [
+            f"{stats[key] / 1e6:.4f}"
+            for key in ("rms_abs_hz", "max_abs_hz", "p95_abs_hz", "p99_abs_hz")
+        ]
+        + [_ratio(stats.get("rms_abs_over_crlb"))]
+        for stats in methods.values()
+    ]
+    say(False, "\n".join(_table(labels, ERROR_HEADER, rows)))
+    say(False, "error modulo each calibration's FSR, and readings it cannot place:")
+    rows = [
+        [
+            f"{stats['rms_mod_fsr_hz'] / 1e6:.4f}",
+            _ratio(stats.get("rms_mod_fsr_over_crlb")),
+            f"{stats['fsr_hz'] / 1e9:.6f}",
+            _percent(stats["outside_span_fraction"]),
+            _percent(stats["gross_error_fraction"]),
+        ]
+        for stats in methods.values()
+    ]
+    say(False, "\n".join(_table(labels, FSR_HEADER, rows)))
     if report["crlb_rms_hz"] is not None:
-        click.echo(
-            f"CRLB {report['crlb_rms_hz'] / 1e6:.4f} MHz RMS (noise {report['noise_std_w']:.3g} "
-            "from the calibration residual, learned map as the true one)"
+        say(
+            False,
+            f"CRLB {report['crlb_rms_hz'] / 1e6:.4f} MHz RMS (noise "
+            f"{noise_text(report['noise_std_w'])} "
+            f"from the calibration residual of {report['crlb_method']}, its map taken as the "
+            "true one)",
         )
-    if "adjacent" in report:
-        adjacent = report["adjacent"]
-        click.echo(
-            f"adjacent FSR ({adjacent['windows_evaluated']} windows): "
-            + ", ".join(
-                f"{name} RMS {adjacent[name]['rms_hz'] / 1e6:.4f} MHz"
-                for name in ("own", "adjacent", "conventional_own", "conventional_adjacent")
+    if report["coarse_from"] == "coarse_hz":
+        say(
+            False,
+            "coarse frequency of each reading (calibration sets): column "
+            f"{report['coarse_column']}",
+        )
+    elif report["coarse_from"] == "truth":
+        say(
+            False,
+            "coarse frequency of each reading (calibration sets): the true frequency, as no "
+            "--coarse column was given (in use the coarse values may be worse)",
+        )
+
+
+def _placement_notes(report: dict, calibrations: dict) -> list[str]:
+    """One line per method with readings outside its span or off by half an FSR or more."""
+    lines = []
+    samples = report["samples"]
+    for label, stats in report["methods"].items():
+        outside = round(stats["outside_span_fraction"] * samples)
+        gross = round(stats["gross_error_fraction"] * samples)
+        if not (outside or gross):
+            continue
+        low, high = stats["span_hz"]
+        fsr = stats["fsr_hz"]
+        parts = []
+        if outside:
+            parts.append(
+                f"{_percent(stats['outside_span_fraction'])} of readings ({outside} of {samples}) "
+                f"lie outside the calibrated span {low / 1e12:.3f}..{high / 1e12:.3f} THz"
             )
+        if gross:
+            parts.append(
+                f"{_percent(stats['gross_error_fraction'])}{'' if outside else ' of readings'} "
+                f"({gross} of {samples}) are off by more than half the FSR "
+                f"({fsr / 1e9:.6f} GHz)"
+            )
+        if "coarse_hz" in calibrations[label].requires and report["coarse_from"] == "truth":
+            reason = "its maps misread them even with the true frequency as the coarse value"
+        elif "coarse_hz" in calibrations[label].requires:
+            reason = (
+                "a calibration set picks each reading's window and alias by its coarse "
+                "frequency, which must lie within half an FSR of the truth"
+            )
+        elif high - low > SPAN_OVER_FSR_LIMIT * fsr:
+            reason = (
+                f"its FSR is {(high - low) / fsr:,.0f} times shorter than the span it was "
+                "calibrated on, so it reads that span modulo a fraction of it (an aliased "
+                "fit, or a sweep over several FSRs): recalibrate with the device's FSR "
+                "(--fsr), per FSR (--per-fsr) for a sweep over several"
+            )
+        elif outside:
+            reason = (
+                "a single-FSR calibration reads frequency modulo its FSR; calibrate over the "
+                "band (--per-fsr) and pass coarse frequencies (--coarse)"
+            )
+        elif high - low > fsr:
+            reason = (
+                f"its FSR is shorter than the span it was calibrated on "
+                f"({(high - low) / 1e9:.6f} GHz), so readings near the ends of the span come "
+                "back one FSR off"
+            )
+        else:
+            reason = "its errors there exceed half an FSR: it does not describe these readings"
+        lines.append(f"{label}: {' and '.join(parts)}: {reason}")
+    return lines
+
+
+def _print_adjacent(adjacent: dict) -> None:
+    say(
+        False,
+        f"adjacent FSR, {adjacent['windows_evaluated']} windows: each window's map on its own "
+        "FSR and on the neighbouring ones (the conventional method fitted per window on this "
+        "file)",
+    )
+    header = ("own FSR RMS MHz", "adjacent FSR RMS MHz", "adjacent/own")
+    labels = [adjacent["method"], "conventional"]
+    rows = [
+        [
+            f"{adjacent[prefix + 'own']['rms_hz'] / 1e6:.4f}",
+            f"{adjacent[prefix + 'adjacent']['rms_hz'] / 1e6:.4f}",
+            f"{adjacent[ratio]:.3f}",
+        ]
+        for prefix, ratio in (
+            ("", "degradation_rms"),
+            ("conventional_", "conventional_degradation_rms"),
         )
+    ]
+    say(False, "\n".join(_table(labels, header, rows)))
 
 
 @click.command()
@@ -146,12 +242,16 @@ def evaluate(
 ):
     """Frequency errors on a test file with known frequencies, against the CRLB.
 
-    Reports RMS, max, 95th and 99th percentile |error| (MHz) of CAL, of each --compare
-    calibration and, with --sweep, of the other method fitted on that sweep; errors are
-    taken modulo the FSR. RMS/CRLB divides by the Cramer-Rao bound of the learned map
-    with the noise estimated from its calibration residual (a residual holding
-    unmodelled structure makes that bound loose). A calibration set picks each reading's
-    window from --coarse, else from the truth.
+    Errors are the retrieved minus the true frequency (absolute): a single-FSR calibration
+    reads frequency modulo its FSR, so a reading outside its calibrated span is wrong by
+    whole FSRs and counts as such. Reports RMS, max, 95th and 99th percentile |error|
+    (MHz) of CAL, of each --compare calibration and, with --sweep, of the other method
+    fitted on that sweep; then the RMS modulo each calibration's FSR (the precision within
+    one FSR), the share of readings outside the calibrated span and the share off by more
+    than half an FSR. RMS/CRLB divides by the Cramer-Rao bound of the first learned map
+    with the noise estimated from its calibration residual (a residual holding unmodelled
+    structure makes that bound loose). A calibration set picks each reading's window from
+    --coarse, else from the truth.
 
     \b
     Example:
@@ -184,30 +284,42 @@ def evaluate(
         "dropped_rows": table.dropped_rows,
         "truth_column": table.x_column,
         "truth_unit": table.x_unit,
+        "coarse_column": table.coarse_column,
     }
+    from ..analysis.evaluation import adjacent_evaluation, evaluate_calibrations
+
     with about(test):
-        report.update(_evaluation(calibrations, table))
+        report.update(
+            evaluate_calibrations(
+                calibrations, table.powers_w, table.x_hz, coarse_hz=table.coarse_hz
+            )
+        )
     if adjacent:
         if "coarse_hz" not in calibration.requires:
             raise InputError(
                 f"--adjacent needs a per-FSR calibration set; {calibration_file} is a single "
                 "calibration: calibrate with --per-fsr on a sweep over several FSRs"
             )
-        with about(test):
-            from ..analysis.evaluation import adjacent_evaluation
-            from ..calibration.baselines import ConventionalCalibrator
+        from ..calibration.baselines import ConventionalCalibrator
 
-            phases = port_phases_rad(port_phases_deg)
-            if phases is None:
-                phases = calibration.windows_[0].get_params().get("port_phases_rad")
-            baseline = ConventionalCalibrator(port_phases_rad=phases)
+        phases = port_phases_rad(port_phases_deg)
+        if phases is None:
+            phases = calibration.windows_[0].get_params().get("port_phases_rad")
+        with about(test):
             report["adjacent"] = adjacent_evaluation(
-                calibration, table.powers_w, table.x_hz, baseline
+                calibration,
+                table.powers_w,
+                table.x_hz,
+                ConventionalCalibrator(port_phases_rad=phases),
             )
     if as_json:
-        click.echo(json.dumps(report, indent=1))
+        click.echo(json.dumps(report, indent=1))  # JSON: text escaped by json
     elif not options["quiet"]:
         _print_evaluation(report)
+        if adjacent:
+            _print_adjacent(report["adjacent"])
+    for line in _placement_notes(report, calibrations):
+        note(options["quiet"], line)
 
 
 command = evaluate
