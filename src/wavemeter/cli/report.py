@@ -6,6 +6,7 @@ import click
 
 from ..progress import busy
 from ._common import (
+    FORCE,
     PORT_PHASES,
     QUIET,
     check_ports,
@@ -23,12 +24,18 @@ from ._common import (
 @click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
 @click.argument("sweep", type=click.Path(dir_okay=False))
 @click.argument("test", required=False, type=click.Path(dir_okay=False))
-@out_option("HTML report to write; figures go beside it as PNG files.")
+@out_option("HTML report to write; figures go beside it as <name>-<figure>.png files.")
+@FORCE
 @PORT_PHASES
 @column_options()
 @QUIET
-def report(calibration_file, sweep, test, out_path, port_phases_deg, **options):
+def report(calibration_file, sweep, test, out_path, force, port_phases_deg, **options):
     """Write an HTML report with figures of a calibration on its sweep (and a test file).
+
+    The page names its input files and shows the fit (fringes and residuals, every window
+    of a per-FSR set), the errors of both methods against the Cramer-Rao bound, and the
+    paper's figures. Existing outputs (the page or its PNGs) are replaced only with
+    --force.
 
     \b
     Example:
@@ -55,6 +62,8 @@ def report(calibration_file, sweep, test, out_path, port_phases_deg, **options):
             tables[1],
             out_html=out_path,
             port_phases_rad=port_phases_rad(port_phases_deg),
+            force=force,
+            input_files={"calibration": calibration_file, "sweep": sweep, "test": test},
         )
     say(options["quiet"], f"wrote {', '.join(str(path) for path in written)}")
 

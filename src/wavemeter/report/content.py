@@ -1,0 +1,313 @@
+"""What the report shows, computed: the comparison method, errors, bounds, figures.
+
+The calibration is compared with the other method (learned against conventional) fitted
+on the same sweep, and evaluated on the test readings (or on the sweep when there are
+none): fringes, fitted model and residuals (paper Fig. 4b / 7a; every window of a set),
+object space (Fig. 4a), retrieved frequency and error (Figs. 4c,d / 7b,c), error histogram
+against the Cramer-Rao bound, and for calibration sets the error across the whole span
+(Fig. 8) and the adjacent-window evaluation (Fig. 9). Nothing here writes a file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg
+
+from ..analysis.evaluation import adjacent_evaluation, crlb_per_reading_hz
+from ..analysis.metrics import error_summary_hz, frequency_error_hz
+from ..calibration.base import BaseCalibrator
+from ..calibration.baselines import ConventionalCalibrator
+from ..calibration.learned import Calibrator
+from ..calibration.set import CalibrationSet
+from ..exceptions import InputError
+from ..model.cone import SQRT2, cone_vectors, delay_phase_rad
+from ..validation import check_fitted, check_frequency, check_powers
+from .fringes import FringePanel
+
+__all__ = [
+    "report_content",
+    "comparison_calibration",
+    "retrieved_frequency_hz",
+    "learned_noise_std_w",
+]
+
+MODEL_POINTS = 1000
+#: half width, in FSRs, of the stretch of a single calibration's sweep shown as fringes
+FRINGE_HALF_WIDTH_FSR = 1.5
+
+
+@dataclass(frozen=True)
+class _Readings:
+    frequency_hz: np.ndarray
+    powers_w: np.ndarray
+    monitor_w: np.ndarray | None
+
+
+def _readings(table, role: str, ports: int) -> _Readings:
+    """Validated arrays of a table: ``frequency_hz`` or ``x_hz`` (N,), ``powers_w`` (N, n)."""
+    frequency = getattr(table, "frequency_hz", None)
+    if frequency is None:
+        frequency = getattr(table, "x_hz", None)
+    if frequency is None or not hasattr(table, "powers_w"):
+        raise InputError(
+            f"{role} must have attributes powers_w (N, n) and frequency_hz or x_hz (N,), "
+            f"got {type(table).__name__} without them",
+            parameter=role,
+        )
+    try:
+        powers = check_powers(table.powers_w, min_samples=1, ports=ports)
+        frequency = check_frequency(frequency, powers.shape[0], name=f"{role} frequency")
+    except InputError as exc:
+        raise InputError(f"{role}: {exc}", parameter=role) from exc
+    monitor = getattr(table, "monitor_w", None)
+    return _Readings(frequency, powers, None if monitor is None else np.asarray(monitor, float))
+
+
+def _check_inside(calibration: CalibrationSet, frequency_hz: np.ndarray, role: str) -> None:
+    low, high = calibration.covered_hz()
+    outside = (frequency_hz < low) | (frequency_hz > high)
+    if outside.any():
+        raise InputError(
+            f"{role}: {int(outside.sum())} readings lie outside the calibration set's span "
+            f"{low / 1e12:.6f} to {high / 1e12:.6f} THz (first at "
+            f"{frequency_hz[outside][0] / 1e12:.6f} THz); a set has no map there: drop them",
+            parameter=role,
+        )
+
+
+def _windows(calibration: BaseCalibrator) -> list[BaseCalibrator]:
+    """The single-FSR calibrators of a set, or the calibration itself."""
+    if isinstance(calibration, CalibrationSet):
+        return list(calibration.windows_)
+    return [calibration]
+
+
+def _central(calibration: BaseCalibrator) -> BaseCalibrator:
+    """The calibration itself, or the middle window of a set."""
+    windows = _windows(calibration)
+    return windows[len(windows) // 2]
+
+
+def _is_learned(calibration: BaseCalibrator) -> bool:
+    return isinstance(_central(calibration), Calibrator)
+
+
+def learned_noise_std_w(calibration: BaseCalibrator) -> float | None:
+    """Detector noise estimate (W) of a learned calibration: its ``noise_std_w_``, the mean
+    over the windows of a set; None for other methods."""
+    if not _is_learned(calibration):
+        return None
+    return float(np.mean([window.noise_std_w_ for window in _windows(calibration)]))
+
+
+def comparison_calibration(
+    calibration: BaseCalibrator,
+    powers_w,
+    frequency_hz,
+    power_monitor_w=None,
+    port_phases_rad=None,
+) -> BaseCalibrator:
+    """The other method fitted on the same sweep: learned for any other, else conventional.
+
+    Parameters
+    ----------
+    calibration : BaseCalibrator
+        The fitted calibration under report; a :class:`CalibrationSet` is compared with a
+        set of the other window method.
+    powers_w : array_like, shape (N, n)
+        Calibration sweep readings (W).
+    frequency_hz : array_like, shape (N,)
+        Their known frequencies (Hz).
+    power_monitor_w : None or array_like, shape (N,)
+        Source-power monitor (W), used by the learned method.
+    port_phases_rad : None or array_like, shape (n,)
+        Nominal port phases for a conventional comparison; default those of
+        ``calibration`` when it has them, else equally spaced.
+
+    Returns
+    -------
+    BaseCalibrator
+        Fitted with the design FSR of ``calibration``.
+    """
+    design = calibration.fsr_hz
+    own = _central(calibration)
+    phases = own.get_params().get("port_phases_rad") if port_phases_rad is None else port_phases_rad
+    if _is_learned(calibration):
+        fitted = ConventionalCalibrator(fsr_hz=design, port_phases_rad=phases)
+    else:
+        fitted = Calibrator(fsr_hz=design)
+    if isinstance(calibration, CalibrationSet):
+        fitted = CalibrationSet(design, calibration.fsr_tolerance, window=fitted)
+    return fitted.fit(powers_w, frequency_hz, power_monitor_w, calibration.port_names_)
+
+
+def retrieved_frequency_hz(calibration: BaseCalibrator, powers_w, frequency_hz) -> np.ndarray:
+    """Frequency (Hz) each reading is retrieved at, the alias nearest its true frequency.
+
+    A calibration set is given the true frequency as the coarse value.
+    """
+    truth = np.asarray(frequency_hz, dtype=float)
+    if isinstance(calibration, CalibrationSet):
+        return calibration.predict(powers_w, coarse_hz=truth)
+    predicted = calibration.predict(powers_w)
+    return truth + frequency_error_hz(predicted, truth, calibration.fsr_hz_)
+
+
+def _window_rows(calibration: BaseCalibrator, frequency_hz: np.ndarray):
+    """(single calibrator, rows) pairs covering the readings: each window of a set, or all."""
+    if not isinstance(calibration, CalibrationSet):
+        return [(calibration, np.ones(frequency_hz.size, dtype=bool))]
+    index = calibration.window_index(frequency_hz)
+    return [(calibration.windows_[k], index == k) for k in np.unique(index)]
+
+
+# ---------------------------------------------------------------------------- figure data
+def _fringe_panel(model: Calibrator, sweep: _Readings, rows: np.ndarray, title: str = ""):
+    """Readings of ``rows``, the learned model's fringes and its fit at each reading."""
+    frequency, powers = sweep.frequency_hz[rows], sweep.powers_w[rows]
+    fitted = cone_vectors(delay_phase_rad(frequency, model.center_hz_, model.delay_s_))
+    fitted = fitted @ model.map_.T
+    if sweep.monitor_w is not None:  # the map is per unit of the mean monitor reading
+        monitor = sweep.monitor_w[rows]
+        fitted = fitted * (monitor / monitor.mean())[:, None]
+    model_hz = np.linspace(frequency.min(), frequency.max(), MODEL_POINTS)
+    curve = cone_vectors(delay_phase_rad(model_hz, model.center_hz_, model.delay_s_))
+    return FringePanel(
+        center_hz=model.center_hz_,
+        frequency_hz=frequency,
+        powers_w=powers,
+        fitted_w=fitted,
+        model_frequency_hz=model_hz,
+        model_powers_w=curve @ model.map_.T,
+        noise_std_w=model.noise_std_w_,
+        title=title,
+    )
+
+
+def _fringe_figure(learned: BaseCalibrator, learned_name: str, sweep: _Readings, ports):
+    """A single calibration: the sweep near its centre; a set: every window (small multiples)."""
+    from .fringes import plot_fringes, plot_window_fringes
+
+    if isinstance(learned, CalibrationSet):
+        index = learned.window_index(sweep.frequency_hz)
+        panels = [
+            _fringe_panel(
+                window, sweep, index == k, f"window {k}: {window.center_hz_ / 1e12:.4f} THz"
+            )
+            for k, window in enumerate(learned.windows_)
+            if np.count_nonzero(index == k) > 0
+        ]
+        return plot_window_fringes(panels, ports, model_label=learned_name)
+    near = (
+        np.abs(sweep.frequency_hz - learned.center_hz_) <= FRINGE_HALF_WIDTH_FSR * learned.fsr_hz_
+    )
+    return plot_fringes(_fringe_panel(learned, sweep, near), ports, model_label=learned_name)
+
+
+def _unit_power_samples(calibrator: BaseCalibrator, powers: np.ndarray) -> np.ndarray:
+    """Retrieved object samples ``r [cos t, sin t]``, ``r = |x_12| sqrt 2 / x_3`` (N, 2)."""
+    objects = powers @ linalg.pinv(calibrator.map_).T
+    radius = np.hypot(objects[:, 0], objects[:, 1]) * SQRT2 / objects[:, 2]
+    phase = calibrator.phase(powers)
+    return radius[:, None] * np.column_stack([np.cos(phase), np.sin(phase)])
+
+
+def _object_samples(calibration: BaseCalibrator, evaluation: _Readings) -> np.ndarray:
+    """Unit-power object samples of the evaluation readings, each under its own window; a
+    single calibration: the readings within its central stretch."""
+    truth, powers = evaluation.frequency_hz, evaluation.powers_w
+    if not isinstance(calibration, CalibrationSet):
+        near = np.abs(truth - calibration.center_hz_) <= (
+            FRINGE_HALF_WIDTH_FSR * calibration.fsr_hz_
+        )
+        return _unit_power_samples(calibration, powers[near])
+    parts = [
+        _unit_power_samples(window, powers[rows])
+        for window, rows in _window_rows(calibration, truth)
+    ]
+    return np.concatenate(parts)
+
+
+def report_content(
+    calibration: BaseCalibrator, sweep, test=None, port_phases_rad=None
+) -> tuple[dict, dict]:
+    """The report's figures and numbers, without writing anything.
+
+    Parameters
+    ----------
+    calibration, sweep, test, port_phases_rad
+        As for :func:`wavemeter.report.write_report`.
+
+    Returns
+    -------
+    figures : dict of str to matplotlib.figure.Figure
+        Keys ``fringes`` (a set: one panel pair per window), ``object_space``,
+        ``retrieved``, ``residual``, ``histogram``.
+    summary : dict
+        JSON-ready numbers shown in the page: ``methods`` (error summaries, Hz),
+        ``crlb_rms_hz``, ``noise_std_w`` and ``noise_from`` (the learned method whose
+        residual gave it), ``evaluated_on``, ``samples``, and ``adjacent`` for sets.
+    """
+    from . import figures as plotting
+
+    check_fitted(calibration)
+    ports = calibration.n_ports_
+    calibration_readings = _readings(sweep, "sweep", ports)
+    evaluation = calibration_readings if test is None else _readings(test, "test", ports)
+    if isinstance(calibration, CalibrationSet):
+        _check_inside(calibration, evaluation.frequency_hz, "sweep" if test is None else "test")
+    other = comparison_calibration(
+        calibration,
+        calibration_readings.powers_w,
+        calibration_readings.frequency_hz,
+        calibration_readings.monitor_w,
+        port_phases_rad,
+    )
+    methods = {calibration.method_label: calibration, other.method_label: other}
+    learned_name = next(name for name, cal in methods.items() if _is_learned(cal))
+    learned = methods[learned_name]
+    truth, powers = evaluation.frequency_hz, evaluation.powers_w
+    retrieved = {name: retrieved_frequency_hz(cal, powers, truth) for name, cal in methods.items()}
+    errors = {name: values - truth for name, values in retrieved.items()}
+    bound = crlb_per_reading_hz(learned, powers, truth)
+    crlb_rms = float(np.sqrt(np.mean(bound**2)))
+    center = calibration.center_hz_
+    samples = {
+        name: _object_samples(cal, evaluation)
+        for name, cal in methods.items()
+        if hasattr(_central(cal), "map_")
+    }
+    edges = calibration.window_edges_hz_ if isinstance(calibration, CalibrationSet) else None
+    figures = {
+        "fringes": _fringe_figure(
+            learned, learned_name, calibration_readings, calibration.port_names_
+        ),
+        "object_space": plotting.plot_object_space(samples),
+        "retrieved": plotting.plot_retrieved_frequency(truth, retrieved, center),
+        "residual": plotting.plot_residuals(
+            truth, errors, center, learned_name, crlb_std_hz=bound, window_edges_hz=edges
+        ),
+        "histogram": plotting.plot_error_histogram(
+            errors[learned_name], crlb_rms, label=learned_name
+        ),
+    }
+    summary = {
+        "evaluated_on": "calibration sweep" if test is None else "test readings",
+        "samples": int(truth.size),
+        "crlb_rms_hz": crlb_rms,
+        "noise_std_w": learned_noise_std_w(learned),
+        "noise_from": learned_name,
+        "methods": {name: error_summary_hz(error) for name, error in errors.items()},
+    }
+    if isinstance(calibration, CalibrationSet):
+        summary["adjacent"] = _adjacent_or_reason(calibration, powers, truth)
+    return figures, summary
+
+
+def _adjacent_or_reason(calibration: CalibrationSet, powers, truth) -> dict | str:
+    try:
+        return adjacent_evaluation(calibration, powers, truth)
+    except InputError as exc:  # too few windows in the evaluation readings: say why
+        return str(exc)

@@ -1,0 +1,321 @@
+"""The report's HTML page: header, tables, figures with captions, the paper's reference.
+
+The page is self-contained (figures embedded as base64 PNG, no scripts, no external
+links) and escapes every text it shows. Numbers of errors, ratios and noise carry three
+significant digits; frequencies of the calibration itself carry the digits it resolves.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from collections.abc import Mapping
+from datetime import UTC, datetime
+
+from ..calibration.base import BaseCalibrator
+from ..units import SPEED_OF_LIGHT_M_S
+from .formatting import port_label, scientific, significant
+
+__all__ = ["render_page", "PAPER_CITATION", "FIGURE_CAPTIONS", "RETRIEVAL_NAMES"]
+
+#: the paper the method and the figures follow, as its text states it (no venue, year or
+#: DOI appear in it)
+PAPER_CITATION = (
+    "G. M. Hasan, M. Hasan, P. Liu, M. Rad, E. Bernier and T. J. Hall, "
+    "“Optical Wavelength Meter with Machine Learning Enhanced Precision”, "
+    "Photonic Technology Laboratory, University of Ottawa, and Huawei Technologies Canada"
+)
+PAPER_NOTE = "Venue, year and DOI are not stated in the text of the paper this package follows."
+FIGURE_CAPTIONS = {
+    "fringes": "Port readings of the calibration sweep (markers), the fringes of the learned "
+    "map (lines) and, below, each port's residual with the detector noise estimate as a "
+    "±1σ band; for a calibration set one pair per window ([1], Fig. 4b and 7a).",
+    "object_space": "Object-space samples retrieved from the evaluation readings, normalised "
+    "to unit source power; correct samples lie on the unit circle ([1], Fig. 4a).",
+    "retrieved": "Retrieved against true frequency, the alias nearest the truth "
+    "([1], Fig. 4c and 7b).",
+    "residual": "Frequency error against true frequency; bottom: the learned method alone with "
+    "its Cramer-Rao ±1σ band ([1], Fig. 4d and 7c; Fig. 8 across the span of a set).",
+    "histogram": "Distribution of the learned method's frequency error and the Cramer-Rao "
+    "bound, with the noise estimated from the calibration residual.",
+}
+#: phase retrieval of a calibration, by its ``retrieval`` setting (None: no such setting)
+RETRIEVAL_NAMES = {
+    "pinv": "pinv: x = A⁺ p, t = atan2(x₂, x₁) ([1], Eq. 24-25)",
+    "ml": "ml: cone-constrained maximum likelihood, started from the pseudo-inverse",
+    None: "fixed to the method (ideal-coupler projection for the conventional method)",
+}
+INPUT_ROLES = (("calibration", "calibration file"), ("sweep", "sweep"), ("test", "test"))
+
+_STYLE = """
+body { font-family: sans-serif; max-width: 66em; margin: 1.5em auto; padding: 0 1em;
+       color: #222; line-height: 1.35; }
+h1 { font-size: 1.6em; } h2 { font-size: 1.2em; margin-top: 1.6em; }
+table { border-collapse: collapse; margin: 0.5em 0 1.2em; }
+th, td { border: 1px solid #bbb; padding: 0.2em 0.6em; text-align: right; }
+th:first-child, td:first-child, table.pairs td { text-align: left; }
+.header { display: flex; flex-wrap: wrap; gap: 0 2.5em; align-items: flex-start; }
+figure { margin: 1.5em 0; } img { max-width: 100%; height: auto; }
+figcaption { font-size: 0.9em; color: #444; }
+footer, .note { font-size: 0.85em; color: #555; }
+"""
+
+
+def _table(header: list[str] | None, rows: list[list[str]]) -> str:
+    head = ""
+    if header:
+        head = "<tr>" + "".join(f"<th>{html.escape(cell)}</th>" for cell in header) + "</tr>"
+    body = "".join(
+        "<tr>" + "".join(f"<td>{html.escape(cell)}</td>" for cell in row) + "</tr>" for row in rows
+    )
+    kind = "" if header else ' class="pairs"'
+    return f"<table{kind}>{head}{body}</table>"
+
+
+def _mhz(value_hz: float) -> str:
+    return significant(value_hz / 1e6)
+
+
+def _retrieval(calibration: BaseCalibrator) -> str:
+    single = calibration.windows_[0] if hasattr(calibration, "windows_") else calibration
+    setting = single.get_params().get("retrieval")
+    return RETRIEVAL_NAMES.get(setting, str(setting))
+
+
+def _input_rows(input_files: Mapping[str, object]) -> list[list[str]]:
+    from .._version import __version__
+
+    rows = [["wavemeter version", __version__]]
+    for role, name in INPUT_ROLES:
+        given = input_files.get(role)
+        if given is not None:
+            rows.append([name, str(given)])
+        elif role == "test":
+            rows.append([name, "none: evaluated on the sweep"])
+    return rows
+
+
+def _calibration_rows(calibration: BaseCalibrator, summary: dict) -> list[list[str]]:
+    low, high = calibration.span_hz_
+    center = calibration.center_hz_
+    rows = [
+        ["method", calibration.method_label],
+        ["phase retrieval", _retrieval(calibration)],
+        ["design FSR (GHz)", f"{calibration.get_params()['fsr_hz'] / 1e9:.6g}"],
+        ["fitted FSR (GHz)", f"{calibration.fsr_hz_ / 1e9:.9g}"],
+        ["centre (THz)", f"{center / 1e12:.9g}"],
+        ["centre vacuum wavelength (nm)", f"{SPEED_OF_LIGHT_M_S / center * 1e9:.6f}"],
+        ["sweep span (GHz)", f"{(high - low) / 1e9:.6g}"],
+        ["ports", ", ".join(port_label(name) for name in calibration.port_names_)],
+        ["calibration samples", str(calibration.n_samples_)],
+        ["calibration RMS error (MHz)", _mhz(calibration.calibration_rms_hz_)],
+    ]
+    noise = summary.get("noise_std_w")
+    if noise is not None:
+        source = f"{summary['noise_from']} fit residual"
+        if summary["noise_from"] != calibration.method_label:
+            source += " on the same sweep"
+        rows.append(["detector noise estimate (W)", f"{scientific(noise)} ({source})"])
+    if hasattr(calibration, "windows_"):
+        rows.append(["windows (one FSR each)", str(len(calibration.windows_))])
+    return rows
+
+
+#: SI suffix of a diagnostics key -> (unit shown, SI value per unit, exponent notation)
+_KEY_UNITS = {"_w": ("W", 1.0, True), "_hz": ("GHz", 1e9, False), "_s": ("s", 1.0, True)}
+
+
+def _key_unit(key: str):
+    return next(((s, *unit) for s, unit in _KEY_UNITS.items() if key.endswith(s)), None)
+
+
+def _key_title(key: str) -> str:
+    """``"fringe_amplitude_w"`` -> ``"fringe amplitude (W)"``."""
+    unit = _key_unit(key)
+    if unit is None:
+        return key.replace("_", " ")
+    suffix, name, _, _ = unit
+    return f"{key[: -len(suffix)].replace('_', ' ')} ({name})"
+
+
+def _value_text(value, key: str = "") -> str:
+    """A diagnostics value in the unit of its key: powers and times in exponent notation,
+    frequencies in GHz and other floats with three significant digits; containers item by
+    item."""
+    if isinstance(value, float):
+        unit = _key_unit(key)
+        if unit is None:
+            return significant(value)
+        _, _, scale, exponent = unit
+        return scientific(value / scale) if exponent else significant(value / scale)
+    if isinstance(value, Mapping):
+        return "; ".join(f"{_key_title(k)}: {_value_text(item, k)}" for k, item in value.items())
+    if isinstance(value, (list, tuple)):
+        return ", ".join(_value_text(item, key) for item in value) or "none"
+    return str(value)
+
+
+def _records_table(records: list[Mapping]) -> str:
+    """A table of records (e.g. one per port) with the union of their keys as columns."""
+    keys = list(dict.fromkeys(key for record in records for key in record))
+    rows = [[_value_text(record.get(key, ""), key) for key in keys] for record in records]
+    return _table([_key_title(key) for key in keys], rows)
+
+
+def _warning_row(note) -> list[str]:
+    """A calibration warning: its cause, then its message and remedy."""
+    if not isinstance(note, Mapping):
+        return ["warning", _value_text(note)]
+    text = " ".join(str(note[part]) for part in ("message", "remedy") if note.get(part))
+    return [f"warning ({note.get('cause', 'other')})", text]
+
+
+def _diagnostics_html(calibration: BaseCalibrator) -> str:
+    """The calibration's ``diagnostics_`` when it has any: scalar items as rows, lists of
+    records (ports) as tables, warnings with their cause, message and remedy."""
+    diagnostics = getattr(calibration, "diagnostics_", None)
+    if not diagnostics:
+        return ""
+    if not isinstance(diagnostics, Mapping):
+        diagnostics = {"diagnostics": diagnostics}
+    rows, tables = [], []
+    for key, value in diagnostics.items():
+        is_records = (
+            isinstance(value, list) and value and all(isinstance(v, Mapping) for v in value)
+        )
+        if key == "warnings" and isinstance(value, list):
+            rows += [_warning_row(note) for note in value] or [["warnings", "none"]]
+        elif is_records:
+            tables.append(f"<h3>{html.escape(_key_title(key))}</h3>" + _records_table(value))
+        else:
+            rows.append([_key_title(key), _value_text(value, key)])
+    return "<h2>Diagnostics of the calibration</h2>" + _table(None, rows) + "".join(tables)
+
+
+def _window_rows(calibration: BaseCalibrator) -> list[list[str]]:
+    rows = []
+    for index, window in enumerate(calibration.windows_):
+        noise = getattr(window, "noise_std_w_", None)
+        rows.append(
+            [
+                str(index),
+                f"{window.center_hz_ / 1e12:.6f}",
+                f"{window.fsr_hz_ / 1e9:.6f}",
+                str(window.n_samples_),
+                _mhz(window.calibration_rms_hz_),
+                "" if noise is None else scientific(noise),
+            ]
+        )
+    return rows
+
+
+def _error_rows(summary: dict) -> list[list[str]]:
+    crlb = summary["crlb_rms_hz"]
+    rows = [
+        [
+            name,
+            _mhz(stats["rms_hz"]),
+            _mhz(stats["max_hz"]),
+            _mhz(stats["p95_hz"]),
+            _mhz(stats["p99_hz"]),
+            significant(stats["rms_hz"] / crlb),
+        ]
+        for name, stats in summary["methods"].items()
+    ]
+    rows.append(["CRLB", _mhz(crlb), "", "", "", significant(1.0)])
+    return rows
+
+
+def _adjacent_html(adjacent: dict | str) -> str:
+    if isinstance(adjacent, str):
+        return f"<p>Adjacent-window evaluation not available: {html.escape(adjacent)}</p>"
+    header = [
+        "window",
+        "centre (THz)",
+        "own RMS (MHz)",
+        "own max (MHz)",
+        "adjacent RMS (MHz)",
+        "adjacent max (MHz)",
+        "conventional adjacent max (MHz)",
+    ]
+    rows = [
+        [
+            str(entry["window"]),
+            f"{entry['center_hz'] / 1e12:.6f}",
+            _mhz(entry["own"]["rms_hz"]),
+            _mhz(entry["own"]["max_hz"]),
+            _mhz(entry["adjacent"]["rms_hz"]),
+            _mhz(entry["adjacent"]["max_hz"]),
+            _mhz(entry["conventional_adjacent"]["max_hz"]),
+        ]
+        for entry in adjacent["windows"]
+    ]
+    return (
+        "<h2>Maps applied to the neighbouring FSRs ([1], Fig. 9)</h2>"
+        f"<p>Adjacent over own RMS: {significant(adjacent['degradation_rms'])}.</p>"
+        + _table(header, rows)
+    )
+
+
+def _figures_html(images: Mapping[str, bytes]) -> str:
+    return "".join(
+        f'<figure id="figure-{html.escape(name)}"><img alt="{html.escape(name)} figure" '
+        f'src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}">'
+        f"<figcaption>{html.escape(FIGURE_CAPTIONS[name])}</figcaption></figure>"
+        for name, png in images.items()
+    )
+
+
+def render_page(
+    calibration: BaseCalibrator,
+    summary: dict,
+    images: Mapping[str, bytes],
+    input_files: Mapping[str, object],
+) -> str:
+    """The complete HTML document.
+
+    Parameters
+    ----------
+    calibration : BaseCalibrator
+        The fitted calibration under report.
+    summary : dict
+        Numbers from :func:`wavemeter.report.content.report_content`.
+    images : mapping of str to bytes
+        PNG data of each figure, by the keys of ``FIGURE_CAPTIONS``, in page order.
+    input_files : mapping of str to str or Path
+        Files the report was made from, by role: ``calibration``, ``sweep``, ``test``.
+
+    Returns
+    -------
+    str
+    """
+    created = datetime.now(UTC).isoformat(timespec="seconds")
+    windows = ""
+    if hasattr(calibration, "windows_"):
+        header = ["window", "centre (THz)", "FSR (GHz)", "samples", "RMS (MHz)", "noise (W)"]
+        windows = "<h2>Windows of the set</h2>" + _table(header, _window_rows(calibration))
+    errors_header = ["method", "RMS (MHz)", "max (MHz)", "p95 (MHz)", "p99 (MHz)", "RMS / CRLB"]
+    adjacent = _adjacent_html(summary["adjacent"]) if "adjacent" in summary else ""
+    return (
+        '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f"<title>wavemeter calibration report</title><style>{_STYLE}</style></head><body>"
+        "<h1>wavemeter calibration report</h1>"
+        f'<div class="header"><div><h2>Inputs</h2>{_table(None, _input_rows(input_files))}'
+        "</div>"
+        f"<div><h2>Calibration</h2>{_table(None, _calibration_rows(calibration, summary))}"
+        "</div></div>"
+        + _diagnostics_html(calibration)
+        + windows
+        + f"<h2>Frequency error on the {html.escape(summary['evaluated_on'])} "
+        f"({summary['samples']} readings)</h2>"
+        + _table(errors_header, _error_rows(summary))
+        + '<p class="note">RMS / CRLB near 1.00: limited by detector noise. The bound uses the '
+        "noise estimated from the calibration residual and the learned map as the true one.</p>"
+        + adjacent
+        + _figures_html(images)
+        + "<h2>Reference</h2>"
+        f"<p>[1] {html.escape(PAPER_CITATION)}. {html.escape(PAPER_NOTE)}</p>"
+        f"<footer>Report created {created}.</footer>"
+        "</body></html>\n"
+    )
