@@ -110,3 +110,16 @@ def test_measured_data_with_peers(peers):
         pytest.skip("minipti not installed")
     rms = peers.phase_difference_rms_rad(solver(readings[:50]), published[:50])
     assert rms < 0.05
+
+
+def test_port_faults_benchmark_warns_and_its_remedy_restores_the_bound():
+    """Each broken port is named by the fit's warning; dropping it brings back the bound."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.syspath_prepend(str(BENCHMARKS))
+        port_faults = importlib.import_module("port_faults")
+    for fault in ("dead", "stuck", "saturated"):
+        result = port_faults.one_device(fault, seed=3)
+        assert result["warned"] and result["cause"] == "dead_port"
+        # three good ports of a Table 1 hybrid: the pseudo-inverse's excess stays small
+        assert result["with"] < 1.2
+    assert port_faults.one_device("stuck", seed=3)["without"] > 5
