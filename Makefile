@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench peers clean
+.PHONY: demo test lint bench peers fuzz clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -20,6 +20,16 @@ lint: $(BIN)/wavemeter
 	$(BIN)/ruff check src tests benchmarks examples
 	$(BIN)/ruff format --check src tests benchmarks examples
 	$(BIN)/lint-imports
+
+# 10,000 hypothesis examples per file reader (a tenth through `wavemeter measure`) and for the
+# calibration loader; the seed is printed: repeat a run with `make fuzz FUZZ_SEED=<seed>`,
+# change the count with FUZZ_EXAMPLES
+FUZZ_EXAMPLES ?= 10000
+fuzz: $(BIN)/wavemeter
+	@seed=$${FUZZ_SEED:-$$(od -An -N4 -tu4 /dev/urandom | tr -d ' ')}; \
+	echo "fuzz: $(FUZZ_EXAMPLES) examples per reader, seed $$seed (make fuzz FUZZ_SEED=$$seed)"; \
+	WAVEMETER_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest -q -p no:cacheprovider \
+		tests/test_fuzz_readers.py tests/test_fuzz_calibration_files.py --hypothesis-seed=$$seed
 
 bench: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/precision.py

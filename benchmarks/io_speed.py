@@ -20,7 +20,7 @@ from unittest import mock
 import numpy as np
 from _montecarlo import median_time_s
 
-from wavemeter.io._reader import read_table, write_table
+from wavemeter.io import read_table, write_table
 
 
 def _sweep_columns(rows: int) -> dict[str, np.ndarray]:
@@ -47,7 +47,7 @@ def main() -> None:
         if has_arrow:
             seconds, _ = median_time_s(lambda: read_table(csv_path), args.runs)
             results.append((label, "pyarrow.csv", seconds))
-        with mock.patch("wavemeter.io._parse_text_with_arrow", return_value=None):
+        with mock.patch("wavemeter.io.text._parse_text_with_arrow", return_value=None):
             seconds, _ = median_time_s(lambda: read_table(csv_path), args.runs)
         results.append((label, "numpy.loadtxt", seconds))
         output = {

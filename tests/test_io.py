@@ -12,7 +12,7 @@ import pytest
 from scipy import io as scipy_io
 
 import wavemeter as wm
-from wavemeter.io._reader import ColumnRequest, port_key, read_table, table_format, write_table
+from wavemeter.io import ColumnRequest, port_key, read_table, table_format, write_table
 from wavemeter.units import SPEED_OF_LIGHT_M_S, hz_to_axis, w_to_power
 
 MINIPTI = Path(__file__).parents[2] / "shared" / "data" / "minipti-fiber-3x3"
@@ -33,7 +33,7 @@ def parser(request, monkeypatch):
     if request.param == "arrow":
         pytest.importorskip("pyarrow")
     else:
-        monkeypatch.setattr("wavemeter.io._reader._parse_text_with_arrow", lambda *args: None)
+        monkeypatch.setattr("wavemeter.io.text._parse_text_with_arrow", lambda *args: None)
     return request.param
 
 
@@ -155,6 +155,7 @@ def test_overrides_choose_columns_and_units(tmp_path, readings):
     np.testing.assert_allclose(table.x_hz, frequency, rtol=4e-16)
 
 
+@pytest.mark.skipif(not MINIPTI.exists(), reason="shared MiniPTI data not present")
 def test_real_minipti_file_finds_the_dc_ports_and_no_axis():
     table = read_table(MINIPTI / "Decimation_Comercial.csv", need_x=False)
     assert table.port_names == ("DC CH1", "DC CH2", "DC CH3")
@@ -207,9 +208,10 @@ def test_bad_rows_are_reported_with_file_line_numbers(tmp_path, parser):
         "line 7 (P2_mW is a power-meter 'no reading' code 9.91e+37)",
         "line 8 (port powers sum to <= 0",
         "line 9 (P1_mW is NaN",
-        "--drop-invalid",
+        "allow invalid rows",
     ):
         assert expected in message
+    assert err.value.parameter == "allow_invalid" and "--" not in message
     table = read_table(path, allow_invalid=True)
     assert table.invalid.tolist() == [False, True, True, True, True, False]
     valid = table.valid_only()
@@ -242,13 +244,13 @@ def test_minus_200_dbm_is_a_no_reading_code(tmp_path, parser):
         ("freq_THz;p1;p2;p3\n193,4;1;2;3\n", "'193,4' is not a number (a decimal comma?"),
         ("frequency_hz,p1,p2,p3\n1.934e14,1,2\n", "line 2 has 3 fields, the header has 4"),
         ("frequency_hz,P1_mA,P2_mA,P3_mA\n1.934e14,1,2,3\n", "column 'P1_mA': unknown power unit"),
-        ("freq_THz,p1,p2,p3\n1550,1,2,3\n", "labelled THz look like nm; use --x-unit nm"),
-        ("frequency_hz,wavelength_nm,p1,p2,p3\n1.934e14,1550,1,2,3\n", "choose one with --x"),
+        ("freq_THz,p1,p2,p3\n1550,1,2,3\n", "labelled THz look like nm"),
+        ("frequency_hz,wavelength_nm,p1,p2,p3\n1.934e14,1550,1,2,3\n", "name the one to use (x)"),
         ("time_s,p1,p2,p3\n1,1,2,3\n", "no frequency or wavelength column"),
         ("frequency_hz,a,b,c\n1.934e14,1,2,3\n", "no port columns"),
         ("frequency_hz,p1,p2\n1.934e14,1,2\n", "found 2 port column(s) (p1, p2); need at least 3"),
         ("frequency_hz,p1,P1_mW,p2,p3\n1.934e14,1,1,2,3\n", "repeat a port number"),
-        ("frequency_hz,P1_mW,P2_mW,P3_mW\n1.934e14,-3,-4,-5\n", "are these dBm? pass --power-unit"),
+        ("frequency_hz,P1_mW,P2_mW,P3_mW\n1.934e14,-3,-4,-5\n", "are these dBm? give the power"),
         ("only\n1\n", "cannot tell the column delimiter"),
     ],
 )
@@ -275,9 +277,10 @@ def test_missing_requested_column_lists_the_columns(tmp_path, readings):
         tmp_path / "s.csv", ["frequency_hz", "p1", "p2", "p3"], [frequency, *powers[:, :3].T]
     )
     with pytest.raises(
-        ValueError, match=r"no column 'nope' \(given by --x\); columns: 'frequency_hz'"
-    ):
+        ValueError, match=r"no column 'nope' \(given as x\); columns: 'frequency_hz'"
+    ) as err:
         read_table(path, ColumnRequest(x="nope"))
+    assert err.value.parameter == "x"
 
 
 @pytest.mark.parametrize("make", ["missing", "folder"])

@@ -61,9 +61,7 @@ def printable(text) -> str:
     ``?`` shows that something was there rather than hiding it.
     """
     return "".join(
-        char
-        if char in "\n\t" or unicodedata.category(char) not in _UNPRINTED_CATEGORIES
-        else "?"
+        char if char in "\n\t" or unicodedata.category(char) not in _UNPRINTED_CATEGORIES else "?"
         for char in str(text)
     )
 

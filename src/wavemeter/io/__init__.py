@@ -1,5 +1,36 @@
-"""Reading and writing measurement tables: columns by name, units, formats."""
+"""Reading and writing tables of readings and results: file formats, columns, units.
 
-from ._reader import ColumnRequest, Table, read_table, table_format, write_table
+:func:`read_table` opens CSV/TSV (delimiter sniffed), HDF5, MAT v5 and v7.3, NPZ and
+Parquet files, finds the frequency axis, the port columns, a power monitor and a
+temperature by name (unit from a suffix or bracket: ``frequency_hz``, ``Wavelength (nm)``,
+``P1_mW``, ``Port 3 [uW]``, ``DC CH1``), converts them to SI and flags invalid rows (NaN,
+power-meter sentinels, implausible dBm, no light). :func:`write_table` writes named columns
+to CSV, TSV, Parquet, HDF5 or NPZ at full float64 precision, atomically. What a file
+declares is checked against :data:`MAX_BYTES` before anything is allocated. File readers
+know nothing of the numerics.
 
-__all__ = ["ColumnRequest", "Table", "read_table", "table_format", "write_table"]
+Modules: ``columns`` (finding columns by name, units in names), ``table`` (the Table),
+``formats`` (the one table of formats), ``text``, ``hdf5``, ``mat``, ``npz``, ``parquet``
+(one per format), ``source`` (what readers share), ``reading`` (read_table).
+"""
+
+from .columns import ColumnRequest, port_key, split_unit
+from .formats import FORMATS, table_format, write_table
+from .reading import MAX_DBM, SENTINEL_DBM, SENTINEL_W, read_table
+from .source import MAX_BYTES
+from .table import Table
+
+__all__ = [
+    "ColumnRequest",
+    "Table",
+    "read_table",
+    "write_table",
+    "table_format",
+    "port_key",
+    "split_unit",
+    "FORMATS",
+    "SENTINEL_W",
+    "SENTINEL_DBM",
+    "MAX_DBM",
+    "MAX_BYTES",
+]

@@ -1,0 +1,197 @@
+"""The one table of file formats: name, extensions, reader, writer; picking one for a file.
+
+A file to read is recognised by its first bytes (HDF5, MATLAB, zip, Parquet signatures),
+then by its extension; anything else is read as a text table. A file to write takes the
+format asked for, else the one its extension names; an extension no writer knows is an
+error (``q.xlsx`` is not silently written as CSV), a name without extension is CSV.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import STDOUT, atomic_path
+from ..exceptions import InputError
+from .hdf5 import read_hdf5, write_hdf5
+from .mat import read_mat
+from .npz import read_npz, write_npz
+from .parquet import read_parquet, require_pyarrow, write_parquet
+from .source import RawInput, Source, open_input
+from .text import read_text, refuse_text_chunk, write_csv, write_tsv
+
+__all__ = ["FileFormat", "FILE_FORMATS", "FORMATS", "open_source", "table_format", "write_table"]
+
+
+@dataclass(frozen=True)
+class FileFormat:
+    """A file format: how to read and write it and the extensions that name it.
+
+    Attributes
+    ----------
+    name : str
+        The format's name (``"csv"``, ``"hdf5"``), as given to ``write_table``.
+    extensions : tuple of str
+        File extensions (lower case, with the dot) that mean this format.
+    read : callable
+        ``read(raw, max_bytes) -> Source``.
+    write : callable or None
+        ``write(path, columns)`` with 1-D float64 or text columns; None: read only.
+    """
+
+    name: str
+    extensions: tuple[str, ...]
+    read: Callable[[RawInput, int], Source]
+    write: Callable[[Path, dict[str, np.ndarray]], None] | None
+
+
+#: every format the package reads, and writes where ``write`` is set
+FILE_FORMATS = (
+    FileFormat("csv", (".csv", ".txt", ".dat"), read_text, write_csv),
+    FileFormat("tsv", (".tsv",), read_text, write_tsv),
+    FileFormat("parquet", (".parquet", ".pq"), read_parquet, write_parquet),
+    FileFormat("hdf5", (".h5", ".hdf5", ".hdf"), read_hdf5, write_hdf5),
+    FileFormat("npz", (".npz",), read_npz, write_npz),
+    FileFormat("mat", (".mat",), read_mat, None),
+)
+_BY_NAME = {file_format.name: file_format for file_format in FILE_FORMATS}
+#: output formats of :func:`write_table`
+FORMATS = tuple(file_format.name for file_format in FILE_FORMATS if file_format.write)
+
+
+def _by_extension(suffix: str) -> FileFormat | None:
+    return next((f for f in FILE_FORMATS if suffix in f.extensions), None)
+
+
+def _format_of(head: bytes, suffix: str) -> FileFormat:
+    """The format of a file to read, from its first bytes, else its extension."""
+    if head.startswith(b"\x89HDF") or head[512:516] == b"\x89HDF":
+        return _BY_NAME["mat" if suffix == ".mat" else "hdf5"]
+    if head.startswith(b"MATLAB 5.0") or suffix == ".mat":
+        return _BY_NAME["mat"]
+    if head.startswith(b"PK\x03\x04"):
+        return _BY_NAME["npz"]
+    if head.startswith(b"PAR1"):
+        return _BY_NAME["parquet"]
+    return _BY_NAME["csv"]  # every text table: the delimiter is sniffed
+
+
+def _refuse_stream_chunk(head: bytes, chunk: bytes, suffix: str) -> str | None:
+    """Stop reading a stream early when it can be no table: text holding NUL bytes."""
+    if len(head) < 1024:
+        return None  # too little seen yet to tell
+    if not head.strip(b"\x00"):
+        return "holds only NUL bytes: it is no table of any format"
+    if _format_of(head, suffix).name != "csv":
+        return None  # a binary format: read it whole, up to the limit
+    return refuse_text_chunk(head, chunk)
+
+
+def open_source(path, max_bytes: int) -> Source:
+    """The fields of the data file at ``path`` (``-``: standard input), read by its format.
+
+    A regular file is read in place; a pipe, device or standard input is read once, at
+    most ``max_bytes`` bytes, then parsed from memory.
+    """
+    suffix = Path(str(path)).suffix.lower()
+    raw = open_input(path, max_bytes, lambda head, chunk: _refuse_stream_chunk(head, chunk, suffix))
+    return _format_of(raw.head(1024), raw.suffix).read(raw, max_bytes)
+
+
+def table_format(path, file_format: str | None = None) -> str:
+    """Output format: ``file_format`` if given, else from the file extension.
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file; ``"-"`` (standard output) and names without an extension are CSV.
+    file_format : {"csv", "tsv", "parquet", "hdf5", "npz"}, optional
+        The format asked for; it wins over the extension.
+
+    Raises
+    ------
+    InputError
+        For an unknown format, or an extension no writer knows (``parameter`` is
+        ``"file_format"``).
+    """
+    if file_format is not None:
+        if file_format not in FORMATS:
+            raise InputError(
+                f"format must be one of {', '.join(FORMATS)}; got {file_format!r}",
+                parameter="file_format",
+            )
+        return file_format
+    suffix = Path(str(path)).suffix.lower()
+    if str(path) == STDOUT or not suffix:
+        return "csv"
+    found = _by_extension(suffix)
+    if found is None or found.write is None:
+        what = "MAT files" if found is not None else f"{suffix!r} files"
+        known = ", ".join(ext for f in FILE_FORMATS if f.write for ext in f.extensions)
+        raise InputError(
+            f"{path}: cannot write {what}; name the file with one of the extensions {known}, "
+            f"or choose a format ({', '.join(FORMATS)})",
+            parameter="file_format",
+        )
+    return found.name
+
+
+def write_table(path, columns: dict[str, np.ndarray], file_format: str | None = None) -> None:
+    """Write named 1-D columns to a file, atomically, floats at full float64 precision.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file; ``"-"`` writes to standard output.
+    columns : dict of str to array_like, each shape (N,)
+        Column name (with its unit suffix, e.g. ``frequency_hz``) to values: numbers, or
+        text (kept columns of a text file).
+    file_format : {"csv", "tsv", "parquet", "hdf5", "npz"}, optional
+        Default: from the extension of ``path`` (``.parquet``, ``.h5``, ``.npz``, ``.tsv``,
+        ``.csv``/``.txt``/``.dat``; CSV without extension). CSV floats are the shortest
+        text that reads back to the same float64; CSV text cells that a spreadsheet would
+        run as a formula get a leading ``'``.
+
+    Raises
+    ------
+    InputError
+        For an unknown format or extension, columns of different lengths or not 1-D, a
+        missing folder; nothing is written then.
+    """
+    writer = _BY_NAME[table_format(path, file_format)].write
+    arrays = {str(name): _column_array(name, values) for name, values in columns.items()}
+    lengths = {len(values) for values in arrays.values()}
+    if len(lengths) > 1:
+        raise InputError(f"columns to write have different lengths: {sorted(lengths)}")
+    if writer is write_parquet:
+        require_pyarrow("writing")
+    if str(path) == STDOUT:
+        _write_to_stdout(writer, arrays)
+        return
+    with atomic_path(path) as temporary:
+        writer(temporary, arrays)
+
+
+def _write_to_stdout(writer, arrays: dict[str, np.ndarray]) -> None:
+    with tempfile.TemporaryDirectory() as folder:
+        temporary = Path(folder) / "table"
+        writer(temporary, arrays)
+        sys.stdout.flush()
+        with open(temporary, "rb") as handle:
+            shutil.copyfileobj(handle, sys.stdout.buffer)
+        sys.stdout.buffer.flush()
+
+
+def _column_array(name, values) -> np.ndarray:
+    array = np.asarray(values)
+    if array.ndim != 1:
+        raise InputError(f"column {name!r} to write must be 1-D, got shape {array.shape}")
+    if array.dtype.kind in "fiub":
+        return array.astype(float)
+    return array.astype(str)
