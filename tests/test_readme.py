@@ -1,0 +1,73 @@
+"""The README's examples run as written and print what the README shows.
+
+The walk-through of "Using your own data" is replayed command by command: every output line
+the README shows (other than ``...``) must appear in what the command prints. The Python
+example runs as it stands.
+"""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+
+from wavemeter.cli import main
+
+README = (Path(__file__).parent.parent / "README.md").read_text(encoding="utf-8")
+
+
+def walk_through() -> tuple[str, list[tuple[str, list[str]]]]:
+    """The command that makes the example files, and each ``$ command`` with its output."""
+    section = README[README.index("## Using your own data") : README.index("## Results")]
+    setup = re.search(r"`(wavemeter simulate -o scan\.csv[^`]*)`", section).group(1)
+    steps, current = [], None
+    for line in section.splitlines():
+        if line.startswith("    $ "):
+            current = (line[6:], [])
+            steps.append(current)
+        elif current is not None and line.startswith("    ") and line.strip():
+            current[1].append(line[4:])
+        else:
+            current = None
+    return " ".join(setup.split()), steps
+
+
+def run(command: str, capsys) -> list[str]:
+    """Run a README command (``wavemeter ...`` or ``head -N FILE``); its printed lines."""
+    words = shlex.split(command)
+    if words[0] == "head":
+        count = int(words[1].lstrip("-"))
+        return Path(words[2]).read_text().splitlines()[:count]
+    assert words[0] == "wavemeter"
+    code = main(words[1:])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    return (printed.out + printed.err).splitlines()
+
+
+def test_the_walk_through_prints_what_the_readme_shows(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    setup, steps = walk_through()
+    run(setup, capsys)
+    assert [command.split()[:2] for command, _ in steps] == [
+        ["wavemeter", "calibrate"],
+        ["wavemeter", "measure"],
+        ["head", "-2"],
+        ["wavemeter", "evaluate"],
+    ]
+    for command, expected in steps:
+        printed = run(command, capsys)
+        for line in expected:
+            if line.strip() != "...":
+                assert line in printed, f"{command}: README line not printed: {line!r}"
+
+
+def test_the_python_example_runs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code = re.search(r"```python\n(.*?)```", README, re.S).group(1)
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102 - the README's own code
+    assert namespace["cal"].fsr_hz_ == pytest.approx(namespace["dev"].true_fsr_hz, rel=1e-4)
+    assert (tmp_path / "chip.wmcal.json").is_file()
