@@ -1,11 +1,15 @@
-"""Shared fixtures: seeded randomness and simulated devices."""
+"""Shared fixtures and helpers: seeded randomness, simulated devices, the command line."""
 
 from __future__ import annotations
+
+import shlex
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import wavemeter as wm
+from wavemeter.cli import main
 
 POWER_W = 1e-3
 NOISE_W = 5e-7  # Table 1: 5e-4 mW at 1 mW
@@ -20,3 +24,26 @@ def random_test_frequencies(device: wm.Interferometer, samples: int, rng) -> np.
     """Frequencies (Hz) uniform over one true FSR about the device centre."""
     half = device.true_fsr_hz / 2
     return device.center_hz + rng.uniform(-half, half, samples)
+
+
+def run_cli(capsys, command: str) -> tuple[int, str, str]:
+    """Run ``wavemeter COMMAND`` in process: exit code, stdout, stderr."""
+    code = main(shlex.split(command))
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def one_error(code: int, err: str) -> str:
+    """The single ``error:`` line of a refused command (exit code 2)."""
+    assert code == 2, err
+    assert err.count("\n") == 1 and err.startswith("error: "), err
+    return err
+
+
+def simulated_files(folder: Path, test_rows: int, seed: int = 1) -> dict[str, Path]:
+    """A simulated sweep with a test file in ``folder``, and its learned calibration."""
+    sweep, cal = folder / "sweep.csv", folder / "chip.wmcal.json"
+    simulate = f"simulate -o {sweep} --seed {seed} --samples 400 --test {test_rows} --quiet"
+    assert main(shlex.split(simulate)) == 0
+    assert main(shlex.split(f"calibrate {sweep} -o {cal} --quiet")) == 0
+    return {"sweep": sweep, "test": folder / "sweep-test.csv", "cal": cal}

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import math
-import shlex
 import time
 from pathlib import Path
 
@@ -17,10 +16,10 @@ import pytest
 
 import wavemeter as wm
 from wavemeter.calibration.files import MAX_DEPTH, MAX_INTEGER_DIGITS
-from wavemeter.cli import main
 from wavemeter.cli._common import printable
 
 from .conftest import NOISE_W, POWER_W
+from .conftest import run_cli as run
 
 #: a hang guard for reading a device or a crafted document (each takes well under a second)
 HANG_GUARD_S = 5.0
@@ -174,10 +173,6 @@ def test_nan_in_the_ml_retrieval_cannot_come_from_a_valid_file(documents, sweep,
 
 
 # ---------------------------------------------------------------------------- wavemeter info
-def run(capsys, command: str) -> tuple[int, str, str]:
-    code = main(shlex.split(command))
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def test_printable_replaces_control_characters():

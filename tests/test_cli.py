@@ -25,17 +25,12 @@ from wavemeter.io import ColumnRequest, read_table
 from wavemeter.model.cone import delay_phase_rad
 from wavemeter.progress import chunked
 
+from .conftest import run_cli as run
+
 SCRIPT = Path(sys.executable).with_name("wavemeter")
 MINIPTI_CSV = Path(__file__).parents[2] / "shared/data/minipti-fiber-3x3/Decimation_Comercial.csv"
 SEED = 1
 C = 299792458.0
-
-
-def run(capsys, command: str) -> tuple[int, str, str]:
-    """Run ``wavemeter COMMAND`` in process: exit code, stdout, stderr."""
-    code = main(shlex.split(command))
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def ok(capsys, command: str) -> str:

@@ -10,7 +10,6 @@ the terminal as a control sequence, and long work reports progress.
 from __future__ import annotations
 
 import io
-import shlex
 import time
 from pathlib import Path
 
@@ -24,26 +23,13 @@ from wavemeter.cli.app import _error_text, _option_hint
 from wavemeter.exceptions import InputError
 from wavemeter.progress import busy, chunked, progress_bar, progress_line
 
-
-def run(capsys, command: str) -> tuple[int, str, str]:
-    code = main(shlex.split(command))
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
-
-
-def one_error(code: int, err: str) -> str:
-    assert code == 2, err
-    assert err.count("\n") == 1 and err.startswith("error: "), err
-    return err
+from .conftest import one_error, simulated_files
+from .conftest import run_cli as run
 
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory) -> dict[str, Path]:
-    folder = tmp_path_factory.mktemp("conventions")
-    sweep, cal = folder / "sweep.csv", folder / "chip.wmcal.json"
-    assert main(["simulate", "-o", str(sweep), "--samples", "400", "--test", "200", "--quiet"]) == 0
-    assert main(["calibrate", str(sweep), "-o", str(cal), "--quiet"]) == 0
-    return {"sweep": sweep, "test": folder / "sweep-test.csv", "cal": cal}
+    return simulated_files(tmp_path_factory.mktemp("conventions"), test_rows=200)
 
 
 # ---------------------------------------------------------------------------- units

@@ -9,7 +9,6 @@ file from stdin and writes the output table to stdout with nothing else there.
 from __future__ import annotations
 
 import os
-import shlex
 import signal
 import subprocess
 import sys
@@ -26,29 +25,15 @@ from wavemeter.cli import main
 from wavemeter.exceptions import InputError
 from wavemeter.report.demo import DEMO_FILES, DEMO_SETUP
 
+from .conftest import one_error, simulated_files
+from .conftest import run_cli as run
+
 SCRIPT = Path(sys.executable).with_name("wavemeter")
-
-
-def run(capsys, command: str) -> tuple[int, str, str]:
-    code = main(shlex.split(command))
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
-
-
-def one_error(code: int, err: str) -> str:
-    """The single ``error:`` line of a refused command."""
-    assert code == 2, err
-    assert err.count("\n") == 1 and err.startswith("error: "), err
-    return err
 
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory) -> dict[str, Path]:
-    folder = tmp_path_factory.mktemp("outputs")
-    sweep, cal = folder / "sweep.csv", folder / "chip.wmcal.json"
-    assert main(["simulate", "-o", str(sweep), "--samples", "400", "--test", "300", "--quiet"]) == 0
-    assert main(["calibrate", str(sweep), "-o", str(cal), "--quiet"]) == 0
-    return {"sweep": sweep, "test": folder / "sweep-test.csv", "cal": cal}
+    return simulated_files(tmp_path_factory.mktemp("outputs"), test_rows=300)
 
 
 # ---------------------------------------------------------------------------- inputs are safe
