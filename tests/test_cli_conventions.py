@@ -10,6 +10,7 @@ the terminal as a control sequence, and long work reports progress.
 from __future__ import annotations
 
 import io
+import re
 import time
 from pathlib import Path
 
@@ -294,3 +295,16 @@ def test_terminal_bar_shows_percentage_count_and_rate():
     drawn = stream.getvalue()
     assert "measuring d.csv" in drawn and "100%" in drawn and "10/10" in drawn
     assert "rows/s" in drawn
+
+
+def test_an_aliasing_design_fsr_is_refused_fast_with_the_sweeps_own(files, tmp_path, capsys):
+    """``--fsr 5e6`` (5 MHz; issue 15: it used to 'succeed' with an aliased calibration)."""
+    out = tmp_path / "c.wmcal.json"
+    started = time.perf_counter()
+    code, _, err = run(capsys, f"calibrate {files['sweep']} -o {out} --fsr 5e6")
+    assert time.perf_counter() - started < 2.0  # a hang guard: no delay grid is built
+    err = one_error(code, err)
+    assert "is not resolved by the sweep" in err and not out.exists()
+    suggested = float(re.search(r"set fsr_hz to about (\S+) Hz", err).group(1))
+    true_fsr_hz = wm.Interferometer.table1(3, seed=1).true_fsr_hz  # the sweep's device
+    assert suggested == pytest.approx(true_fsr_hz, rel=1e-3)
