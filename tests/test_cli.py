@@ -403,3 +403,18 @@ def test_uncertainty_and_ml_need_the_learned_method(files, tmp_path, capsys):
     code, _, err = run(capsys, f"measure {conventional} {files['test']} -o {out} --uncertainty")
     assert code == 2 and err.startswith("error:") and "--uncertainty needs a learned" in err
     assert not out.exists()
+
+
+def test_uncertainty_of_a_calibration_set_has_unit_z_spread(tmp_path, capsys):
+    """measure --uncertainty works for a per-FSR set (issue 15): errors over the stated
+    standard deviation spread as N(0, 1), within the statistics of 2000 readings."""
+    sweep, cal, out = tmp_path / "wide.csv", tmp_path / "set.wmcal.json", tmp_path / "m.csv"
+    ok(capsys, f"simulate -o {sweep} --span-fsr 3 --samples 6000 --test 2000 --quiet")
+    ok(capsys, f"calibrate {sweep} -o {cal} --per-fsr --quiet")
+    test = tmp_path / "wide-test.csv"
+    ok(capsys, f"measure {cal} {test} -o {out} --coarse true_frequency_hz --uncertainty --quiet")
+    header, data = read_csv(out)
+    truth = np.loadtxt(test, delimiter=",", skiprows=1, usecols=0)
+    z = (data[:, header.index("frequency_hz")] - truth) / data[:, header.index("frequency_std_hz")]
+    # rms of 2000 unit normals: 1 +- 4 / sqrt(2 * 2000); calibration adds sqrt(1 + 3/2000)
+    assert abs(np.sqrt(np.mean(z**2)) - 1) < 4 / np.sqrt(2 * 2000) + 0.01
