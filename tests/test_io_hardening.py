@@ -299,6 +299,10 @@ def test_dev_zero_is_refused_at_once():
     assert time.perf_counter() - start < 1.0
 
 
+NEEDS_DEV_FD = pytest.mark.skipif(not os.path.isdir("/dev/fd"), reason="no /dev/fd")
+
+
+@NEEDS_DEV_FD
 def test_a_text_stream_longer_than_the_limit_is_refused(tmp_path):
     read_end, write_end = os.pipe()
 
@@ -338,6 +342,7 @@ def test_fifo_is_read_once_as_a_stream(tmp_path):
     np.testing.assert_array_equal(table.powers_w, POWERS_W)
 
 
+@NEEDS_DEV_FD
 def test_process_substitution_pipe_with_a_bad_row_names_its_line():
     read_end, write_end = os.pipe()
     text = _sweep_text(5).splitlines()

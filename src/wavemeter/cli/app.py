@@ -84,7 +84,7 @@ OPTION_OF_PARAMETER = {
     "x_unit": "--x-unit",
     "ports": "--ports",
     "power_unit": "--power-unit",
-    "drop_invalid": "--drop-invalid",
+    "allow_invalid": "--drop-invalid",
     "monitor": "--monitor",
     "temperature": "--temperature",
     "coarse": "--coarse",
