@@ -242,9 +242,11 @@ class BaseCalibrator:
         check_fitted(self)
         return check_powers(powers, ports=self.n_ports_)
 
-    def _check_reading_inputs(self, samples: int, coarse_hz, temperature_k) -> dict:
-        """Validated per-reading inputs (one value or one per reading); missing required ones
-        raise :class:`InputError` naming them."""
+    def _check_reading_data(self, powers, coarse_hz, temperature_k) -> tuple[np.ndarray, dict]:
+        """Validated readings (N, n) and per-reading inputs (one value or one per reading,
+        None where not given); missing required ones raise :class:`InputError` naming them."""
+        readings = self._check_readings(powers)
+        samples = readings.shape[0]
         given = {"coarse_hz": coarse_hz, "temperature_k": temperature_k}
         missing = [name for name in sorted(self.requires) if given[name] is None]
         if missing:
@@ -252,7 +254,7 @@ class BaseCalibrator:
                 f"{type(self).__name__} needs {' and '.join(missing)} for each reading "
                 f"({self._requirement_reason()}); got None"
             )
-        return {
+        return readings, {
             name: None if value is None else check_per_reading(name, value, samples)
             for name, value in given.items()
         }
@@ -274,8 +276,7 @@ class BaseCalibrator:
         -------
         ndarray, shape (N,), rad
         """
-        readings = self._check_readings(powers)
-        self._check_reading_inputs(readings.shape[0], coarse_hz, temperature_k)
+        readings, _ = self._check_reading_data(powers, coarse_hz, temperature_k)
         return self._phase(readings)
 
     def _phase(self, powers: np.ndarray) -> np.ndarray:
@@ -295,8 +296,7 @@ class BaseCalibrator:
         -------
         ndarray, shape (N,), Hz
         """
-        readings = self._check_readings(powers)
-        self._check_reading_inputs(readings.shape[0], coarse_hz, temperature_k)
+        readings, _ = self._check_reading_data(powers, coarse_hz, temperature_k)
         return self._predict_checked(readings)
 
     def _predict_checked(self, powers: np.ndarray) -> np.ndarray:

@@ -294,8 +294,7 @@ class Calibrator(BaseCalibrator):
         -------
         ndarray, shape (N,), Hz
         """
-        readings = self._check_readings(powers)
-        self._check_reading_inputs(readings.shape[0], coarse_hz, temperature_k)
+        readings, _ = self._check_reading_data(powers, coarse_hz, temperature_k)
         phase = self._phase(readings) if phase_rad is None else np.asarray(phase_rad, float)
         power = source_power_ratio(readings, self.map_, phase)
         # the bound is linear in the noise: evaluate at unit noise, then scale

@@ -317,8 +317,9 @@ class CalibrationSet(BaseCalibrator):
 
         return self._per_window(readings, coarse, nearest_alias)
 
-    def _coarse(self, readings: np.ndarray, coarse_hz, temperature_k) -> np.ndarray:
-        return self._check_reading_inputs(readings.shape[0], coarse_hz, temperature_k)["coarse_hz"]
+    def _readings_and_coarse(self, powers, coarse_hz, temperature_k):
+        readings, inputs = self._check_reading_data(powers, coarse_hz, temperature_k)
+        return readings, inputs["coarse_hz"]
 
     def predict(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
         """Source frequency (Hz) of each reading.
@@ -344,8 +345,8 @@ class CalibrationSet(BaseCalibrator):
             When ``coarse_hz`` is missing, of the wrong length, not finite, or outside
             :meth:`covered_hz`.
         """
-        readings = self._check_readings(powers)
-        return self._predict_readings(readings, self._coarse(readings, coarse_hz, temperature_k))
+        readings, coarse = self._readings_and_coarse(powers, coarse_hz, temperature_k)
+        return self._predict_readings(readings, coarse)
 
     def phase(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
         """Interferometer phase (rad) in (-pi, pi], zero at the ``center_hz_`` of each window.
@@ -362,8 +363,7 @@ class CalibrationSet(BaseCalibrator):
         -------
         ndarray, shape (N,), rad
         """
-        readings = self._check_readings(powers)
-        coarse = self._coarse(readings, coarse_hz, temperature_k)
+        readings, coarse = self._readings_and_coarse(powers, coarse_hz, temperature_k)
         return self._per_window(readings, coarse, lambda window, rows, _: window.phase(rows))
 
     def frequency_std_hz(
@@ -381,8 +381,7 @@ class CalibrationSet(BaseCalibrator):
         """
         if "frequency_std" not in self.capabilities:
             return super().frequency_std_hz(powers)
-        readings = self._check_readings(powers)
-        coarse = self._coarse(readings, coarse_hz, temperature_k)
+        readings, coarse = self._readings_and_coarse(powers, coarse_hz, temperature_k)
         phase = (
             None if phase_rad is None else check_per_reading("phase_rad", phase_rad, len(coarse))
         )

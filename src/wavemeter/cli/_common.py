@@ -40,8 +40,6 @@ __all__ = [
     "read",
     "load",
     "check_ports",
-    "method_label",
-    "summary_lines",
     "fsr_text",
     "optical_text",
     "noise_text",
@@ -315,13 +313,3 @@ def check_ports(calibration, cal_path, table, explicit: bool) -> None:
             f"{table.source} has ports {names} but {cal_path} was calibrated on ports "
             f"{expected}; {hint}"
         )
-
-
-def method_label(calibration) -> str:
-    return calibration.method_label
-
-
-def summary_lines(calibration) -> list[str]:
-    """The fit report of a fitted calibration (values with standard errors, noise, the
-    health of every port, warnings), one line per entry."""
-    return calibration.summary().text.splitlines()

@@ -23,7 +23,6 @@ from ._common import (
     read,
     say,
     setting,
-    summary_lines,
 )
 from ._streams import is_stdio, output_path
 
@@ -143,7 +142,7 @@ def calibrate(sweep, out_path, port_phases_deg, force, **options):
         + (f", monitor {table.monitor_column}" if table.monitor_column else ""),
         err=to_stderr,
     )
-    say(quiet, "\n".join(summary_lines(calibration)), err=to_stderr)
+    say(quiet, calibration.summary().text, err=to_stderr)
     say(quiet, f"wrote {'the calibration to stdout' if to_stderr else out_path}", err=to_stderr)
 
 

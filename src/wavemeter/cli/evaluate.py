@@ -16,7 +16,6 @@ from ._common import (
     column_options,
     column_request,
     load,
-    method_label,
     noise_text,
     note,
     port_phases_rad,
@@ -269,14 +268,14 @@ def evaluate(
     ).valid_only()
     explicit = request.ports is not None
     check_ports(calibration, calibration_file, table, explicit)
-    calibrations = {method_label(calibration): calibration}
+    calibrations = {calibration.method_label: calibration}
     for path in compare_files:
         other = load(path)
         check_ports(other, path, table, explicit)
-        calibrations.setdefault(f"{method_label(other)} ({Path(path).name})", other)
+        calibrations.setdefault(f"{other.method_label} ({Path(path).name})", other)
     if sweep is not None:
         other = _other_method(calibration, sweep, options, port_phases_rad(port_phases_deg))
-        calibrations[f"{method_label(other)} (fitted on {Path(sweep).name})"] = other
+        calibrations[f"{other.method_label} (fitted on {Path(sweep).name})"] = other
     report = {
         "calibration_file": str(calibration_file),
         "test_file": str(test),

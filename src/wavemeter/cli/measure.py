@@ -18,7 +18,6 @@ from ._common import (
     column_options,
     column_request,
     load,
-    method_label,
     names,
     out_option,
     output_format,
@@ -109,7 +108,7 @@ def measure(
     if uncertainty and "frequency_std" not in calibration.capabilities:
         raise InputError(
             f"{calibration_file}: --uncertainty needs a learned calibration (single or per "
-            f"FSR), not a {method_label(calibration)} calibration"
+            f"FSR), not a {calibration.method_label} calibration"
         )
     request = column_request(options, coarse=coarse_column, keep=names(keep) or ())
     table = read(data, request, need_x=False, drop_invalid=options["drop_invalid"], quiet=quiet)
