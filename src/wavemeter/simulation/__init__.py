@@ -1,5 +1,6 @@
-"""Simulated interferometers with the impairments of the paper's Table 1."""
+"""Simulated interferometers with the impairments of the paper's Table 1 and hardware faults."""
 
+from .drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
 from .interferometer import Interferometer
 
-__all__ = ["Interferometer"]
+__all__ = ["Interferometer", "slow_power_drift", "flicker_power_noise", "thermal_ramp_rad"]

@@ -1,4 +1,10 @@
-"""Simulated multi-port interferometer with the impairments of the paper's Table 1."""
+"""Simulated multi-port interferometer with the impairments of the paper's Table 1.
+
+Beyond Table 1 the device can carry hardware faults a real chip has: per-port detector dark
+(ADC) offsets, group-delay dispersion of the delay imbalance, unequal detector noise per port
+and a bias phase that drifts during a sweep (see :mod:`wavemeter.simulation.drift` for
+per-sample drift series).
+"""
 
 from __future__ import annotations
 
@@ -98,6 +104,19 @@ class Interferometer:
         Temperature (K) at which the bias phase is ``bias_phase_rad``.
     monitor_ratio : float
         Power-monitor reading per watt of source power.
+    dark_offset_w : ndarray, shape (n,), optional
+        Detector dark/ADC offset of each port (W), added to every reading whatever the source
+        power (None: no offset). Stored read-only.
+    gdd_s2 : float
+        Group-delay dispersion of the delay imbalance (s^2). The group delay at ``f`` is
+        ``delay_s + gdd_s2 * 2 pi (f - center_hz)`` and the phase gains
+        ``gdd_s2 / 2 * (2 pi (f - center_hz))**2`` (see :meth:`phase_rad`); ``delay_s`` and
+        :attr:`true_fsr_hz` stay those at ``center_hz``.
+
+    Notes
+    -----
+    A faulty device is a copy of a clean one:
+    ``dataclasses.replace(device, dark_offset_w=..., gdd_s2=...)``.
     """
 
     output_coupler: np.ndarray
@@ -112,6 +131,8 @@ class Interferometer:
     thermal_phase_rad_per_k: float = 0.0
     reference_temperature_k: float = 293.15
     monitor_ratio: float = 0.01
+    dark_offset_w: np.ndarray | None = None
+    gdd_s2: float = 0.0
 
     def __post_init__(self):
         coupler = np.array(self.output_coupler, dtype=complex)
@@ -136,7 +157,21 @@ class Interferometer:
         design = port_phases_rad(coupler, self.inputs) if design is None else np.array(design)
         if design.shape != (n,):
             raise InputError(f"design_port_phases_rad must have {n} entries, got {design.shape}")
-        for array in (coupler, splitter, responsivity, design):
+        if not np.isfinite(self.gdd_s2):
+            raise InputError(
+                f"gdd_s2 must be a finite number (s^2), got {self.gdd_s2}", parameter="gdd_s2"
+            )
+        arrays = [coupler, splitter, responsivity, design]
+        if self.dark_offset_w is not None:
+            offset = np.array(self.dark_offset_w, dtype=float)
+            if offset.shape != (n,) or not np.all(np.isfinite(offset)):
+                raise InputError(
+                    f"dark_offset_w must be {n} finite numbers (W), got {self.dark_offset_w}",
+                    parameter="dark_offset_w",
+                )
+            object.__setattr__(self, "dark_offset_w", offset)
+            arrays.append(offset)
+        for array in arrays:
             array.setflags(write=False)
         object.__setattr__(self, "output_coupler", coupler)
         object.__setattr__(self, "splitter_amplitudes", splitter)
@@ -227,6 +262,38 @@ class Interferometer:
         """The device's free spectral range ``1 / tau`` (Hz)."""
         return 1.0 / self.delay_s
 
+    def _detuning_rad_s(self, f_hz) -> np.ndarray:
+        """Angular detuning ``w = 2 pi (f - center_hz)`` (rad/s) of frequencies ``f_hz`` (Hz)."""
+        return 2.0 * np.pi * (np.asarray(f_hz, dtype=float) - self.center_hz)
+
+    def phase_rad(self, f_hz) -> np.ndarray:
+        """Fringe phase ``t`` (rad) at source frequencies ``f_hz`` (Hz), bias excluded.
+
+        ``t = w tau + gdd_s2 w**2 / 2`` with ``w = 2 pi (f - center_hz)``: the phase of the
+        cone vector that :meth:`true_map` maps to the port powers (the bias is a rotation
+        inside the map). Its derivative ``dt/dw`` is :meth:`group_delay_s`.
+
+        Parameters
+        ----------
+        f_hz : array_like, shape (N,)
+            Source optical frequency (Hz).
+
+        Returns
+        -------
+        ndarray, shape (N,), rad
+        """
+        detuning_rad_s = self._detuning_rad_s(f_hz)
+        return delay_phase_rad(f_hz, self.center_hz, self.delay_s) + (
+            0.5 * self.gdd_s2 * detuning_rad_s**2
+        )
+
+    def group_delay_s(self, f_hz) -> np.ndarray:
+        """Group delay of the imbalance (s) at ``f_hz`` (Hz): ``tau + gdd_s2 2 pi (f - f0)``.
+
+        The local FSR at ``f`` is its inverse; at ``center_hz`` that is :attr:`true_fsr_hz`.
+        """
+        return self.delay_s + self.gdd_s2 * self._detuning_rad_s(f_hz)
+
     def _port_fields(self) -> tuple[np.ndarray, np.ndarray]:
         """Per-port field amplitudes (delayed arm, other arm), shape (n,) each."""
         a, b = self.inputs
@@ -244,8 +311,9 @@ class Interferometer:
     def true_map(self, temperature_k=None) -> np.ndarray:
         """The exact map ``A`` (n x 3) with ``p = A @ (P [cos t, sin t, sqrt 2])``.
 
-        ``t = 2 pi (f - center_hz) tau``: the phase origin is the centre frequency and the
-        bias phase is absorbed into ``A`` as a rotation about the cone axis.
+        ``t`` is :meth:`phase_rad` (``2 pi (f - center_hz) tau`` without dispersion): the
+        phase origin is the centre frequency and the bias phase is absorbed into ``A`` as a
+        rotation about the cone axis. A dark offset is not part of the map.
         """
         delayed, other = self._port_fields()
         cross = delayed * np.conj(other) * np.exp(1j * self.bias_at(temperature_k))
@@ -258,21 +326,36 @@ class Interferometer:
         )
 
     # ------------------------------------------------------------------ readings
-    def powers(self, f_hz, power_w=1e-3, noise_w=0.0, rng=None, temperature_k=None) -> np.ndarray:
+    def powers(
+        self,
+        f_hz,
+        power_w=1e-3,
+        noise_w=0.0,
+        rng=None,
+        temperature_k=None,
+        bias_drift_rad=None,
+    ) -> np.ndarray:
         """Port readings (W) from the fields, for source frequencies ``f_hz``.
+
+        Each reading is ``responsivity |E|^2 P + dark_offset_w + noise``, where the fields
+        interfere at phase :meth:`phase_rad` plus the bias at ``temperature_k`` plus
+        ``bias_drift_rad``.
 
         Parameters
         ----------
         f_hz : array_like, shape (N,)
             Source optical frequency (Hz).
         power_w : float or array_like, shape (N,)
-            Source power (W), scalar or per sample (fluctuations).
-        noise_w : float
-            Standard deviation of additive white Gaussian detector noise per reading (W).
+            Source power (W), scalar or per sample (fluctuations, drift).
+        noise_w : float or array_like, shape (n,)
+            Standard deviation of additive white Gaussian detector noise per reading (W),
+            one for every port or one per port.
         rng : None, int or numpy.random.Generator
             Source of the noise.
         temperature_k : None, float or array_like, shape (N,)
             Chip temperature (K); moves the bias phase by ``thermal_phase_rad_per_k``.
+        bias_drift_rad : None, float or array_like, shape (N,)
+            Extra bias phase (rad) of each reading, e.g. a thermal drift during a sweep.
 
         Returns
         -------
@@ -280,18 +363,33 @@ class Interferometer:
         """
         f = np.atleast_1d(np.asarray(f_hz, dtype=float))
         if f.ndim != 1:
-            raise InputError(f"f_hz must be 1-D, got shape {f.shape}")
+            raise InputError(f"f_hz must be 1-D, got shape {f.shape}", parameter="f_hz")
         power = np.broadcast_to(np.asarray(power_w, dtype=float), f.shape)
         if not np.all(np.isfinite(power)) or np.any(power < 0):
-            raise InputError("power_w must be finite and non-negative (W)")
-        if not (np.isfinite(noise_w) and noise_w >= 0):
-            raise InputError(f"noise_w must be a non-negative number (W), got {noise_w}")
+            raise InputError("power_w must be finite and non-negative (W)", parameter="power_w")
+        noise = np.asarray(noise_w, dtype=float)
+        if noise.shape not in ((), (self.ports,)) or not np.all(np.isfinite(noise) & (noise >= 0)):
+            raise InputError(
+                f"noise_w must be a non-negative number (W) or {self.ports} of them, got {noise_w}",
+                parameter="noise_w",
+            )
+        psi = self.phase_rad(f) + self.bias_at(temperature_k)
+        if bias_drift_rad is not None:
+            drift = np.asarray(bias_drift_rad, dtype=float)
+            if drift.shape not in ((), f.shape) or not np.all(np.isfinite(drift)):
+                raise InputError(
+                    f"bias_drift_rad must be a finite number or {f.size} of them (rad), "
+                    f"got shape {drift.shape}",
+                    parameter="bias_drift_rad",
+                )
+            psi = psi + drift
         delayed, other = self._port_fields()
-        psi = delay_phase_rad(f, self.center_hz, self.delay_s) + self.bias_at(temperature_k)
         fields = np.exp(1j * psi)[:, None] * delayed[None, :] + other[None, :]
         readings = np.abs(fields) ** 2 * self.responsivity * power[:, None]
-        if noise_w > 0:
-            readings = readings + as_rng(rng).normal(0.0, noise_w, readings.shape)
+        if self.dark_offset_w is not None:
+            readings = readings + self.dark_offset_w
+        if np.any(noise > 0):
+            readings = readings + as_rng(rng).normal(0.0, noise, readings.shape)
         return readings
 
     def monitor(self, power_w, noise_w=0.0, rng=None) -> np.ndarray:
