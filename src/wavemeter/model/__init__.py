@@ -1,4 +1,5 @@
-"""The physics: object space on the cone, coupler matrices, phase retrieval and its limit."""
+"""The physics: object space on the cone, coupler matrices, phase retrieval, its limit and
+the uncertainty of a reading."""
 
 from .cone import (
     cone_vectors,
@@ -8,8 +9,16 @@ from .cone import (
     wrap_to_period,
 )
 from .couplers import fourier_matrix, mmi_matrix, orthonormal_map
-from .limits import crlb_frequency_std, crlb_ideal_frequency_std
+from .limits import check_noise_std, crlb_frequency_std, crlb_ideal_frequency_std
 from .retrieval import cone_ml_phase_rad, source_power_ratio
+from .uncertainty import (
+    calibration_frequency_variance_hz2,
+    fit_parameter_covariance,
+    ml_phase_gradient,
+    phase_std_rad,
+    pinv_phase_gradient,
+    student_factor,
+)
 
 __all__ = [
     "cone_vectors",
@@ -22,6 +31,13 @@ __all__ = [
     "orthonormal_map",
     "crlb_frequency_std",
     "crlb_ideal_frequency_std",
+    "check_noise_std",
     "cone_ml_phase_rad",
     "source_power_ratio",
+    "pinv_phase_gradient",
+    "ml_phase_gradient",
+    "phase_std_rad",
+    "fit_parameter_covariance",
+    "calibration_frequency_variance_hz2",
+    "student_factor",
 ]

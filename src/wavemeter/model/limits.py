@@ -1,13 +1,15 @@
 """The physical limit: Cramer-Rao lower bound on the frequency from one reading.
 
 Model: ``p = P A [cos t, sin t, sqrt 2] + n`` with white Gaussian noise of standard deviation
-``sigma`` per port and both ``t`` and ``P`` unknown. The Fisher information on ``t`` with
-the nuisance ``P`` removed is
+``sigma_j`` on port ``j`` (one ``sigma`` for all ports, or one per port) and both ``t`` and
+``P`` unknown. With the weights ``W = diag(1 / sigma_j^2)`` the Fisher information on ``t``
+with the nuisance ``P`` removed is
 
-    I(t) = (|a_t|^2 - (a_t . a_P)^2 / |a_P|^2) / sigma^2,
+    I(t) = a_t' W a_t - (a_t' W a_P)^2 / (a_P' W a_P),
     a_t = P A [-sin t, cos t, 0],   a_P = A [cos t, sin t, sqrt 2],
 
-and the frequency bound is ``sigma_f = FSR / (2 pi sqrt(I))``.
+(for one ``sigma``: ``(|a_t|^2 - (a_t . a_P)^2 / |a_P|^2) / sigma^2``), and the frequency
+bound is ``sigma_f = FSR / (2 pi sqrt(I))``.
 """
 
 from __future__ import annotations
@@ -17,7 +19,46 @@ import numpy as np
 from ..exceptions import InputError
 from ..validation import check_positive
 
-__all__ = ["crlb_frequency_std", "crlb_ideal_frequency_std"]
+__all__ = ["crlb_frequency_std", "crlb_ideal_frequency_std", "check_noise_std"]
+
+
+def check_noise_std(name: str, value, ports: int) -> float | np.ndarray:
+    """Detector noise (W): one positive number for every port, or one per port.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name, for the message.
+    value : float or array_like, shape (ports,)
+        Standard deviation of the white detector noise (W).
+    ports : int
+        Number of ports ``n``.
+
+    Returns
+    -------
+    float, or ndarray of shape (ports,), W
+    """
+    if np.ndim(value) == 0:
+        try:
+            return check_positive(name, value.item() if isinstance(value, np.ndarray) else value)
+        except InputError as exc:
+            raise InputError(str(exc), parameter=name) from None
+    try:
+        noise = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(
+            f"{name} must be numeric, got {type(value).__name__}", parameter=name
+        ) from exc
+    if noise.shape != (ports,):
+        raise InputError(
+            f"{name} must be one value or one per port ({ports}), got shape {noise.shape}",
+            parameter=name,
+        )
+    if not np.all(np.isfinite(noise) & (noise > 0)):
+        raise InputError(
+            f"{name} must be finite and > 0 for every port, got {noise}", parameter=name
+        )
+    return noise
 
 
 def crlb_frequency_std(map_, phase_rad, power, noise_std, fsr_hz) -> np.ndarray:
@@ -32,8 +73,9 @@ def crlb_frequency_std(map_, phase_rad, power, noise_std, fsr_hz) -> np.ndarray:
     power : float or array_like, shape (N,)
         Source power ``P`` in the unit ``map_`` is scaled by (W for a device's true map;
         1 for a fitted ``Calibrator.map_``, which already holds the calibration power).
-    noise_std : float
-        Detector noise standard deviation per reading (W).
+    noise_std : float or array_like, shape (n,)
+        Detector noise standard deviation per reading (W): one for every port, or one per
+        port (the Fisher information then weighs port ``j`` by ``1 / noise_std[j]^2``).
     fsr_hz : float
         Free spectral range (Hz).
 
@@ -43,14 +85,16 @@ def crlb_frequency_std(map_, phase_rad, power, noise_std, fsr_hz) -> np.ndarray:
     """
     matrix = np.asarray(map_, dtype=float)
     if matrix.ndim != 2 or matrix.shape[1] != 3:
-        raise InputError(f"map_ must have shape (n, 3), got {matrix.shape}")
-    noise_std = check_positive("noise_std", noise_std)
+        raise InputError(f"map_ must have shape (n, 3), got {matrix.shape}", parameter="map_")
+    noise_std = check_noise_std("noise_std", noise_std, matrix.shape[0])
     fsr_hz = check_positive("fsr_hz", fsr_hz)
     t = np.asarray(phase_rad, dtype=float)
     power = np.asarray(power, dtype=float)
     zeros = np.zeros_like(t)
     a_t = np.stack([-np.sin(t), np.cos(t), zeros], axis=-1) @ matrix.T * power[..., None]
     a_p = np.stack([np.cos(t), np.sin(t), zeros + np.sqrt(2.0)], axis=-1) @ matrix.T
+    if np.ndim(noise_std) == 1:  # per-port noise: whiten both directions, then unit noise
+        a_t, a_p, noise_std = a_t / noise_std, a_p / noise_std, 1.0
     along = np.einsum("...i,...i->...", a_t, a_p)
     information = (
         np.einsum("...i,...i->...", a_t, a_t) - along**2 / np.einsum("...i,...i->...", a_p, a_p)
@@ -65,7 +109,7 @@ def crlb_ideal_frequency_std(ports: int, power_w: float, noise_w: float, fsr_hz:
     P^2 / (2 n)`` and ``a_t`` is orthogonal to ``a_P``.
     """
     if ports < 3:
-        raise InputError(f"ports must be >= 3, got {ports}")
+        raise InputError(f"ports must be >= 3, got {ports}", parameter="ports")
     power_w = check_positive("power_w", power_w)
     noise_w = check_positive("noise_w", noise_w)
     return fsr_hz * np.sqrt(2.0 * ports) * noise_w / (2.0 * np.pi * power_w)

@@ -1,37 +1,181 @@
-"""Cone-constrained maximum-likelihood phase retrieval and per-reading uncertainty.
+"""Cone-constrained, noise-weighted maximum-likelihood phase retrieval: the global optimum.
 
 The paper retrieves phase from the unconstrained object estimate ``x_hat = A+ p`` (three
 free values). The readings, though, come from a point on the cone,
 ``p = P A u(t) + noise`` with ``u(t) = [cos t, sin t, sqrt 2]``: two unknowns. With white
-Gaussian detector noise the maximum-likelihood estimate minimises ``|p - P A u(t)|^2``; for a
-given ``t`` the best power is ``P = (u . b) / (u' M u)`` (``b = A' p``, ``M = A' A``), which
-leaves the one-dimensional problem of maximising
+Gaussian detector noise of standard deviation ``sigma_j`` on port ``j`` (weights
+``W = diag(1 / sigma_j^2)``) the maximum-likelihood estimate minimises
 
-    h(t) = 2 log(u . b) - log(u' M u).
+    (p - A x)' W (p - A x)   over x on the cone  x' J x = 0,  J = diag(1, 1, -1/2),
 
-Starting from the pseudo-inverse phase, a few Newton steps on ``h`` converge per reading.
-The estimate reaches the Cramer-Rao bound where the pseudo-inverse does not: an ideal map
-makes the two coincide, an ill-conditioned one (a weak port) separates them.
+and ``t = atan2(x_2, x_1)``, ``P = x_3 / sqrt 2``. Over one period the profile of this
+likelihood in ``t`` can have up to three local maxima (a weak port leaves two phases at
+which the strong ports agree, told apart only by the weak one), so a local search from the
+pseudo-inverse phase can stop on the wrong one. The global optimum is found exactly instead:
+
+1. With ``M = A' W A = L L'`` (any square root) and ``x_hat = M^-1 A' W p`` the weighted
+   least-squares object, ``(p - A x)' W (p - A x) = const + |z - z_hat|^2`` with
+   ``z = L' x``, ``z_hat = L' x_hat = L^-1 A' W p``: the distance from ``z_hat`` to the
+   quadric cone ``z' Q z = 0``, ``Q = L^-1 J L^-T``. In the eigenbasis of ``Q``
+   (``Q = V diag(k) V'``, one negative and two positive ``k`` by Sylvester's law of inertia,
+   ``y = V' z_hat``) the stationary points are ``z_i = y_i / (1 + lambda k_i)`` with the
+   multiplier ``lambda`` a root of the secular equation
+
+       s(lambda) = sum_i k_i y_i^2 / (1 + lambda k_i)^2 = 0.
+
+2. On the interval where every ``1 + lambda k_i > 0`` (between the poles of the largest
+   positive and of the negative ``k``), ``s`` falls strictly (``s' = -2 sum k_i^2 y_i^2 /
+   (1 + lambda k_i)^3 < 0``) from ``+inf`` to ``-inf``: exactly one root. Its point is the
+   global minimum: for any ``z`` on the cone, ``|z - z_hat|^2 = |z - z_hat|^2 +
+   lambda z' Q z``, a convex function of ``z`` (``I + lambda Q`` is positive definite) whose
+   minimum over all of space is at the root's point, which lies on the cone.
+3. The root is found by Newton steps kept inside a shrinking bracket (bisection when a step
+   would leave it), from ``lambda = 0``: the pseudo-inverse point, near the root for any
+   reading close to the cone. Each reading stops when its step moves every ``z_i`` by less
+   than ``TOLERANCE`` relative.
+
+A source power below zero (the other nappe of the cone, a reading of noise only) keeps the
+phase of ``x = P u(t)``: ``t = atan2(-x_2, -x_1)``. The estimate reaches the Cramer-Rao
+bound where the pseudo-inverse does not: an ideal map makes the two coincide, an
+ill-conditioned one (a weak port) separates them.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy import linalg
 
+from ..exceptions import InputError
 from .cone import cone_vectors, wrap_phase_rad
+from .limits import check_noise_std
 
-__all__ = ["cone_ml_phase_rad", "source_power_ratio", "MAX_NEWTON_STEP_RAD"]
+__all__ = ["cone_ml_phase_rad", "source_power_ratio", "TOLERANCE", "MAX_STEPS"]
 
-#: Newton steps are clipped to this size (rad); near the optimum they are far smaller
-MAX_NEWTON_STEP_RAD = 0.5
+#: a reading stops once its step changes every coordinate ``z_i`` by less than this, relative
+TOLERANCE = 1e-13
+#: most steps any reading takes (bisection alone needs about 60 for the worst bracket)
+MAX_STEPS = 100
+
+_CONE = np.diag([1.0, 1.0, -0.5])
 
 
 def _rows_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, b)
 
 
-def cone_ml_phase_rad(powers, map_: np.ndarray, start_rad, iterations: int = 3) -> np.ndarray:
+def _check_inputs(powers, map_) -> tuple[np.ndarray, np.ndarray]:
+    readings = np.asarray(powers, dtype=float)
+    matrix = np.asarray(map_, dtype=float)
+    if matrix.ndim != 2 or matrix.shape[1] != 3:
+        raise InputError(f"map_ must have shape (n, 3), got {matrix.shape}", parameter="map_")
+    if readings.ndim != 2 or readings.shape[1] != matrix.shape[0]:
+        raise InputError(
+            f"powers must have shape (N, {matrix.shape[0]}) for a map of "
+            f"{matrix.shape[0]} ports, got {readings.shape}",
+            parameter="powers",
+        )
+    return readings, matrix
+
+
+def _weighted_map(matrix: np.ndarray, noise_std_w) -> np.ndarray:
+    """``W A`` (n, 3); equal weights (None or one noise for all ports) leave ``A`` as is."""
+    if noise_std_w is None:
+        return matrix
+    noise = check_noise_std("noise_std_w", noise_std_w, matrix.shape[0])
+    return matrix if np.ndim(noise) == 0 else matrix / noise[:, None] ** 2
+
+
+def _cone_frame(matrix: np.ndarray, weighted: np.ndarray):
+    """Eigenvalues ``k`` of ``Q`` (scaled to max |k| = 1), readings -> ``y``, ``z`` -> objects.
+
+    The eigenvectors ``w`` of ``Q = L^-1 J L^-T`` map back to objects as ``v = L^-T w``: the
+    solutions of ``J v = k M v`` with ``v' M v = 1``, which the generalised symmetric
+    eigenproblem gives directly. Returns ``(k, to_frame, to_objects)`` with
+    ``y = p @ to_frame`` (n, 3) and ``x = (y / (1 + lambda k)) @ to_objects`` (3, 3).
+    """
+    try:
+        kappa, to_objects = linalg.eigh(_CONE, matrix.T @ weighted)
+    except linalg.LinAlgError as exc:
+        raise InputError(
+            "map_ must have rank 3 (three independent columns) for the maximum-likelihood phase",
+            parameter="map_",
+        ) from exc
+    return kappa / np.abs(kappa).max(), weighted @ to_objects, to_objects.T
+
+
+def _secular_root(frame: np.ndarray, kappa: np.ndarray) -> np.ndarray:
+    """The root ``lambda`` (N,) of ``sum_i k_i y_i^2 / (1 + lambda k_i)^2`` in its bracket.
+
+    ``frame`` holds ``y`` (N, 3); ``kappa`` is ascending: one negative, two positive values.
+    """
+    samples = frame.shape[0]
+    kappa_col = kappa[:, None]
+    weights = kappa_col * np.square(frame.T)  # k_i y_i^2, shape (3, N): sums run over rows
+    root = np.zeros(samples)
+    lo = np.full(samples, -1.0 / kappa[2])
+    hi = np.full(samples, -1.0 / kappa[0])
+    last_step = hi - lo
+    active = np.arange(samples)
+    for _ in range(MAX_STEPS):
+        if active.size == 0:
+            break
+        x = root[active]
+        scale = 1.0 + kappa_col * x
+        term = weights[:, active] / scale**2
+        value = term.sum(axis=0)
+        slope = -2.0 * (term * kappa_col / scale).sum(axis=0)
+        a = np.where(value >= 0, x, lo[active])
+        b = np.where(value <= 0, x, hi[active])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            newton = x - value / slope
+        inside = (newton >= a) & (newton <= b) & (np.abs(newton - x) <= 0.5 * last_step[active])
+        step = np.where(inside, newton, 0.5 * (a + b)) - x
+        root[active], lo[active], hi[active], last_step[active] = x + step, a, b, np.abs(step)
+        # relative change of every z_i = y_i / (1 + lambda k_i)
+        moved = np.abs(step) * (np.abs(kappa_col) / np.abs(scale)).max(axis=0)
+        active = active[moved > TOLERANCE]
+    return root
+
+
+def cone_ml_phase_rad(
+    powers,
+    map_: np.ndarray,
+    *,
+    noise_std_w=None,
+) -> np.ndarray:
     """Maximum-likelihood phase (rad) of readings constrained to the image of the cone.
+
+    The global optimum of the noise-weighted likelihood with the source power free (see
+    the module docstring): exact, so it needs no start, no grid of candidate phases and no
+    count of steps.
+
+    Parameters
+    ----------
+    powers : array_like, shape (N, n)
+        Port readings (W), offsets already removed.
+    map_ : ndarray, shape (n, 3)
+        The map ``A``, of rank 3.
+    noise_std_w : None, float or array_like, shape (n,)
+        Detector noise per port (W); None or one number weighs every port equally.
+
+    Returns
+    -------
+    ndarray, shape (N,), rad, wrapped to [-pi, pi)
+    """
+    readings, matrix = _check_inputs(powers, map_)
+    kappa, to_frame, to_objects = _cone_frame(matrix, _weighted_map(matrix, noise_std_w))
+    frame = readings @ to_frame
+    root = _secular_root(frame, kappa)
+    objects = (frame / (1.0 + root[:, None] * kappa)) @ to_objects
+    sign = np.where(objects[:, 2] < 0, -1.0, 1.0)
+    return wrap_phase_rad(np.arctan2(sign * objects[:, 1], sign * objects[:, 0]))
+
+
+def source_power_ratio(powers, map_: np.ndarray, phase_rad, noise_std_w=None) -> np.ndarray:
+    """Weighted least-squares source power of each reading relative to the map's (unitless).
+
+    ``P = (u . A' W p) / (u' A' W A u)`` at the given phase: 1 for a reading at the power
+    the map was learned at (with a power monitor, at the mean monitored power).
 
     Parameters
     ----------
@@ -39,53 +183,18 @@ def cone_ml_phase_rad(powers, map_: np.ndarray, start_rad, iterations: int = 3) 
         Port readings (W).
     map_ : ndarray, shape (n, 3)
         The map ``A``.
-    start_rad : array_like, shape (N,)
-        Starting phase, e.g. the pseudo-inverse phase.
-    iterations : int
-        Newton steps; each step roughly squares the distance to the optimum.
+    phase_rad : array_like, shape (N,)
+        Phase of each reading (rad).
+    noise_std_w : None, float or array_like, shape (n,)
+        Detector noise per port (W); None or one number weighs every port equally.
 
     Returns
     -------
-    ndarray, shape (N,), rad, wrapped to [-pi, pi)
+    ndarray, shape (N,)
     """
-    readings = np.asarray(powers, dtype=float)
-    matrix = np.asarray(map_, dtype=float)
-    gram = matrix.T @ matrix
-    projected = readings @ matrix  # rows b = A' p
-    phase = np.array(start_rad, dtype=float)
-    zeros = np.zeros_like(phase)
-    for _ in range(iterations):
-        u = cone_vectors(phase)
-        cos, sin = u[:, 0], u[:, 1]
-        du = np.stack([-sin, cos, zeros], axis=1)
-        ddu = np.stack([-cos, -sin, zeros], axis=1)
-        gram_u, gram_du = u @ gram, du @ gram
-        num, num_1, num_2 = (
-            _rows_dot(u, projected),
-            _rows_dot(du, projected),
-            _rows_dot(ddu, projected),
-        )
-        den = _rows_dot(u, gram_u)
-        den_1 = 2.0 * _rows_dot(du, gram_u)
-        den_2 = 2.0 * (_rows_dot(ddu, gram_u) + _rows_dot(du, gram_du))
-        # a maximum has negative curvature; elsewhere (far from it, or where the reading
-        # has no projection on the cone: u . b = 0) do not step
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            slope = 2.0 * num_1 / num - den_1 / den
-            curvature = 2.0 * (num_2 * num - num_1**2) / num**2 - (den_2 * den - den_1**2) / den**2
-            step = np.where(curvature < 0, -slope / np.where(curvature < 0, curvature, -1.0), 0.0)
-        step = np.where(np.isfinite(step), step, 0.0)
-        phase = phase + np.clip(step, -MAX_NEWTON_STEP_RAD, MAX_NEWTON_STEP_RAD)
-    return wrap_phase_rad(phase)
-
-
-def source_power_ratio(powers, map_: np.ndarray, phase_rad) -> np.ndarray:
-    """Least-squares source power of each reading relative to the map's power (unitless).
-
-    ``P = (u . A' p) / (u' A' A u)`` at the given phase: 1 for a reading at the power the
-    map was learned at (with a power monitor, at the mean monitored power).
-    """
-    readings = np.asarray(powers, dtype=float)
-    matrix = np.asarray(map_, dtype=float)
-    image = cone_vectors(phase_rad) @ matrix.T
-    return _rows_dot(image, readings) / _rows_dot(image, image)
+    readings, matrix = _check_inputs(powers, map_)
+    weighted_map = _weighted_map(matrix, noise_std_w)
+    u = cone_vectors(phase_rad)
+    image = u @ matrix.T
+    weighted = image if weighted_map is matrix else u @ weighted_map.T
+    return _rows_dot(weighted, readings) / _rows_dot(weighted, image)

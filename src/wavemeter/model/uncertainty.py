@@ -1,0 +1,277 @@
+"""Per-reading uncertainty of the retrieved phase and frequency, by the delta method.
+
+A reading ``p = P A u(t) + e`` (``u(t) = [cos t, sin t, sqrt 2]``, white noise ``e`` of
+standard deviation ``sigma_j`` on port ``j``, weights ``W = diag(1 / sigma_j^2)``) gives a
+phase ``t_hat(p; A)``. To first order in the reading's noise ``e`` and in the error ``dA`` of
+the calibrated map, with ``g = d t_hat / d p`` (n,) and ``x`` the reading's object vector,
+
+    d t_hat = g . e - g . (dA x),
+
+because a map error ``dA`` moves the model of the reading by ``dA x``, which the estimator
+reads as the noise ``-dA x``. Then:
+
+* Reading noise: ``var t_hat = sum_j g_j^2 sigma_j^2`` (:func:`phase_std_rad`).
+* Pseudo-inverse retrieval, ``t = atan2(x_2, x_1)`` with ``x = A+ p``:
+  ``g = (x_1 r_2 - x_2 r_1) / (x_1^2 + x_2^2)``, ``r_1``, ``r_2`` the first two rows of
+  ``A+`` (:func:`pinv_phase_gradient`).
+* Maximum-likelihood retrieval, the weighted least-squares fit of ``(t, P)``: with the
+  model's derivatives ``a_t = P A u'(t)`` and ``a_P = A u(t)``, the ``t`` row of
+  ``(J' W J)^-1 J' W`` (``J = [a_t, a_P]``) is ``g = W a_perp / (a_perp' W a_perp)``,
+  ``a_perp = a_t - a_P (a_t' W a_P) / (a_P' W a_P)`` (the part of ``a_t`` the power cannot
+  absorb). Its variance ``1 / (a_perp' W a_perp)`` is the inverse Fisher information: the
+  Cramer-Rao bound of :func:`wavemeter.model.limits.crlb_frequency_std`
+  (:func:`ml_phase_gradient`).
+* Calibration: the least-squares fit of ``theta = [vec(A) (row-major), tau]`` to a sweep
+  ``powers ~ X(tau) A'`` (``X`` the (N, k) object vectors, ``k = 3``, or 4 with a column of
+  ones for per-port offsets) has, to first order, the covariance ``C = F^-1`` with the
+  Fisher matrix ``F = J' W J`` of the residual Jacobian ``d r_j / d A_jm = -X_m``,
+  ``d r_j / d tau = -D A_j`` (``D = dX / d tau``) (:func:`fit_parameter_covariance`).
+  The frequency ``f = f0 + t / (2 pi tau)`` of a reading then moves by
+  ``df = -g . (dA x) / (2 pi tau) - t d tau / (2 pi tau^2)``, so its variance from the
+  calibration is ``grad' C grad`` with ``grad = [-(g_j x_m) / (2 pi tau), -t / (2 pi
+  tau^2)]`` (:func:`calibration_frequency_variance_hz2`). It adds to the reading-noise
+  variance ``(std t / (2 pi tau))^2``.
+* A noise ``sigma`` estimated from a residual with ``dof`` degrees of freedom makes
+  ``z = error / std`` Student-t distributed: its standard deviation is
+  ``sqrt(dof / (dof - 2))``, the factor :func:`student_factor` inflates ``std`` by.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+from scipy import linalg
+
+from ..exceptions import InputError
+from ..validation import check_positive
+from .cone import cone_vectors
+from .limits import check_noise_std
+
+__all__ = [
+    "pinv_phase_gradient",
+    "ml_phase_gradient",
+    "phase_std_rad",
+    "fit_parameter_covariance",
+    "calibration_frequency_variance_hz2",
+    "student_factor",
+]
+
+
+def _matrix(name: str, value, shape: tuple) -> np.ndarray:
+    """A float array whose shape matches ``shape`` (None entries match any size)."""
+    array = np.asarray(value, dtype=float)
+    if array.ndim != len(shape) or any(
+        want is not None and got != want for got, want in zip(array.shape, shape, strict=True)
+    ):
+        wanted = ", ".join("any" if want is None else str(want) for want in shape)
+        raise InputError(f"{name} must have shape ({wanted}), got {array.shape}", parameter=name)
+    return array
+
+
+def _inverse_variance(noise_std_w, ports: int) -> np.ndarray:
+    """Weights ``1 / sigma_j^2`` (1/W^2), shape (ports,)."""
+    noise = check_noise_std("noise_std_w", noise_std_w, ports)
+    return np.broadcast_to(1.0 / np.square(noise), (ports,))
+
+
+def pinv_phase_gradient(powers, map_pinv) -> np.ndarray:
+    """Derivative of the pseudo-inverse phase ``atan2(x_2, x_1)``, ``x = A+ p``, by ``p``.
+
+    Parameters
+    ----------
+    powers : array_like, shape (N, n)
+        Port readings (W).
+    map_pinv : array_like, shape (3, n)
+        Moore-Penrose inverse ``A+`` of the map.
+
+    Returns
+    -------
+    ndarray, shape (N, n), rad/W
+    """
+    inverse = _matrix("map_pinv", map_pinv, (3, None))
+    readings = _matrix("powers", powers, (None, inverse.shape[1]))
+    x_1, x_2 = readings @ inverse[0], readings @ inverse[1]
+    radius2 = x_1**2 + x_2**2
+    return (x_1[:, None] * inverse[1] - x_2[:, None] * inverse[0]) / radius2[:, None]
+
+
+def ml_phase_gradient(map_, phase_rad, power, noise_std_w) -> np.ndarray:
+    """Derivative of the weighted maximum-likelihood phase by the reading, at its optimum.
+
+    Parameters
+    ----------
+    map_ : array_like, shape (n, 3)
+        The map ``A``.
+    phase_rad : array_like, shape (N,)
+        Phase ``t`` of each reading (rad).
+    power : float or array_like, shape (N,)
+        Source power ``P`` in the unit ``map_`` is scaled by (1 for a fitted map at the
+        calibration's power; :func:`wavemeter.model.retrieval.source_power_ratio`).
+    noise_std_w : float or array_like, shape (n,)
+        Detector noise per port (W); only the ratios between ports matter.
+
+    Returns
+    -------
+    ndarray, shape (N, n), rad/W
+        ``g = W a_perp / (a_perp' W a_perp)``; ``sum_j g_j^2 sigma_j^2`` is the inverse
+        Fisher information on ``t``.
+    """
+    matrix = _matrix("map_", map_, (None, 3))
+    weight = _inverse_variance(noise_std_w, matrix.shape[0])
+    t = np.atleast_1d(np.asarray(phase_rad, dtype=float))
+    tangent = np.stack([-np.sin(t), np.cos(t), np.zeros_like(t)], axis=-1)
+    along_t = tangent @ matrix.T * np.asarray(power, dtype=float)[..., None]
+    along_p = cone_vectors(t) @ matrix.T
+    weighted_p = along_p * weight
+    share = np.einsum("ij,ij->i", along_t, weighted_p) / np.einsum("ij,ij->i", along_p, weighted_p)
+    perpendicular = along_t - along_p * share[:, None]
+    weighted = perpendicular * weight
+    return weighted / np.einsum("ij,ij->i", weighted, perpendicular)[:, None]
+
+
+def phase_std_rad(gradient, noise_std_w) -> np.ndarray:
+    """Standard deviation (rad) of a phase with gradient ``g``: ``sqrt(sum_j g_j^2 sigma_j^2)``.
+
+    Parameters
+    ----------
+    gradient : array_like, shape (N, n)
+        ``d t / d p`` of each reading (rad/W).
+    noise_std_w : float or array_like, shape (n,)
+        Detector noise per port (W).
+
+    Returns
+    -------
+    ndarray, shape (N,), rad
+    """
+    g = _matrix("gradient", gradient, (None, None))
+    noise = check_noise_std("noise_std_w", noise_std_w, g.shape[1])
+    return np.sqrt(np.square(g * noise).sum(axis=1))
+
+
+def _fisher(x, d, matrix, weight) -> np.ndarray:
+    """``J' W J`` of the fit, blockwise (map entries row-major, then the delay)."""
+    ports, k = matrix.shape
+    xx, xd, dd = x.T @ x, x.T @ d, d.T @ d
+    size = ports * k
+    fisher = np.empty((size + 1, size + 1))
+    fisher[:size, :size] = np.kron(np.diag(weight), xx)
+    cross = (weight[:, None] * (matrix @ xd.T)).ravel()
+    fisher[:size, size] = fisher[size, :size] = cross
+    fisher[size, size] = np.einsum("j,jl,lm,jm->", weight, matrix, dd, matrix)
+    return fisher
+
+
+def _inverse(fisher: np.ndarray) -> np.ndarray:
+    """Inverse of a symmetric positive definite information matrix, Jacobi-scaled first
+    (map entries in W and the delay in s differ by many decades)."""
+    singular = InputError(
+        "the calibration sweep does not determine the map and the delay (its Fisher "
+        "matrix is singular): too few readings, or too little of the phase covered",
+        parameter="objects",
+    )
+    diagonal = np.diag(fisher)
+    if not np.all(np.isfinite(diagonal) & (diagonal > 0)):
+        raise singular
+    scale = 1.0 / np.sqrt(diagonal)
+    try:
+        factor = linalg.cho_factor(fisher * np.outer(scale, scale))
+    except linalg.LinAlgError as exc:
+        raise singular from exc
+    inverse = linalg.cho_solve(factor, np.eye(fisher.shape[0])) * np.outer(scale, scale)
+    return 0.5 * (inverse + inverse.T)
+
+
+def fit_parameter_covariance(
+    objects, objects_delay_derivative, map_, noise_std_w, *, weighted: bool = True
+) -> np.ndarray:
+    """Covariance of the least-squares calibration ``[vec(map_) row-major, delay_s]``.
+
+    For the noise-weighted fit (the maximum-likelihood one) it is the inverse Fisher
+    matrix ``(J' W J)^-1``. The paper's fit is unweighted: its covariance is the sandwich
+    ``H^-1 (J' S J) H^-1`` with ``H = J' J`` and ``S = diag(s_j^2)``, which equals the
+    inverse Fisher matrix when every port has the same noise. Each map row is its own
+    least-squares fit either way; weights move only the delay, shared by the ports.
+
+    Parameters
+    ----------
+    objects : array_like, shape (N, k)
+        Object vectors ``X`` of the sweep at the fitted delay (``k = 3``, or 4 with a
+        column of ones for per-port offsets).
+    objects_delay_derivative : array_like, shape (N, k)
+        ``D = dX / d delay`` (1/s).
+    map_ : array_like, shape (n, k)
+        Fitted map (W).
+    noise_std_w : float or array_like, shape (n,)
+        Detector noise per port (W).
+    weighted : bool
+        Covariance of the noise-weighted fit (default) or of the unweighted one.
+
+    Returns
+    -------
+    ndarray, shape (n k + 1, n k + 1)
+        In the order ``A[0, 0], A[0, 1], ..., A[n-1, k-1], delay``; W^2, W s, s^2.
+    """
+    x = _matrix("objects", objects, (None, None))
+    d = _matrix("objects_delay_derivative", objects_delay_derivative, x.shape)
+    matrix = _matrix("map_", map_, (None, x.shape[1]))
+    weight = _inverse_variance(noise_std_w, matrix.shape[0])
+    if weighted:
+        return _inverse(_fisher(x, d, matrix, weight))
+    bread = _inverse(_fisher(x, d, matrix, np.ones_like(weight)))
+    covariance = bread @ _fisher(x, d, matrix, 1.0 / weight) @ bread
+    return 0.5 * (covariance + covariance.T)
+
+
+def calibration_frequency_variance_hz2(
+    gradient, objects_estimate, phase_rad, delay_s, covariance
+) -> np.ndarray:
+    """Variance (Hz^2) of each reading's frequency from the calibration's own uncertainty.
+
+    Parameters
+    ----------
+    gradient : array_like, shape (N, n)
+        ``d t / d p`` of each reading (rad/W), e.g. :func:`ml_phase_gradient`.
+    objects_estimate : array_like, shape (N, k)
+        The reading's object vector: ``P u(t)``, and a 1 for an offset column.
+    phase_rad : array_like, shape (N,)
+        Retrieved phase (rad, zero at the centre frequency).
+    delay_s : float
+        Calibrated delay ``tau`` (s).
+    covariance : array_like, shape (n k + 1, n k + 1)
+        :func:`fit_parameter_covariance` of the calibration.
+
+    Returns
+    -------
+    ndarray, shape (N,), Hz^2
+    """
+    g = _matrix("gradient", gradient, (None, None))
+    samples, ports = g.shape
+    x = _matrix("objects_estimate", objects_estimate, (samples, None))
+    t = _matrix("phase_rad", phase_rad, (samples,))
+    size = ports * x.shape[1]
+    c = _matrix("covariance", covariance, (size + 1, size + 1))
+    delay_s = check_positive("delay_s", delay_s)
+    to_hz = 1.0 / (2.0 * np.pi * delay_s)
+    along_map = -(g[:, :, None] * x[:, None, :]).reshape(samples, size) * to_hz
+    along_delay = -t * to_hz / delay_s
+    return (
+        np.einsum("ia,ia->i", along_map @ c[:size, :size], along_map)
+        + 2.0 * along_delay * (along_map @ c[:size, size])
+        + along_delay**2 * c[size, size]
+    )
+
+
+def student_factor(dof) -> float:
+    """``sqrt(dof / (dof - 2))``: the standard deviation of a Student t with ``dof`` > 2.
+
+    Inflates a standard deviation whose noise was estimated with ``dof`` degrees of
+    freedom, so that ``z = error / std`` has unit variance.
+    """
+    if (
+        isinstance(dof, bool)
+        or not isinstance(dof, numbers.Real)
+        or not (np.isfinite(dof) and dof > 2)
+    ):
+        raise InputError(f"dof must be a finite number > 2, got {dof!r}", parameter="dof")
+    return float(np.sqrt(dof / (dof - 2.0)))
