@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.files import MAX_DEPTH, MAX_INTEGER_DIGITS
+from wavemeter.calibration.files import MAX_DEPTH, MAX_INTEGER_DIGITS, SCHEMA_VERSION
 from wavemeter.cli._common import printable
 
 from .conftest import NOISE_W, POWER_W
@@ -213,7 +213,7 @@ def test_info_shows_every_setting_and_the_metadata(sweep, tmp_path, capsys):
     code, out, err = run(capsys, f"info {path}")
     assert code == 0, err
     for expected in (
-        f"wavemeter {wm.__version__} calibration (schema 1)",
+        f"wavemeter {wm.__version__} calibration (schema {SCHEMA_VERSION})",
         "method           learned per FSR",
         "fsr_tolerance=0.15",
         "'retrieval': 'ml'",

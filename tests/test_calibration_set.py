@@ -319,7 +319,7 @@ def test_windows_copy_the_window_calibrators_settings(device, sweep):
     template = wm.Calibrator(retrieval="ml")
     ml_set = wm.CalibrationSet(50e9, window=template).fit(readings, frequency)
     assert all(window.retrieval == "ml" for window in ml_set.windows_)
-    assert all(window.fsr_tolerance == 0.05 for window in ml_set.windows_)
+    assert all(window.fsr_tolerance == WINDOW_FSR_TOLERANCE for window in ml_set.windows_)
     assert not hasattr(template, "fsr_hz_")  # the template itself is never fitted
 
 

@@ -225,6 +225,21 @@ class CalibratorContract:
             with pytest.raises(wm.InputError, match="no per-reading uncertainty"):
                 cal.frequency_std_hz(test[:5], **inputs)
 
+    def test_flags_mark_only_the_bad_readings(self):
+        """Clean readings carry no flag; NaN, dark and tenfold-power readings are marked."""
+        cal, _, test, test_hz = self.fitted("table1", NOISE_W)
+        inputs = reading_inputs(cal, test_hz[:200])
+        readings = test[:200].copy()
+        flags = cal.flags(readings, **inputs)
+        assert flags.shape == (200,) and flags.dtype == np.int64
+        # OFF_MODEL at p < 1e-6 and 200 readings in the calibrated span and power
+        assert np.count_nonzero(flags) == 0
+        readings[0], readings[1], readings[2] = np.nan, 0.0, 10.0 * readings[2]
+        marked = cal.flags(readings, **inputs)
+        assert marked[0] == wm.ReadingFlag.INVALID and marked[1] & wm.ReadingFlag.INVALID
+        assert marked[2] & wm.ReadingFlag.POWER_RANGE
+        np.testing.assert_array_equal(marked[3:], flags[3:])
+
     def test_score_is_minus_the_rms_error(self):
         cal, device, test, test_hz = self.fitted("table1", NOISE_W)
         inputs = reading_inputs(cal, test_hz)

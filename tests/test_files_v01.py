@@ -2,7 +2,9 @@
 
 The files in ``tests/data/v0.1`` were written by wavemeter 0.1.0 (commit de7374c) together
 with its predictions on 20 readings (``expected.json``); loading them with this version
-must give the same numbers bit for bit, since the learned state is stored exactly.
+must give the same numbers bit for bit, since the learned state is stored exactly. The one
+exception is the ``"ml"`` retrieval: 0.3 solves the cone-constrained likelihood exactly
+(0.1 took Newton steps from the pseudo-inverse phase), so those files agree to rounding.
 """
 
 from __future__ import annotations
@@ -30,11 +32,20 @@ def test_a_0_1_file_predicts_what_0_1_predicted(name):
     readings = np.array(EXPECTED["readings_w"])
     inputs = {"coarse_hz": np.array(EXPECTED["coarse_hz"])} if calibration.requires else {}
     expected = EXPECTED[name]
-    np.testing.assert_array_equal(
-        calibration.predict(readings, **inputs), np.array(expected["frequency_hz"])
+    windows = getattr(calibration, "windows_", [calibration])
+    # 0.1's Newton steps for "ml" stopped within rounding of the exact optimum; else exact
+    phase_atol = 1e-12 if getattr(windows[0], "retrieval", "pinv") == "ml" else 0.0
+    np.testing.assert_allclose(
+        calibration.predict(readings, **inputs),
+        np.array(expected["frequency_hz"]),
+        rtol=0,
+        atol=phase_atol * calibration.fsr_hz_,
     )
-    np.testing.assert_array_equal(
-        calibration.phase(readings, **inputs), np.array(expected["phase_rad"])
+    np.testing.assert_allclose(
+        calibration.phase(readings, **inputs),
+        np.array(expected["phase_rad"]),
+        rtol=0,
+        atol=phase_atol,
     )
 
 

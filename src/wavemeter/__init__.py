@@ -27,6 +27,7 @@ _WHERE = {
     "save_calibration": "calibration",
     "predict_frequency_hz": "calibration",
     "retrieve_phase_rad": "calibration",
+    "ReadingFlag": "calibration",
     "Interferometer": "simulation",
     "cone_vectors": "model",
     "phase_to_frequency_hz": "model",

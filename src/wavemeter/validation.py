@@ -11,6 +11,8 @@ from .exceptions import InputError, NotFittedError
 __all__ = [
     "as_rng",
     "check_powers",
+    "check_dark",
+    "reading_array",
     "check_frequency",
     "check_monitor",
     "check_per_reading",
@@ -50,12 +52,11 @@ def check_choice(name: str, value, allowed: tuple) -> str:
     return value
 
 
-def check_powers(powers, *, min_samples: int = 1, ports: int | None = None) -> np.ndarray:
-    """Port readings as a float64 array of shape (N, n) with n >= 3 (a view when possible;
-    callers never write to it).
+def reading_array(powers, *, ports: int | None = None) -> np.ndarray:
+    """Port readings as a float64 array of shape (N, n), n >= 3, values unchecked.
 
-    Rejects non-numeric input, NaN/inf, rows whose total power is zero or negative (single
-    readings may dip below zero by noise) and a port count different from ``ports``.
+    A 1-D array of ``ports`` values is one reading. NaN, inf and dark rows pass: callers
+    that must refuse them use :func:`check_powers`; quality flags mark them instead.
     """
     try:
         array = np.asarray(powers, dtype=float)
@@ -67,11 +68,23 @@ def check_powers(powers, *, min_samples: int = 1, ports: int | None = None) -> n
         raise InputError(
             f"port powers must be a 2-D array (samples, ports), got shape {array.shape}"
         )
-    samples, n = array.shape
+    n = array.shape[1]
     if n < 3:
         raise InputError(f"port powers need at least 3 ports (columns), got {n}")
     if ports is not None and n != ports:
         raise InputError(f"port powers have {n} ports but the calibration has {ports}")
+    return array
+
+
+def check_powers(powers, *, min_samples: int = 1, ports: int | None = None) -> np.ndarray:
+    """Port readings as a float64 array of shape (N, n) with n >= 3 (a view when possible;
+    callers never write to it).
+
+    Rejects non-numeric input, NaN/inf, rows whose total power is zero or negative (single
+    readings may dip below zero by noise) and a port count different from ``ports``.
+    """
+    array = reading_array(powers, ports=ports)
+    samples, n = array.shape
     if samples < min_samples:
         raise InputError(f"need at least {min_samples} samples, got {samples}")
     # one pass over the data: a row sum is NaN/inf when any reading is, and <= 0 in the dark
@@ -121,6 +134,22 @@ def check_per_reading(name: str, value, samples: int) -> np.ndarray:
     if not np.all(np.isfinite(array)):
         raise InputError(f"{name} contains NaN or inf")
     return array
+
+
+def check_dark(dark_w, ports: int) -> np.ndarray | None:
+    """Per-port dark readings (W): None, or ``ports`` finite values (signed: an offset)."""
+    if dark_w is None:
+        return None
+    try:
+        dark = np.array(dark_w, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"dark_w must be {ports} numbers (W), got {dark_w!r:.80}") from exc
+    if dark.shape != (ports,) or not np.all(np.isfinite(dark)):
+        raise InputError(
+            f"dark_w must be {ports} finite numbers (W), one per port, got {dark.size}",
+            parameter="dark_w",
+        )
+    return dark
 
 
 def check_monitor(power_monitor_w, samples: int) -> np.ndarray | None:

@@ -44,7 +44,7 @@ def crlb_per_reading_hz(calibration, powers_w, frequency_hz) -> np.ndarray | Non
 
     The bound under the calibration's own model: its fitted map, FSR and noise (estimated
     from the calibration residual), at the phase the true frequency has under that map
-    (:meth:`~wavemeter.Calibrator.frequency_std_hz` with ``phase_rad``). A calibration
+    (:meth:`~wavemeter.Calibrator.crlb_hz` with ``phase_rad``). A calibration
     set evaluates each reading under the window its true frequency falls in.
 
     Parameters
@@ -79,7 +79,7 @@ def crlb_per_reading_hz(calibration, powers_w, frequency_hz) -> np.ndarray | Non
     fsr_hz = np.array([single.fsr_hz_ for single in maps])[index]
     phase = wrap_phase_rad(2.0 * np.pi * (truth - center_hz) / fsr_hz)
     inputs = _reading_inputs(calibration, truth)
-    return calibration.frequency_std_hz(readings, phase_rad=phase, **inputs)
+    return calibration.crlb_hz(readings, phase_rad=phase, **inputs)
 
 
 def _noise_std_w(calibration) -> float:

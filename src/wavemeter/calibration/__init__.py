@@ -13,6 +13,7 @@ from .baselines import (
     PlaneEllipseCalibrator,
 )
 from .files import load_calibration, save_calibration
+from .flags import ReadingFlag
 from .learned import Calibrator, predict_frequency_hz, retrieve_phase_rad
 from .registry import registered
 from .set import CalibrationSet
@@ -26,6 +27,7 @@ __all__ = [
     "ExtendedConventionalCalibrator",
     "NonlinearFitCalibrator",
     "PlaneEllipseCalibrator",
+    "ReadingFlag",
     "load_calibration",
     "predict_frequency_hz",
     "registered",

@@ -29,16 +29,21 @@ from ..exceptions import InputError, WavemeterError
 from ..model.cone import phase_to_frequency_hz, wrap_to_period
 from ..validation import (
     MIN_SAMPLES,
+    check_dark,
     check_fitted,
     check_frequency,
     check_monitor,
     check_per_reading,
     check_positive,
     check_powers,
+    reading_array,
 )
 from .delay_search import DEFAULT_FSR_TOLERANCE
 from .diagnostics import check_port_health, port_health
+from .flags import SPAN_MARGIN_STD, ReadingFlag, power_flags
 from .fsr_guard import MIN_SPAN_FSR, check_design_fsr
+from .linear_map import fit_map, object_vectors
+from .misfit import MisfitReport, misfit_report
 from .registry import register
 from .summary import FitReport, FitValue
 
@@ -156,7 +161,7 @@ class BaseCalibrator:
         return list(range(ports))
 
     # ------------------------------------------------------------------ fitting
-    def fit(self, powers, frequency_hz, power_monitor_w=None, port_names=None):
+    def fit(self, powers, frequency_hz, power_monitor_w=None, port_names=None, *, dark_w=None):
         """Learn the calibration from a sweep of known frequencies.
 
         Parameters
@@ -169,6 +174,9 @@ class BaseCalibrator:
             Source-power monitor reading (W, or any unit linear in power).
         port_names : None or sequence of str, length n
             Names of the port columns, kept in the calibration file.
+        dark_w : None or array_like, shape (n,)
+            Per-port dark readings (W, the unit of ``powers``): detector and ADC offsets
+            with the source off. Subtracted from every reading, in fit and in predict.
 
         Returns
         -------
@@ -187,13 +195,17 @@ class BaseCalibrator:
         -----
         CalibrationWarning
             Cause ``"dead_port"``: a port is dead, stuck or saturated but 3 others carry
-            fringes; the evidence is kept in ``diagnostics_``.
+            fringes; or one of :data:`wavemeter.calibration.misfit.CAUSES` when the sweep
+            departs from the model (:mod:`wavemeter.calibration.misfit`). The evidence is
+            kept in ``diagnostics_``.
         """
         self._check_params()
-        powers = check_powers(powers, min_samples=MIN_SAMPLES)
-        frequency = check_frequency(frequency_hz, powers.shape[0])
-        monitor = check_monitor(power_monitor_w, powers.shape[0])
-        n_ports = powers.shape[1]
+        raw = check_powers(powers, min_samples=MIN_SAMPLES)
+        frequency = check_frequency(frequency_hz, raw.shape[0])
+        monitor = check_monitor(power_monitor_w, raw.shape[0])
+        n_ports = raw.shape[1]
+        dark = check_dark(dark_w, n_ports)
+        powers = raw if dark is None else raw - dark
         names = [f"p{k + 1}" for k in range(n_ports)] if port_names is None else list(port_names)
         if len(names) != n_ports or not all(isinstance(name, str) for name in names):
             raise InputError(f"port_names must be {n_ports} strings, got {port_names!r}")
@@ -220,12 +232,21 @@ class BaseCalibrator:
         self.n_ports_ = n_ports
         self.n_samples_ = powers.shape[0]
         self.port_names_ = names
+        self.dark_w_ = dark
+        self.offset_w_ = np.zeros(n_ports)
+        total = powers.sum(axis=1)
+        self.total_power_range_w_ = (float(total.min()), float(total.max()))
         self._fit(powers, frequency, monitor)
-        error = wrap_to_period(self._predict_checked(powers) - frequency, self.fsr_hz_)
+        corrected = powers - self.offset_w_
+        error = wrap_to_period(self._predict_checked(corrected) - frequency, self.fsr_hz_)
         self.calibration_rms_hz_ = float(np.sqrt(np.mean(error**2)))
+        misfit = self._misfit_report(powers, frequency, scale, delay)
+        self._use_misfit_report(misfit)
+        notes = notes + list(misfit.warnings)
         self.diagnostics_ = {
             "fsr_estimate_hz": None if estimate is None else estimate.fsr_hz,
             "ports": [port.to_dict() for port in health],
+            "fit": misfit.to_dict(),
             "warnings": [
                 {"cause": note.cause, "message": str(note), "remedy": note.remedy} for note in notes
             ],
@@ -234,19 +255,60 @@ class BaseCalibrator:
             warnings.warn(note, stacklevel=2)
         return self
 
+    def _misfit_report(self, powers, frequency_hz, scale, sweep_delay_s) -> MisfitReport:
+        """The sweep against the cone model (:mod:`.misfit`).
+
+        This default fits the least-squares map at the sweep's own delay (the FSR guard's
+        estimate, or the design delay): the data are tested against the model, not against
+        a method's approximations. Calibrators with a cone map of their own (the learned
+        ones) test that map instead. The checks of the pseudo-inverse retrieval (unequal
+        noise, an ill-conditioned map) and their remedy (``retrieval="ml"``) concern the
+        learned calibrator only, so they are left out here.
+        """
+        objects = object_vectors(frequency_hz, self.center_hz_, sweep_delay_s, scale)
+        return misfit_report(
+            powers,
+            frequency_hz,
+            self.center_hz_,
+            sweep_delay_s,
+            fit_map(objects, powers),
+            scale=scale,
+            dark_given=self.dark_w_ is not None,
+            weighted_retrieval=True,
+        )
+
+    def _use_misfit_report(self, report: MisfitReport) -> None:
+        """Take what the fit diagnostics found into the learned state (nothing by default)."""
+
     def _fit(self, powers: np.ndarray, frequency_hz: np.ndarray, monitor: np.ndarray | None):
         raise NotImplementedError
 
     # ------------------------------------------------------------------ retrieval
     def _check_readings(self, powers) -> np.ndarray:
+        """Validated readings with the dark readings and fitted offsets subtracted."""
         check_fitted(self)
-        return check_powers(powers, ports=self.n_ports_)
+        return check_powers(powers, ports=self.n_ports_) - self._reading_offset_w()
+
+    def _reading_offset_w(self) -> np.ndarray:
+        """What every reading carries besides the light (W, per port): dark plus fitted offsets."""
+        offset = getattr(self, "offset_w_", None)
+        dark = getattr(self, "dark_w_", None)
+        total = np.zeros(self.n_ports_) if offset is None else offset
+        return total if dark is None else total + dark
 
     def _check_reading_data(self, powers, coarse_hz, temperature_k) -> tuple[np.ndarray, dict]:
         """Validated readings (N, n) and per-reading inputs (one value or one per reading,
         None where not given); missing required ones raise :class:`InputError` naming them."""
         readings = self._check_readings(powers)
         samples = readings.shape[0]
+        given = self._check_required(coarse_hz, temperature_k)
+        return readings, {
+            name: None if value is None else check_per_reading(name, value, samples)
+            for name, value in given.items()
+        }
+
+    def _check_required(self, coarse_hz, temperature_k) -> dict:
+        """The per-reading inputs by name; raise when one named in ``requires`` is None."""
         given = {"coarse_hz": coarse_hz, "temperature_k": temperature_k}
         missing = [name for name in sorted(self.requires) if given[name] is None]
         if missing:
@@ -254,10 +316,7 @@ class BaseCalibrator:
                 f"{type(self).__name__} needs {' and '.join(missing)} for each reading "
                 f"({self._requirement_reason()}); got None"
             )
-        return readings, {
-            name: None if value is None else check_per_reading(name, value, samples)
-            for name, value in given.items()
-        }
+        return given
 
     def _requirement_reason(self) -> str:
         return "declared in its requires"
@@ -303,7 +362,7 @@ class BaseCalibrator:
         return phase_to_frequency_hz(self._phase(powers), self.center_hz_, self.fsr_hz_)
 
     def frequency_std_hz(
-        self, powers, *, coarse_hz=None, temperature_k=None, phase_rad=None
+        self, powers, *, coarse_hz=None, temperature_k=None, include_calibration=True
     ) -> np.ndarray:
         """Per-reading frequency uncertainty (Hz), where ``"frequency_std"`` is a capability.
 
@@ -316,6 +375,84 @@ class BaseCalibrator:
             f"{type(self).__name__} ({type(self).method!r}) gives no per-reading uncertainty; "
             "calibrators that do list 'frequency_std' in their capabilities"
         )
+
+    def flags(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
+        """Quality bit mask per reading (:class:`~wavemeter.calibration.flags.ReadingFlag`).
+
+        Unlike ``predict`` this accepts readings with NaN or no light and marks them
+        ``INVALID``; the rules of every bit are in :mod:`wavemeter.calibration.flags`.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Port readings, in the unit of the calibration sweep.
+        coarse_hz, temperature_k : None, float or array_like, shape (N,)
+            Per-reading inputs; required when named in ``requires``, else optional.
+
+        Returns
+        -------
+        ndarray of int64, shape (N,)
+            0 for a reading with nothing to report; ``flags & ReadingFlag.OFF_MODEL`` etc.
+        """
+        check_fitted(self)
+        readings = reading_array(powers, ports=self.n_ports_)
+        samples = readings.shape[0]
+        finite = np.isfinite(readings).all(axis=1)
+        corrected = readings - self._reading_offset_w()
+        with np.errstate(invalid="ignore"):
+            flags = power_flags(
+                corrected.sum(axis=1), self._total_power_range_w(), self._offsets_known()
+            )
+            lit = finite & (readings.sum(axis=1) > 0)
+        flags[~lit] |= ReadingFlag.INVALID
+        usable = (flags & ReadingFlag.INVALID) == 0
+        given = self._check_required(coarse_hz, temperature_k)
+        inputs = {
+            name: None if value is None else check_per_reading(name, value, samples)[usable]
+            for name, value in given.items()
+        }
+        if usable.any():
+            flags[usable] |= self._model_flags(corrected[usable], **inputs)
+        return flags
+
+    def _offsets_known(self) -> bool:
+        """Dark readings were given, or offsets fitted (a monitored power that varied)."""
+        return getattr(self, "dark_w_", None) is not None or bool(
+            np.any(getattr(self, "offset_w_", 0.0))
+        )
+
+    def _total_power_range_w(self) -> tuple[float, float] | None:
+        """Total power range of the sweep (W); None for files that did not keep it."""
+        return getattr(self, "total_power_range_w_", None)
+
+    def _model_flags(self, readings: np.ndarray, coarse_hz, temperature_k) -> np.ndarray:
+        """``OUTSIDE_SPAN`` and ``OFF_MODEL`` bits of valid, offset-corrected readings.
+
+        ``OUTSIDE_SPAN``: for a calibration over less than one FSR, a frequency outside the
+        sweep by more than ``SPAN_MARGIN_STD`` times :meth:`_span_margin_std_hz`.
+        ``OFF_MODEL``: where :meth:`_off_model` has a test.
+        """
+        flags = np.zeros(readings.shape[0], dtype=np.int64)
+        low, high = self.span_hz_
+        samples = self.n_samples_
+        covered = (high - low) * samples / max(samples - 1, 1)
+        if covered < self.fsr_hz_:
+            frequency = self._predict_checked(readings)
+            margin = SPAN_MARGIN_STD * self._span_margin_std_hz(readings)
+            outside = (frequency < low - margin) | (frequency > high + margin)
+            flags[outside] |= ReadingFlag.OUTSIDE_SPAN
+        off_model = self._off_model(readings)
+        if off_model is not None:
+            flags[off_model] |= ReadingFlag.OFF_MODEL
+        return flags
+
+    def _span_margin_std_hz(self, readings: np.ndarray) -> np.ndarray | float:
+        """Frequency uncertainty (Hz) that widens a partial span before a reading leaves it."""
+        return 0.0
+
+    def _off_model(self, readings: np.ndarray) -> np.ndarray | None:
+        """Boolean per reading: improbably far from the calibrated model (None: no test)."""
+        return None
 
     def score(self, powers, frequency_hz, *, coarse_hz=None, temperature_k=None) -> float:
         """Negative RMS frequency error (Hz) on readings of known frequency (higher is better).
@@ -378,6 +515,35 @@ class BaseCalibrator:
 
     def _set_state(self, state: dict) -> None:
         raise NotImplementedError
+
+    def _reading_model_state(self) -> dict:
+        """Dark readings, fitted offsets and the sweep's total power range, JSON-ready."""
+        dark = getattr(self, "dark_w_", None)
+        power_range = self._total_power_range_w()
+        return {
+            "dark_w": None if dark is None else dark.tolist(),
+            "offset_w": self.offset_w_.tolist(),
+            "total_power_range_w": None if power_range is None else list(power_range),
+        }
+
+    def _set_reading_model_state(self, state: dict) -> None:
+        """Restore :meth:`_reading_model_state`; missing fields (schema 1) mean none."""
+        from .files import state_array
+
+        ports = (self.n_ports_,)
+        self.dark_w_ = state_array(state, "dark_w", ports) if state.get("dark_w") else None
+        self.offset_w_ = (
+            state_array(state, "offset_w", ports) if "offset_w" in state else np.zeros(ports)
+        )
+        if state.get("total_power_range_w") is None:
+            self.total_power_range_w_ = None
+        else:
+            low, high = state_array(state, "total_power_range_w", (2,))
+            if not 0 < low <= high:
+                raise InputError(
+                    f"field 'total_power_range_w' must be 0 < low <= high (W), got {[low, high]}"
+                )
+            self.total_power_range_w_ = (float(low), float(high))
 
     def _check_state(self) -> None:
         """Check a loaded state against the model: a full-rank finite (n, 3) map (when the

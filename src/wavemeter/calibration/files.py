@@ -62,7 +62,9 @@ class FittedCalibrator(Protocol):
 
 
 FORMAT = "wavemeter.calibration"
-SCHEMA_VERSION = 1
+#: 2 (wavemeter 0.3): the reading model (dark readings, fitted offsets, total power range),
+#: per-port noise and the fit's parameter covariance; a reader of 1 would ignore the offsets
+SCHEMA_VERSION = 2
 UNITS = {"frequency": "Hz", "power": "W", "phase": "rad", "delay": "s"}
 #: largest calibration file read (a calibration set of 1,000 windows is about 2 MB)
 MAX_FILE_BYTES = 64 * 2**20
@@ -117,6 +119,7 @@ def calibrator_fields(calibrator: FittedCalibrator) -> dict:
         "port_names": list(calibrator.port_names_),
         "n_samples": calibrator.n_samples_,
         "calibration_rms_hz": calibrator.calibration_rms_hz_,
+        "reading_model": calibrator._reading_model_state(),
         "state": calibrator._state(),
         "diagnostics": calibrator.diagnostics_,
     }
@@ -302,6 +305,8 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
     # files of 0.1 have no diagnostics
     calibrator.diagnostics_ = _optional_object(document, "diagnostics", path)
     try:
+        # files of schema 1 have no reading model: no dark readings, offsets or power range
+        calibrator._set_reading_model_state(_optional_object(document, "reading_model", path))
         calibrator._set_state(state)
         calibrator._check_state()
     except _STATE_ERRORS as exc:

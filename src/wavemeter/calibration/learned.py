@@ -9,6 +9,21 @@ The standard error of the delay follows from the curvature of ``J`` at its minim
 the noise estimate ``s``: ``var(tau) = 2 s^2 / (N J''(tau))`` (Gauss-Newton, map profiled
 out), and ``sigma_FSR = FSR^2 sigma_tau``.
 
+Beyond the paper, for real hardware:
+
+* **offsets**: dark readings given to ``fit`` are subtracted from every reading; when a
+  power monitor shows the source power varying (relative spread ``>= AFFINE_MIN_POWER_SPREAD``)
+  and no dark readings are given, per-port offsets are fitted as a fourth map column
+  (:mod:`wavemeter.calibration.linear_map`) and subtracted too;
+* **per-port noise**: each port's noise is estimated from its own residual when it has at
+  least ``PER_PORT_MIN_DOF`` degrees of freedom (else the pooled estimate); the ``"ml"``
+  retrieval weights ports by it; where the fit diagnostics find a misfit, the noise is their
+  model-free estimate, so that misfit is reported by a warning, not counted as noise;
+* **honest uncertainty**: :meth:`Calibrator.frequency_std_hz` is the standard deviation of
+  the estimator used (delta method, :mod:`wavemeter.model.uncertainty`), with the noise
+  inflated by the Student factor of its degrees of freedom, plus the spread the calibration's
+  own parameter covariance gives.
+
 The pure functions here and the :class:`Calibrator` methods compute the same numbers.
 """
 
@@ -19,21 +34,45 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg
 
-from ..model.cone import phase_to_frequency_hz
+from ..model.cone import cone_vectors, phase_to_frequency_hz
 from ..model.limits import crlb_frequency_std
 from ..model.retrieval import cone_ml_phase_rad, source_power_ratio
+from ..model.uncertainty import (
+    calibration_frequency_variance_hz2,
+    fit_parameter_covariance,
+    ml_phase_gradient,
+    phase_std_rad,
+    pinv_phase_gradient,
+    student_factor,
+)
 from ..validation import check_choice, check_positive
 from .base import BaseCalibrator
 from .delay_search import SEARCH_METHODS, DelaySearchResult, search_delay
 from .files import state_array, state_float
-from .linear_map import delay_information, fit_map, map_cost, object_vectors, unfitted_cost
+from .flags import off_model_threshold
+from .linear_map import (
+    delay_information,
+    fit_map,
+    map_cost,
+    object_delay_derivative,
+    object_vectors,
+    unfitted_cost,
+)
+from .misfit import MisfitReport, misfit_report
 from .summary import FitValue
 
 RETRIEVALS = ("pinv", "ml")
+#: relative spread of the monitored power above which per-port offsets are fitted
+AFFINE_MIN_POWER_SPREAD = 0.02
+#: residual degrees of freedom a port needs for a noise estimate of its own
+PER_PORT_MIN_DOF = 30
 
 __all__ = [
+    "AFFINE_MIN_POWER_SPREAD",
     "Calibrator",
     "LearnedFit",
+    "PER_PORT_MIN_DOF",
+    "port_noise_std_w",
     "RETRIEVALS",
     "fit_learned_map",
     "object_vectors",
@@ -43,6 +82,35 @@ __all__ = [
     "retrieve_phase_rad",
     "predict_frequency_hz",
 ]
+
+
+def port_noise_std_w(residual: np.ndarray, columns: int) -> tuple[np.ndarray, float]:
+    """Per-port noise (W) from a fit residual, and its degrees of freedom.
+
+    Each port's residual has ``N - k - 1/n`` degrees of freedom (``k`` map columns per
+    port, the delay shared by the ``n`` ports). With at least ``PER_PORT_MIN_DOF`` of them
+    each port gets its own estimate; otherwise every port gets the pooled one, on
+    ``N n - n k - 1`` degrees of freedom.
+
+    Parameters
+    ----------
+    residual : ndarray, shape (N, n)
+        Readings minus the fitted model (W).
+    columns : int
+        Map columns per port ``k`` (3, or 4 with offsets).
+
+    Returns
+    -------
+    noise_std_w : ndarray, shape (n,)
+    dof : float
+    """
+    samples, ports = residual.shape
+    per_port_dof = samples - columns - 1.0 / ports
+    squares = np.einsum("ij,ij->j", residual, residual)
+    if per_port_dof >= PER_PORT_MIN_DOF:
+        return np.sqrt(squares / per_port_dof), per_port_dof
+    pooled_dof = max(samples * ports - ports * columns - 1.0, 1.0)
+    return np.full(ports, np.sqrt(squares.sum() / pooled_dof)), pooled_dof
 
 
 def retrieve_phase_rad(powers, map_pinv: np.ndarray) -> np.ndarray:
@@ -69,8 +137,8 @@ class LearnedFit:
         Its standard error (s): ``sqrt(s^2 / G)`` with ``s`` the noise estimate and ``G``
         the Gauss-Newton curvature (:func:`wavemeter.calibration.linear_map.delay_information`),
         i.e. ``var(tau) = 2 s^2 / (N J''(tau))``.
-    map_ : ndarray, shape (n, 3)
-        Least-squares map at ``delay_s`` (W).
+    map_ : ndarray, shape (n, 3) or (n, 4)
+        Least-squares map at ``delay_s`` (W); with ``affine`` a fourth column of offsets.
     cost : float
         ``J`` at ``delay_s`` (W^2).
     noise_std_w : float
@@ -98,6 +166,7 @@ def fit_learned_map(
     scale=None,
     search: str = "golden",
     xtol: float = 1e-12,
+    affine: bool = False,
 ) -> LearnedFit:
     """Search the delay minimising ``J`` and fit the map there (paper Section II.C).
 
@@ -117,14 +186,19 @@ def fit_learned_map(
         Refinement of the delay after the scan.
     xtol : float
         Relative tolerance on the delay.
+    affine : bool
+        Fit per-port offsets too (a fourth map column); needs a varying ``scale``.
 
     Returns
     -------
     LearnedFit
     """
 
+    def objects(delay_s: float) -> np.ndarray:
+        return object_vectors(frequency_hz, center_hz, delay_s, scale, affine)
+
     def cost(delay_s: float) -> float:
-        return map_cost(object_vectors(frequency_hz, center_hz, delay_s, scale), powers)[1]
+        return map_cost(objects(delay_s), powers)[1]
 
     result = search_delay(
         cost,
@@ -133,13 +207,11 @@ def fit_learned_map(
         span_hz=float(np.ptp(frequency_hz)),
         method=search,
         xtol=xtol,
-        unfitted_cost=unfitted_cost(powers, scale),
+        unfitted_cost=unfitted_cost(powers, scale, affine),
     )
-    matrix, cost_value = map_cost(
-        object_vectors(frequency_hz, center_hz, result.delay_s, scale), powers
-    )
+    matrix, cost_value = map_cost(objects(result.delay_s), powers)
     samples, ports = powers.shape
-    dof = max(samples * ports - 3 * ports - 1, 1)
+    dof = max(samples * ports - matrix.size - 1, 1)
     noise = float(np.sqrt(cost_value * samples / dof))
     information = delay_information(frequency_hz, center_hz, result.delay_s, matrix, scale)
     return LearnedFit(
@@ -191,7 +263,16 @@ class Calibrator(BaseCalibrator):
     residual_rms_ : float
         RMS of the fit residual over all readings (W).
     noise_std_w_ : float
-        Detector noise estimate (W): residual corrected for the ``3 n + 1`` fitted values.
+        Detector noise estimate (W): residual corrected for the ``3 n + 1`` fitted values
+        (``4 n + 1`` with offsets), pooled over the ports.
+    port_noise_std_w_ : ndarray, shape (n,)
+        Noise per port (W) used for weights and uncertainties (see the module docstring).
+    noise_dof_ : float
+        Degrees of freedom of ``port_noise_std_w_``.
+    offset_w_ : ndarray, shape (n,)
+        Fitted per-port offsets (W), subtracted from every reading; zeros unless fitted.
+    parameter_covariance_ : ndarray, shape (n k + 1, n k + 1)
+        Covariance of the fitted map (row-major, ``k`` = 3 or 4 with offsets) and delay.
     cost_ : float
         ``J`` at the fitted delay (W^2).
     delay_search_ : DelaySearchResult
@@ -199,8 +280,9 @@ class Calibrator(BaseCalibrator):
     calibration_rms_hz_ : float
         RMS frequency error on the calibration sweep itself (Hz).
     diagnostics_ : dict
-        The sweep's own FSR estimate, every port's fringe amplitude and significance, and
-        the warnings the fit emitted (saved to file).
+        The sweep's own FSR estimate, every port's fringe amplitude and significance, the
+        fit diagnostics (:mod:`wavemeter.calibration.misfit`) and the warnings the fit
+        emitted (saved to file).
     """
 
     method = "learned"
@@ -231,24 +313,83 @@ class Calibrator(BaseCalibrator):
         return self.fsr_tolerance
 
     def _fit(self, powers, frequency_hz, monitor):
+        scale = None if monitor is None else monitor / monitor.mean()
+        affine = (
+            scale is not None and self.dark_w_ is None and np.std(scale) >= AFFINE_MIN_POWER_SPREAD
+        )
         fit = fit_learned_map(
             powers,
             frequency_hz,
             self.center_hz_,
             fsr_hz=self.fsr_hz,
             fsr_tolerance=self.fsr_tolerance,
-            scale=None if monitor is None else monitor / monitor.mean(),
+            scale=scale,
             search=self.search,
             xtol=self.xtol,
+            affine=affine,
         )
         self.delay_search_ = fit.search
+        noise, self.noise_dof_ = port_noise_std_w(
+            powers
+            - object_vectors(frequency_hz, self.center_hz_, fit.delay_s, scale, affine)
+            @ fit.map_.T,
+            fit.map_.shape[1],
+        )
+        # noiseless (simulated) sweeps: keep weights finite at the readings' rounding level
+        noise = np.maximum(noise, np.finfo(float).eps * np.abs(powers).max())
         self.delay_s_ = fit.delay_s
         self.delay_std_s_ = fit.delay_std_s
         self.fsr_hz_ = 1.0 / fit.delay_s
         self.cost_ = fit.cost
         self.residual_rms_ = float(np.sqrt(fit.cost / powers.shape[1]))
         self.noise_std_w_ = fit.noise_std_w
-        self._set_map(fit.map_)
+        self.port_noise_std_w_ = noise
+        self.offset_w_ = fit.map_[:, 3].copy() if affine else np.zeros(powers.shape[1])
+        self._set_map(fit.map_[:, :3])
+        self._sweep = (frequency_hz, scale, affine)
+        self._set_covariance()
+
+    def _set_covariance(self) -> None:
+        """Covariance of map (and offsets) and delay at the current per-port noise."""
+        frequency_hz, scale, affine = self._sweep
+        args = (frequency_hz, self.center_hz_, self.delay_s_, scale, affine)
+        matrix = np.column_stack([self.map_, self.offset_w_]) if affine else self.map_
+        # the paper's fit is unweighted: the sandwich covariance holds for unequal noise
+        self.parameter_covariance_ = fit_parameter_covariance(
+            object_vectors(*args),
+            object_delay_derivative(*args),
+            matrix,
+            self.port_noise_std_w_,
+            weighted=False,
+        )
+
+    def _misfit_report(self, powers, frequency_hz, scale, sweep_delay_s) -> MisfitReport:
+        offsets = self.offset_w_ if self._sweep[2] else None
+        offset_std = None
+        if offsets is not None:
+            variances = np.diag(self.parameter_covariance_)[:-1].reshape(self.n_ports_, 4)
+            offset_std = np.sqrt(variances[:, 3])
+        return misfit_report(
+            powers,
+            frequency_hz,
+            self.center_hz_,
+            self.delay_s_,
+            self.map_,
+            scale=scale,
+            offset_w=offsets,
+            offset_std_w=offset_std,
+            dark_given=self.dark_w_ is not None,
+            weighted_retrieval=self.retrieval == "ml",
+        )
+
+    def _use_misfit_report(self, report: MisfitReport) -> None:
+        """With a misfit, weight and state uncertainties with the model-free noise."""
+        model_free = np.asarray(report.noise_std_w, dtype=float)
+        if report.misfit and np.all(np.isfinite(model_free) & (model_free > 0)):
+            self.port_noise_std_w_ = model_free
+            self.noise_dof_ = float(report.noise_dof)
+            self._set_covariance()
+        del self._sweep
 
     def _fsr_std_hz(self) -> float | None:
         """``FSR^2 sigma_tau`` (Hz); None for a file of 0.1, which did not keep it."""
@@ -266,29 +407,68 @@ class Calibrator(BaseCalibrator):
         self.map_pinv_ = linalg.pinv(matrix)
 
     def _phase(self, powers):
-        phase = retrieve_phase_rad(powers, self.map_pinv_)
         if self.retrieval == "ml":
-            phase = cone_ml_phase_rad(powers, self.map_, phase)
-        return phase
+            return cone_ml_phase_rad(powers, self.map_, noise_std_w=self.port_noise_std_w_)
+        return retrieve_phase_rad(powers, self.map_pinv_)
+
+    def _phase_gradient(self, powers, phase) -> np.ndarray:
+        """``dt / dp`` (N, n) of the retrieval used, at each reading."""
+        if self.retrieval == "ml":
+            power = source_power_ratio(powers, self.map_, phase, self.port_noise_std_w_)
+            return ml_phase_gradient(self.map_, phase, power, self.port_noise_std_w_)
+        return pinv_phase_gradient(powers, self.map_pinv_)
 
     def frequency_std_hz(
-        self, powers, *, coarse_hz=None, temperature_k=None, phase_rad=None
+        self, powers, *, coarse_hz=None, temperature_k=None, include_calibration=True
     ) -> np.ndarray:
-        """Per-reading frequency uncertainty (Hz): the Cramer-Rao bound at the reading.
+        """Standard deviation (Hz) of each reading's frequency estimate.
 
-        Evaluated at the retrieved phase (or ``phase_rad``) and the reading's own source
-        power, with the detector noise ``noise_std_w_`` estimated from the calibration
-        residual. The ``"ml"`` retrieval attains it; the pseudo-inverse may exceed it for
-        an ill-conditioned map.
+        The delta method through the retrieval actually used (pseudo-inverse and arctangent,
+        or the weighted maximum likelihood), with the per-port noise ``port_noise_std_w_``
+        inflated by the Student factor of its ``noise_dof_``; with ``include_calibration``
+        also the spread the fit's own parameter covariance gives
+        (:mod:`wavemeter.model.uncertainty`). ``(estimate - true) / frequency_std_hz`` has
+        unit standard deviation for in-model readings.
 
         Parameters
         ----------
         powers : array_like, shape (N, n) or (n,)
         coarse_hz, temperature_k : None, float or array_like, shape (N,)
             Accepted for the common prediction API; not needed by this calibrator.
-        phase_rad : None or array_like, shape (N,)
-            Phase (rad, zero at ``center_hz_``) to evaluate the bound at, e.g. that of the
-            true frequency in an evaluation; default: the retrieved phase.
+        include_calibration : bool
+            Add the calibration's own uncertainty (default) or give the reading noise only.
+
+        Returns
+        -------
+        ndarray, shape (N,), Hz
+        """
+        readings, _ = self._check_reading_data(powers, coarse_hz, temperature_k)
+        return self._frequency_std_checked(readings, include_calibration)
+
+    def _frequency_std_checked(self, readings, include_calibration=True) -> np.ndarray:
+        phase = self._phase(readings)
+        gradient = self._phase_gradient(readings, phase)
+        per_rad = self.fsr_hz_ / (2.0 * np.pi)
+        variance = (phase_std_rad(gradient, self.port_noise_std_w_) * per_rad) ** 2
+        if include_calibration and self.parameter_covariance_ is not None:
+            power = source_power_ratio(readings, self.map_, phase, self.port_noise_std_w_)
+            objects = cone_vectors(phase, power)
+            if self.parameter_covariance_.shape[0] == 4 * self.n_ports_ + 1:
+                objects = np.column_stack([objects, np.ones(objects.shape[0])])
+            variance = variance + calibration_frequency_variance_hz2(
+                gradient, objects, phase, self.delay_s_, self.parameter_covariance_
+            )
+        if self.noise_dof_ <= 2:
+            # a noise estimated on 2 or fewer degrees of freedom bounds nothing
+            return np.full(readings.shape[0], np.inf)
+        # both parts scale with the estimated noise: one Student factor for its uncertainty
+        return np.sqrt(variance) * student_factor(self.noise_dof_)
+
+    def crlb_hz(self, powers, *, coarse_hz=None, temperature_k=None, phase_rad=None):
+        """Cramer-Rao bound (Hz) of each reading under the calibrated map and port noise.
+
+        Evaluated at the retrieved phase, or at ``phase_rad`` (rad, zero at ``center_hz_``;
+        e.g. the true phase in an evaluation), and at the reading's own source power.
 
         Returns
         -------
@@ -296,10 +476,20 @@ class Calibrator(BaseCalibrator):
         """
         readings, _ = self._check_reading_data(powers, coarse_hz, temperature_k)
         phase = self._phase(readings) if phase_rad is None else np.asarray(phase_rad, float)
-        power = source_power_ratio(readings, self.map_, phase)
-        # the bound is linear in the noise: evaluate at unit noise, then scale
-        unit = crlb_frequency_std(self.map_, phase, power, 1.0, self.fsr_hz_)
-        return unit * self.noise_std_w_
+        power = source_power_ratio(readings, self.map_, phase, self.port_noise_std_w_)
+        return crlb_frequency_std(self.map_, phase, power, self.port_noise_std_w_, self.fsr_hz_)
+
+    def _span_margin_std_hz(self, readings):
+        return self._frequency_std_checked(readings)
+
+    def _off_model(self, readings):
+        """Weighted squared distance of each reading to the calibrated cone, tested."""
+        noise = self.port_noise_std_w_
+        phase = cone_ml_phase_rad(readings, self.map_, noise_std_w=noise)
+        power = source_power_ratio(readings, self.map_, phase, noise)
+        residual = (readings - power[:, None] * (cone_vectors(phase) @ self.map_.T)) / noise
+        distance = np.einsum("ij,ij->i", residual, residual)
+        return distance > off_model_threshold(self.n_ports_, self.noise_dof_)
 
     def _state(self) -> dict:
         return {
@@ -309,10 +499,14 @@ class Calibrator(BaseCalibrator):
             "cost_w2": self.cost_,
             "residual_rms_w": self.residual_rms_,
             "noise_std_w": self.noise_std_w_,
+            "port_noise_std_w": self.port_noise_std_w_.tolist(),
+            "noise_dof": self.noise_dof_,
+            "parameter_covariance": self.parameter_covariance_.tolist(),
         }
 
     def _set_state(self, state: dict) -> None:
-        self._set_map(state_array(state, "map", (self.n_ports_, 3)))
+        ports = self.n_ports_
+        self._set_map(state_array(state, "map", (ports, 3)))
         self.delay_s_ = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
         # files of 0.1 have no standard error of the delay
         self.delay_std_s_ = (
@@ -323,3 +517,23 @@ class Calibrator(BaseCalibrator):
         self.cost_ = state_float(state, "cost_w2", minimum=0.0)
         self.residual_rms_ = state_float(state, "residual_rms_w", minimum=0.0)
         self.noise_std_w_ = state_float(state, "noise_std_w", minimum=0.0)
+        if "port_noise_std_w" in state:
+            self.port_noise_std_w_ = state_array(state, "port_noise_std_w", (ports,))
+            self.noise_dof_ = state_float(state, "noise_dof", minimum=2.0, open_minimum=True)
+            self.parameter_covariance_ = state_array(state, "parameter_covariance", (None, None))
+            size = self.parameter_covariance_.shape[0]
+            if self.parameter_covariance_.shape != (size, size) or size not in (
+                3 * ports + 1,
+                4 * ports + 1,
+            ):
+                raise ValueError(
+                    f"field 'parameter_covariance' must be square of size {3 * ports + 1} or "
+                    f"{4 * ports + 1}, got shape {self.parameter_covariance_.shape}"
+                )
+            if np.any(self.port_noise_std_w_ <= 0):
+                raise ValueError("field 'port_noise_std_w' must hold positive numbers (W)")
+        else:
+            # schema 1: one pooled noise, its degrees of freedom, no parameter covariance
+            self.port_noise_std_w_ = np.full(ports, self.noise_std_w_)
+            self.noise_dof_ = max(self.n_samples_ * ports - 3.0 * ports - 1.0, 3.0)
+            self.parameter_covariance_ = None

@@ -63,6 +63,49 @@ def _number(value) -> str:
     return f"{value:.3g}" if _is_number(value) else "?"
 
 
+def _per_port(fit: dict, key: str, count: int) -> list:
+    values = fit.get(key)
+    if isinstance(values, list) and len(values) == count:
+        return values
+    return [None] * count
+
+
+def _fit_lines(fit, ports) -> list[str]:
+    """Lines for the fit diagnostics (:mod:`wavemeter.calibration.misfit`): each port's
+    residual against its model-free noise, the map's conditioning, fitted offsets."""
+    if not isinstance(fit, dict) or not fit:
+        return []
+    names = [port.get("name") if isinstance(port, dict) else "?" for port in ports or []]
+    count = len(names)
+    residual = _per_port(fit, "residual_rms_w", count)
+    ratio = _per_port(fit, "noise_ratio", count)
+    lag = _per_port(fit, "lag1_autocorrelation", count)
+    lines = [
+        _line(
+            f"fit {name}",
+            f"residual {_number(rms)} W, {_number(factor)}x the noise, lag-1 autocorrelation "
+            f"{_number(correlation)}",
+        )
+        for name, rms, factor, correlation in zip(names, residual, ratio, lag, strict=True)
+    ]
+    method, dof = fit.get("noise_method"), fit.get("noise_dof")
+    if isinstance(method, str):
+        lines.append(_line("noise from", f"{method} ({_number(dof)} degrees of freedom)"))
+    if _is_number(fit.get("condition_number")):
+        ratio_text = fit.get("pinv_variance_ratio")
+        extra = (
+            f" (pseudo-inverse phase variance {ratio_text:.3g}x the Cramer-Rao bound's)"
+            if _is_number(ratio_text)
+            else ""
+        )
+        lines.append(_line("map", f"condition number {fit['condition_number']:.3g}{extra}"))
+    offsets = fit.get("offset_w")
+    if isinstance(offsets, list) and offsets:
+        text = ", ".join(f"{_number(value)} W" for value in offsets)
+        lines.append(_line("offsets", f"{text} (fitted, subtracted)"))
+    return lines
+
+
 def _diagnostics_lines(diagnostics: dict) -> list[str]:
     """Lines for a diagnostics record; tolerant of records read from older or foreign files."""
     lines = []
@@ -82,6 +125,7 @@ def _diagnostics_lines(diagnostics: dict) -> list[str]:
                 f"({z_text}), noise {_number(port.get('noise_std_w'))} W",
             )
         )
+    lines += _fit_lines(diagnostics.get("fit"), ports)
     notes = diagnostics.get("warnings")
     for note in notes if isinstance(notes, list) else []:
         if isinstance(note, dict):

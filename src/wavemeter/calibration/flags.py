@@ -1,0 +1,121 @@
+"""Per-reading quality flags: a bit mask that says when a reading cannot be trusted.
+
+Every calibrator's :meth:`~wavemeter.calibration.base.BaseCalibrator.flags` returns one
+integer per reading whose bits are :class:`ReadingFlag` members:
+
+``OFF_MODEL`` (1)
+    The reading's weighted distance to the calibrated cone, ``chi2 = sum_j r_j^2 / s_j^2``
+    (``r`` the residual of the maximum-likelihood fit of phase and power, ``s_j`` the
+    calibrated noise of port ``j``), is improbable: its p-value is below
+    ``OFF_MODEL_P_VALUE`` (1e-6). With the noise estimated on ``dof`` degrees of freedom,
+    ``chi2 / (n - 2)`` follows an F distribution with ``(n - 2, dof)`` degrees of freedom.
+    Only calibrators with a cone map (the learned ones) test it.
+``OUTSIDE_SPAN`` (2)
+    The frequency lies outside the calibrated span by more than 5 standard deviations,
+    for a calibration over less than one FSR (which extrapolates there); for a
+    calibration set, the coarse frequency lies outside the span its windows cover.
+``POWER_RANGE`` (4)
+    The reading's total power (the sum over ports, dark-corrected) lies outside the range
+    of the calibration sweep by more than a factor ``POWER_RANGE_FACTOR`` (2); or by more
+    than ``UNCHECKED_OFFSET_FACTOR`` (1.1) when the calibration could not learn the
+    detector offsets (no dark readings given, and no power monitor that varied, which lets
+    the learned calibrator fit them): at a constant source power an offset is absorbed
+    into the map, exactly, and costs accuracy only at other powers.
+``INVALID`` (8)
+    A value is NaN or infinite (a sentinel the reader turned into NaN), or there is no
+    light: the total power is below ``NO_LIGHT_FRACTION`` (1 %) of the sweep's smallest.
+
+The pure functions here decide each rule; the calibrators supply the numbers.
+"""
+
+from __future__ import annotations
+
+import enum
+
+import numpy as np
+from scipy import special
+
+__all__ = [
+    "ReadingFlag",
+    "OFF_MODEL_P_VALUE",
+    "POWER_RANGE_FACTOR",
+    "UNCHECKED_OFFSET_FACTOR",
+    "NO_LIGHT_FRACTION",
+    "SPAN_MARGIN_STD",
+    "off_model_threshold",
+    "power_flags",
+    "flag_counts",
+]
+
+OFF_MODEL_P_VALUE = 1e-6
+POWER_RANGE_FACTOR = 2.0
+UNCHECKED_OFFSET_FACTOR = 1.1
+NO_LIGHT_FRACTION = 0.01
+#: a reading's frequency must leave a partial span by this many standard deviations
+SPAN_MARGIN_STD = 5.0
+
+
+class ReadingFlag(enum.IntFlag):
+    """Bits of the per-reading quality mask (0: nothing to report)."""
+
+    OFF_MODEL = 1
+    OUTSIDE_SPAN = 2
+    POWER_RANGE = 4
+    INVALID = 8
+
+
+def off_model_threshold(ports: int, noise_dof: float) -> float:
+    """Chi-square distance (unitless) above which a reading is ``OFF_MODEL``.
+
+    Parameters
+    ----------
+    ports : int
+        Number of ports ``n``; the fit of phase and power leaves ``n - 2`` degrees of freedom.
+    noise_dof : float
+        Degrees of freedom of the calibrated noise estimate (``inf`` for a known noise).
+
+    Returns
+    -------
+    float
+        ``(n - 2) F^-1(1 - OFF_MODEL_P_VALUE; n - 2, noise_dof)``.
+    """
+    free = ports - 2
+    return float(free * special.fdtri(free, noise_dof, 1.0 - OFF_MODEL_P_VALUE))
+
+
+def power_flags(total_w: np.ndarray, calibrated_range_w, offsets_known: bool) -> np.ndarray:
+    """``INVALID`` (no light) and ``POWER_RANGE`` bits from each reading's total power.
+
+    Parameters
+    ----------
+    total_w : ndarray, shape (N,)
+        Sum of the dark-corrected port readings (W); NaN for a reading with a NaN.
+    calibrated_range_w : None or (float, float)
+        Smallest and largest total power of the calibration sweep (W); None (a file of an
+        older version) skips both tests.
+    offsets_known : bool
+        The calibration measured (dark readings) or fitted the detector offsets; if not,
+        the margin is ``UNCHECKED_OFFSET_FACTOR`` instead of ``POWER_RANGE_FACTOR``.
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+    """
+    flags = np.zeros(total_w.shape, dtype=np.int64)
+    if calibrated_range_w is None:
+        return flags
+    low, high = calibrated_range_w
+    factor = POWER_RANGE_FACTOR if offsets_known else UNCHECKED_OFFSET_FACTOR
+    with np.errstate(invalid="ignore"):
+        dark = total_w < NO_LIGHT_FRACTION * low
+        outside = (total_w < low / factor) | (total_w > high * factor)
+    flags[dark] |= ReadingFlag.INVALID
+    flags[outside] |= ReadingFlag.POWER_RANGE
+    return flags
+
+
+def flag_counts(flags) -> dict[str, int]:
+    """Readings with each bit set, by bit name (bits no reading has are left out)."""
+    mask = np.asarray(flags, dtype=np.int64)
+    counts = {bit.name: int(np.count_nonzero(mask & bit)) for bit in ReadingFlag}
+    return {name: count for name, count in counts.items() if count}

@@ -1,0 +1,982 @@
+"""Fit diagnostics: does the calibration sweep follow the model, and if not, why.
+
+After a fit, the residual of every reading (row order = acquisition order)
+
+    r_k = p_k - d - A x_k,   x_k = m_k [cos t_k, sin t_k, sqrt 2],   t_k = 2 pi (f_k - f0) tau
+
+(``d`` the fitted per-port offsets or 0, ``m_k`` the relative monitored power or 1) is white
+Gaussian detector noise when the model holds, and carries structure when it does not. This
+module measures that structure, tests it against the noise, names the likely cause and says
+what to do, as :class:`~wavemeter.exceptions.CalibrationWarning` objects whose ``cause`` is
+one of :data:`CAUSES` (:func:`misfit_report`).
+
+Noise without the model
+-----------------------
+Each port's noise ``s_j`` is estimated from the second differences of its residual along
+the rows, ``e_k = r_{k+1} - 2 r_k + r_{k-1}``: white noise of variance ``s^2`` gives
+``var(e) = 6 s^2``, while a misfit that changes slowly from reading to reading (a drift, or
+a fringe-shaped error on a dense sweep) is suppressed by the double difference. The estimate
+is ``s_j^2 = sum e^2 / T`` with ``T = trace(D (I - H) D')`` (``D`` the second-difference
+operator, ``H`` the projector on the fitted columns; ``T ~ 6 (N - 2)``): unbiased for white
+noise after the fit. Its degrees of freedom are ``nu = T^2 / trace((D (I - H) D')^2)``
+(Satterthwaite, ``~ 0.51 N``), its relative standard error ``1 / sqrt(2 nu)``. A sweep of
+fewer than ``MIN_MODEL_FREE_READINGS`` readings, or of fewer than ``MIN_READINGS_PER_FSR``
+readings per fringe period, is too short or too coarse for it: there each port's residual
+gives the noise and ``noise_method == "residual"`` says so.
+
+Statistics reported per port
+----------------------------
+``residual_rms_w``: ``sqrt(sum r^2 / (N - c - 1/n))`` (``c`` = 3 fitted columns, 4 with
+offsets; the delay is shared by the ``n`` ports). ``noise_std_w``: above. ``noise_ratio``:
+their ratio, 1 on average for in-model data. ``lag1_autocorrelation``: ``sum r_k r_{k+1} /
+sum r_k^2``, about 0 (within ``1/sqrt(N)``) for white noise and near 1 for a slow drift.
+``harmonic_power``: the residual energy in harmonics 2 and 3 of the fringe phase (the
+columns ``m_k cos h t_k``, ``m_k sin h t_k`` with the fitted columns projected out) divided
+by what white noise of the port's level puts there (``s_j^2`` per column): an F(4, nu)
+variable for in-model data, 1 on average.
+
+Tests
+-----
+The residual is whitened by the noise (``r_kj / s_j``; one pooled ``s`` for every port
+unless the unequal-noise test below finds them different at ``POOLED_NOISE_P_VALUE``, so
+that in-model sweeps are not tested with noisy weights). Each alternative is a set of
+columns in the ``N n`` dimensional space of readings x ports, from which the directions the
+fit absorbs (the map's columns on every port, the offsets, the delay) are projected out. The
+energy of the whitened residual along the remaining columns is a score (Lagrange-multiplier)
+statistic: chi-square with as many degrees of freedom ``k`` as independent columns when the
+model holds. Its p-value is that of the lack-of-fit F test, the statistic per degree of
+freedom over the rest of the whitened residual per degree of freedom, F(k, n d - k) with
+``d = N - c - 1/n`` (exact for white noise of known port ratios; the model-free noise
+keeps the weights robust to the misfit itself). *Smooth in time* means a combination of
+the first ``K`` discrete cosines of the row index, ``b_m(k) = cos(pi m (k + 1/2) / N)``,
+``m = 1..K``, tested at the nested scales ``K`` of ``SMOOTH_ORDERS`` (up to ``N / 4``;
+``MAX_COUPLED_ORDER`` for the columns that couple the ports), so that a slow drift and a
+thermostat cycling many times are both caught; a family's p-value is its smallest over the
+scales times their number (Bonferroni).
+
+1. **power** (``power_drift``): columns ``b_m(k) a_P,k``, ``a_P,k = A x_k`` (the reading's
+   own image): a relative source-power error ``u(k)`` smooth in time.
+2. **phase** (``phase_drift``): columns ``b_m(k) a_t,k``, ``a_t,k = m_k A [-sin t_k, cos t_k,
+   0]`` (the fringe tangent): a phase error smooth in time.
+3. **dispersion**: columns ``P_2(y_k) a_t,k`` and ``P_4(y_k) a_t,k`` (Legendre polynomials
+   of ``y = (f - f0) / max |f - f0|``): a phase error even in ``f - f0``, as group-delay
+   dispersion gives (``t = w tau + GDD w^2 / 2``). The odd part of a dispersion is a local
+   change of the FSR that, in a one-way sweep, cannot be told from a drift (nor a drift of
+   one cycle from a cubic phase), so it is left to ``phase_drift``. Only for sweeps over
+   more than ``DISPERSION_MIN_SPAN_FSR`` FSRs.
+4. **harmonics** (``other_misfit``): harmonics 2 and 3 of the fringe phase on every port
+   (a fringe that is not a sinusoid: detector nonlinearity, stray interference).
+5. **smooth** (``other_misfit``): columns ``b_m(k)`` on every port, up to ``N / 4``: any
+   residual that wanders in time (a background, a drifting dark level) and the reference
+   for how much of it the causes above explain.
+6. **power scatter** (``power_drift``) and 7. **phase scatter** (``phase_drift``): without
+   any order in time. At every reading the residual is split (whitened by the ports'
+   residual RMS, pooled as above) into its component along ``a_P``, its component along
+   ``a_t`` orthogonal to that, and the rest (``n - 2`` directions). White detector noise
+   puts the same energy in each direction, so ``(S_P / d) / (S_rest / (d (n - 2)))`` is
+   F(d, d (n - 2)) (``d = N - c - 1/n``), and likewise for ``S_t``; source-power noise from
+   reading to reading (flicker, which the second differences count as noise on a short
+   sweep) raises ``S_P``, phase jitter (an error of the known frequencies, laser frequency
+   noise) ``S_t``.
+
+Each test fails below ``TEST_P_VALUE`` (1e-6, one-sided ``z = 4.75``). With the
+unequal-noise test below there are eight, so in-model sweeps warn with a probability below
+``1e-5`` where the nulls hold; the approximations (estimated noise, a linearised delay,
+Satterthwaite degrees of freedom) are checked by Monte Carlo in ``tests/test_misfit.py``
+(p-values at the 5 % level) and ``benchmarks/misfit_false_alarms.py`` (false alarms over
+hundreds of sweeps).
+
+Naming the cause
+----------------
+The residual gets at most one of ``power_drift``, ``phase_drift``, ``dispersion`` and
+``other_misfit``. When only the scatter tests fail, the cause is the one of them with the
+larger excess energy. Otherwise the candidates are the power and phase families (when they
+fail) and the harmonics, each with its excess energy (statistic minus degrees of freedom,
+in units of the noise). If none explains ``EXPLAINED_FRACTION`` of the excess of the
+smooth family, the cause is ``other_misfit``; else it is the candidate with the largest
+excess ``E``, where those within ``TIE_FRACTION E + TIE_Z sqrt(E)`` of it (2 % or two
+standard deviations of the noise in ``E``) are a tie, named in the order phase, power,
+other. ``dispersion`` replaces ``phase_drift`` when its even polynomial (two columns)
+explains the phase structure as well (a tie). Power and phase errors move a reading along
+different image directions (``a_P`` and ``a_t``) and separate well on sweeps of several
+FSRs; on a one-way sweep of about one FSR a drift is partly absorbed into the map
+and the FSR, and a drift of one cycle leaves the same residual as power or as phase (the
+message then says both).
+
+What cannot be seen
+-------------------
+* A **linear temperature ramp over a one-way sweep** shifts the phase in proportion to
+  ``f - f0``: exactly another FSR, absorbed by the delay fit and invisible here. Log the
+  temperature and use a thermal calibration; a cycling thermostat, or a ramp over repeated
+  or two-way sweeps, is not collinear with frequency and is detected (2).
+* A **constant detector offset without a power monitor** is absorbed exactly by the map's
+  cone-axis column (``sqrt 2`` for every reading) and leaves no residual. With a monitor
+  that shows the power varying, the caller fits offsets ``d`` with standard errors; when no
+  dark readings were given, a ``d`` beyond ``MIN_OFFSET_Z`` standard errors warns
+  ``detector_offset``.
+
+Checks of the map and the sweep
+-------------------------------
+* ``partial_span``: the effective span ``span_fsr = (ptp(t) + step) / 2 pi`` (``step`` the
+  mean phase step between distinct frequencies, so ``N`` readings evenly over one FSR give
+  1) below ``1 - SPAN_TOLERANCE``: the map is learned from part of the fringe and readings
+  outside the span are extrapolated.
+* ``unequal_noise``: the model-free port noises differ by more than ``UNEQUAL_NOISE_RATIO``
+  and significantly (``s_max^2 / s_min^2`` against F(nu, nu), p-value times the
+  ``n (n - 1)`` ordered pairs below ``TEST_P_VALUE``), and the retrieval does not weight
+  the ports by their noise.
+* ``ill_conditioned``: for the pseudo-inverse retrieval, the phase variance it gives at
+  equal port noise, averaged over the sweep, exceeds the Cramer-Rao bound's by more than
+  ``MAX_PINV_VARIANCE_RATIO`` (1.2^2); the cone maximum likelihood reaches the bound.
+
+A sweep whose residual is at the rounding level of the readings (a noiseless simulation)
+fits exactly: the residual and noise tests are not made.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg, special, stats
+
+from ..exceptions import CalibrationWarning, InputError
+from ..model.cone import cone_vectors, delay_phase_rad
+from ..model.limits import crlb_frequency_std
+from ..model.uncertainty import phase_std_rad, pinv_phase_gradient
+
+__all__ = [
+    "CAUSES",
+    "DISPERSION_MIN_SPAN_FSR",
+    "EXPLAINED_FRACTION",
+    "MAX_COUPLED_ORDER",
+    "MAX_PINV_VARIANCE_RATIO",
+    "MIN_MODEL_FREE_READINGS",
+    "MIN_OFFSET_Z",
+    "MIN_READINGS_PER_FSR",
+    "MisfitReport",
+    "POOLED_NOISE_P_VALUE",
+    "SMOOTH_ORDERS",
+    "SPAN_TOLERANCE",
+    "TEST_P_VALUE",
+    "TIE_FRACTION",
+    "TIE_Z",
+    "UNEQUAL_NOISE_RATIO",
+    "misfit_report",
+]
+
+#: the causes a :class:`~wavemeter.exceptions.CalibrationWarning` of this module names
+CAUSES = (
+    "power_drift",
+    "detector_offset",
+    "phase_drift",
+    "dispersion",
+    "partial_span",
+    "unequal_noise",
+    "ill_conditioned",
+    "other_misfit",
+)
+#: false-alarm probability of each test for in-model data
+TEST_P_VALUE = 1e-6
+#: numbers of discrete cosines of the row index tested as "smooth in time"
+SMOOTH_ORDERS = (3, 6, 12, 24, 48, 96, 192)
+#: the largest of them for a drift of power or phase (their columns couple the ports)
+MAX_COUPLED_ORDER = 96
+#: fewest readings, and fewest readings per fringe period, for the model-free noise
+MIN_MODEL_FREE_READINGS = 16
+MIN_READINGS_PER_FSR = 16
+#: share of the smooth structure a cause must explain to be named
+EXPLAINED_FRACTION = 0.5
+#: causes explaining within this fraction, and TIE_Z noise standard deviations, of the
+#: best are a tie (named phase, power, other)
+TIE_FRACTION = 0.02
+TIE_Z = 2.0
+#: dispersion is told from a phase drift only on sweeps longer than this (FSRs)
+DISPERSION_MIN_SPAN_FSR = 1.5
+#: significance (standard errors) of a fitted offset that warns
+MIN_OFFSET_Z = 5.0
+#: a sweep shorter than 1 - SPAN_TOLERANCE FSR is partial
+SPAN_TOLERANCE = 0.05
+#: port noises differing by more than this factor (and significantly) are unequal
+UNEQUAL_NOISE_RATIO = 1.3
+#: the tests whiten with one pooled noise unless the ports' differ at this significance
+POOLED_NOISE_P_VALUE = 0.01
+#: pseudo-inverse phase variance over the Cramer-Rao bound's that is ill-conditioned
+MAX_PINV_VARIANCE_RATIO = 1.2**2
+#: residual below this many float64 epsilons of the readings: an exact (noiseless) fit
+ROUNDOFF_EPSILONS = 1e4
+#: relative size under which a projected column counts as absorbed by the fit
+RANK_TOLERANCE = 1e-8
+HARMONICS = (2, 3)
+
+REMEDIES = {
+    "power_drift": (
+        "record the source power with a power monitor during the sweep (power_monitor_w), "
+        "or stabilise the source"
+    ),
+    "detector_offset": (
+        "pass dark readings taken with the source off (dark_w), so that the offsets are "
+        "subtracted rather than fitted"
+    ),
+    "phase_drift": (
+        "stabilise the chip temperature, or log it with every reading for a thermal "
+        "calibration; a linear temperature ramp over a one-way sweep cannot be seen here "
+        "(it is absorbed into the FSR)"
+    ),
+    "dispersion": (
+        "calibrate per FSR (CalibrationSet) or with a wide-band calibration whose phase is "
+        "a polynomial in frequency"
+    ),
+    "partial_span": "calibrate over at least one FSR",
+    "unequal_noise": 'use the maximum-likelihood retrieval (retrieval="ml"), which weights '
+    "the ports by their noise",
+    "ill_conditioned": 'use the maximum-likelihood retrieval (retrieval="ml"), which reaches '
+    "the Cramer-Rao bound for any map",
+    "other_misfit": (
+        "inspect the residual in the calibration diagnostics; check the detectors for "
+        "nonlinearity or saturation and the setup for stray light, back-reflections or a "
+        "wandering background"
+    ),
+}
+
+
+@dataclass(frozen=True)
+class MisfitReport:
+    """What the calibration residual shows, per port and for the sweep.
+
+    Attributes
+    ----------
+    residual_rms_w : ndarray, shape (n,)
+        Residual RMS per port (W), corrected for the fitted values.
+    noise_std_w : ndarray, shape (n,)
+        Noise per port (W): model-free (second differences) or, for a short or coarse
+        sweep, the residual's (see ``noise_method``).
+    noise_dof : float
+        Degrees of freedom of each port's ``noise_std_w``.
+    noise_method : {"second_difference", "residual"}
+        How ``noise_std_w`` was estimated.
+    noise_ratio : ndarray, shape (n,)
+        ``residual_rms_w / noise_std_w``: 1 on average for in-model data.
+    lag1_autocorrelation : ndarray, shape (n,)
+        Lag-1 autocorrelation of each port's residual along the rows.
+    harmonic_power : ndarray, shape (n,)
+        Residual energy in harmonics 2 and 3 of the fringe phase over white noise's: 1 on
+        average for in-model data.
+    span_fsr : float
+        Effective span of the sweep in FSRs (1 for a sweep of one FSR).
+    condition_number : float
+        2-norm condition number of the map.
+    pinv_variance_ratio : float
+        Phase variance of the pseudo-inverse retrieval over the Cramer-Rao bound's, averaged
+        over the sweep at equal port noise (1 for an ideal map).
+    p_values : dict of str to float or None
+        p-value of each test (``"power"``, ``"phase"``, ``"dispersion"``, ``"harmonics"``,
+        ``"smooth"`` over their scales, Bonferroni-corrected; ``"power_scatter"``,
+        ``"phase_scatter"``, ``"unequal_noise"``); None where the test was not made. A test
+        fails below ``TEST_P_VALUE``.
+    power_error_rms : float
+        RMS over the readings of the relative source-power error, smooth in time, that
+        remains in the residual (what the fit did not absorb of a drift).
+    phase_error_rms_rad : float
+        The same for a phase error (rad).
+    offset_w, offset_std_w : ndarray, shape (n,), or None
+        Fitted per-port offsets and their standard errors (W), when the caller fitted them.
+    warnings : tuple of CalibrationWarning
+        One per failed check, the most important first; ``.cause`` is one of ``CAUSES``.
+    """
+
+    residual_rms_w: np.ndarray
+    noise_std_w: np.ndarray
+    noise_dof: float
+    noise_method: str
+    noise_ratio: np.ndarray
+    lag1_autocorrelation: np.ndarray
+    harmonic_power: np.ndarray
+    span_fsr: float
+    condition_number: float
+    pinv_variance_ratio: float
+    p_values: dict
+    power_error_rms: float
+    phase_error_rms_rad: float
+    offset_w: np.ndarray | None
+    offset_std_w: np.ndarray | None
+    warnings: tuple[CalibrationWarning, ...]
+
+    @property
+    def misfit(self) -> bool:
+        """True when any check failed (``warnings`` is not empty)."""
+        return bool(self.warnings)
+
+    @property
+    def causes(self) -> tuple[str, ...]:
+        """The causes of ``warnings``, in order."""
+        return tuple(note.cause for note in self.warnings)
+
+    def to_dict(self) -> dict:
+        """JSON-ready fields: floats (None where not finite), lists of floats, and the
+        warnings as ``{"cause", "message", "remedy"}`` dicts."""
+
+        def plain(value):
+            if isinstance(value, np.ndarray):
+                return [float(item) for item in value]
+            # a singular map has no finite condition number: None keeps the file strict JSON
+            return None if value is None or not np.isfinite(value) else float(value)
+
+        return {
+            "residual_rms_w": plain(self.residual_rms_w),
+            "noise_std_w": plain(self.noise_std_w),
+            "noise_dof": plain(self.noise_dof),
+            "noise_method": self.noise_method,
+            "noise_ratio": plain(self.noise_ratio),
+            "lag1_autocorrelation": plain(self.lag1_autocorrelation),
+            "harmonic_power": plain(self.harmonic_power),
+            "span_fsr": plain(self.span_fsr),
+            "condition_number": plain(self.condition_number),
+            "pinv_variance_ratio": plain(self.pinv_variance_ratio),
+            "p_values": {name: plain(value) for name, value in self.p_values.items()},
+            "power_error_rms": plain(self.power_error_rms),
+            "phase_error_rms_rad": plain(self.phase_error_rms_rad),
+            "offset_w": plain(self.offset_w),
+            "offset_std_w": plain(self.offset_std_w),
+            "misfit": self.misfit,
+            "warnings": [
+                {"cause": note.cause, "message": str(note), "remedy": note.remedy}
+                for note in self.warnings
+            ],
+        }
+
+
+# ---------------------------------------------------------------------- inputs
+def _vector(name: str, value, size: int) -> np.ndarray:
+    array = np.asarray(value, dtype=float)
+    if array.shape != (size,) or not np.all(np.isfinite(array)):
+        raise InputError(
+            f"{name} must be {size} finite numbers, got shape {array.shape}", parameter=name
+        )
+    return array
+
+
+def _check_inputs(powers, frequency_hz, center_hz, delay_s, map_, scale, offset_w, offset_std_w):
+    readings = np.asarray(powers, dtype=float)
+    if readings.ndim != 2 or readings.shape[0] < 4 or readings.shape[1] < 3:
+        raise InputError(
+            f"powers must have shape (N, n) with N >= 4 readings and n >= 3 ports, got "
+            f"{readings.shape}",
+            parameter="powers",
+        )
+    if not np.all(np.isfinite(readings)):
+        raise InputError("powers must be finite numbers (W)", parameter="powers")
+    samples, ports = readings.shape
+    frequency = _vector("frequency_hz", frequency_hz, samples)
+    for name, value in (("center_hz", center_hz), ("delay_s", delay_s)):
+        if not np.isfinite(value):
+            raise InputError(f"{name} must be a finite number, got {value!r}", parameter=name)
+    if not delay_s > 0:
+        raise InputError(f"delay_s must be > 0 (s), got {delay_s!r}", parameter="delay_s")
+    matrix = np.asarray(map_, dtype=float)
+    if matrix.shape != (ports, 3) or not np.all(np.isfinite(matrix)):
+        raise InputError(
+            f"map_ must be {ports} x 3 finite numbers, got shape {matrix.shape}", parameter="map_"
+        )
+    power = np.ones(samples) if scale is None else _vector("scale", scale, samples)
+    if (offset_w is None) != (offset_std_w is None):
+        raise InputError(
+            "offset_w and offset_std_w must be given together (fitted offsets with their "
+            "standard errors) or both be None",
+            parameter="offset_std_w",
+        )
+    offsets = None if offset_w is None else _vector("offset_w", offset_w, ports)
+    offset_std = None if offset_std_w is None else _vector("offset_std_w", offset_std_w, ports)
+    if offset_std is not None and np.any(offset_std < 0):
+        raise InputError("offset_std_w must be >= 0 (W)", parameter="offset_std_w")
+    return readings, frequency, float(center_hz), float(delay_s), matrix, power, offsets, offset_std
+
+
+# ---------------------------------------------------------------------- statistics
+def _second_difference_adjoint(values: np.ndarray) -> np.ndarray:
+    """``D' y`` for second differences ``D`` (rows): (N - 2, ...) -> (N, ...)."""
+    padding = [(2, 2)] + [(0, 0)] * (values.ndim - 1)
+    return np.diff(np.pad(values, padding), n=2, axis=0)
+
+
+def _model_free_noise(residual: np.ndarray, basis: np.ndarray) -> tuple[np.ndarray, float]:
+    """Second-difference noise per port (W) and its degrees of freedom.
+
+    ``T = trace(D (I - H) D')`` and ``trace((D (I - H) D')^2)`` are computed from the band
+    matrix ``D D'`` (6, -4, 1) and the low-rank ``U = D Q`` without forming N x N matrices.
+    """
+    samples = residual.shape[0]
+    differences = np.diff(residual, n=2, axis=0)
+    low_rank = np.diff(basis, n=2, axis=0)
+    trace = 6.0 * (samples - 2) - np.einsum("ij,ij->", low_rank, low_rank)
+    band = 36.0 * (samples - 2) + 32.0 * max(samples - 3, 0) + 2.0 * max(samples - 4, 0)
+    spread = _second_difference_adjoint(low_rank)
+    gram = low_rank.T @ low_rank
+    trace_square = band - 2.0 * np.einsum("ij,ij->", spread, spread) + np.sum(gram**2)
+    noise = np.sqrt(np.einsum("ij,ij->j", differences, differences) / trace)
+    return noise, float(trace**2 / trace_square)
+
+
+def _cosines(samples: int, orders: int) -> np.ndarray:
+    """The first ``orders`` discrete cosines ``cos(pi m (k + 1/2) / N)``, m = 1.. (N, K)."""
+    index = np.arange(samples) + 0.5
+    return np.cos(np.pi * np.outer(index, np.arange(1, orders + 1)) / samples)
+
+
+class _Projector:
+    """Projects whitened (N, n, ...) arrays off what the fit absorbs: each port's fitted
+    columns (orthonormal ``basis``, N x c) and the delay (one direction coupling the ports)."""
+
+    def __init__(self, basis: np.ndarray, delay_column: np.ndarray):
+        self.basis = basis
+        delay = self.per_port(delay_column)
+        norm = np.sqrt(np.einsum("ij,ij->", delay, delay))
+        self.delay = delay / norm if norm > 0 else delay
+
+    def per_port(self, values: np.ndarray) -> np.ndarray:
+        return values - np.tensordot(
+            self.basis, np.tensordot(self.basis, values, axes=(0, 0)), axes=(1, 0)
+        )
+
+    def __call__(self, values: np.ndarray) -> np.ndarray:
+        projected = self.per_port(values)
+        along = np.tensordot(self.delay, projected, axes=([0, 1], [0, 1]))
+        return projected - np.multiply.outer(self.delay, along)
+
+
+def _components(columns: np.ndarray, norms: np.ndarray, target: np.ndarray):
+    """QR of ``columns`` (M, K): the components of ``target`` on the orthonormal factor, the
+    mask of the columns kept (those not absorbed by the ones before them, whose components
+    are noise) and the triangular factor."""
+    # Q' target without forming Q (LAPACK geqrf + ormqr)
+    projected, triangle = linalg.qr_multiply(columns, np.atleast_2d(target.T), mode="right")
+    kept = np.abs(np.diag(triangle)) > RANK_TOLERANCE * np.maximum(norms, np.finfo(float).tiny)
+    return projected.T.reshape((-1,) + target.shape[1:]), kept, triangle
+
+
+def _kept_squares(components: np.ndarray, kept: np.ndarray) -> np.ndarray:
+    mask = kept.reshape(kept.shape + (1,) * (components.ndim - 1))
+    return np.where(mask, components, 0.0) ** 2
+
+
+@dataclass(frozen=True)
+class _Test:
+    """A score test at its most significant scale."""
+
+    p_value: float
+    excess: float  # statistic minus degrees of freedom (whitened energy)
+    orders: int  # functions of the row at this scale
+    dof: int
+
+    @property
+    def failed(self) -> bool:
+        return self.p_value < TEST_P_VALUE
+
+
+class _Tests:
+    """The score tests of the module docstring on one whitened residual (N, n)."""
+
+    def __init__(self, residual, projector, residual_dof: float):
+        self.residual = projector(residual)
+        self.projector = projector
+        self.ports = residual.shape[1]
+        self.total_dof = residual_dof * self.ports
+        self.energy = float(np.einsum("ij,ij->", self.residual, self.residual))
+
+    def p_value(self, statistic: float, dof: int) -> float:
+        """Upper tail of a score statistic with ``dof`` degrees of freedom: the lack-of-fit
+        F test against the rest of the whitened residual."""
+        remaining = self.total_dof - dof
+        if dof <= 0 or remaining < 1.0:  # the columns leave no residual to compare with
+            return 1.0
+        ratio = (statistic / dof) / max(self.energy - statistic, 1e-300) * remaining
+        return float(stats.f.sf(ratio, dof, remaining))
+
+    def coupled(self, basis: np.ndarray, direction: np.ndarray, orders) -> tuple[_Test, np.ndarray]:
+        """Columns ``basis_m(k) direction_k`` (functions of the row times a per-reading image
+        direction, N x n), nested at ``orders``; also, per reading, the amplitude along
+        ``direction`` of the residual these columns explain at the best order (what the fit
+        did not absorb of the drift, in the unit of the direction's coefficient)."""
+        columns = basis[:, None, :] * direction[:, :, None]
+        norms = np.sqrt(np.einsum("ijk,ijk->k", columns, columns))
+        projected = self.projector(columns).reshape(-1, basis.shape[1])
+        components, kept, triangle = _components(projected, norms, self.residual.ravel())
+        best = self._best(_kept_squares(components, kept), kept, orders)
+        # least squares on the kept columns of the best order, through their QR factors
+        used = np.flatnonzero(kept[: best.orders])
+        coefficients, *_ = linalg.lstsq(triangle[:, used], components)
+        explained = (projected[:, used] @ coefficients).reshape(direction.shape)
+        return best, np.einsum("ij,ij->i", explained, direction) / np.einsum(
+            "ij,ij->i", direction, direction
+        )
+
+    def per_port(self, basis: np.ndarray, orders) -> tuple[_Test, np.ndarray]:
+        """Columns ``basis_m(k)`` on every port separately, nested at ``orders``; also each
+        port's statistic at the largest order."""
+        projected = self.projector.per_port(basis)
+        components, kept, _ = _components(projected, np.linalg.norm(basis, axis=0), self.residual)
+        scores = _kept_squares(components, kept)
+        return self._best(scores.sum(axis=1), kept, orders, self.ports), scores.sum(axis=0)
+
+    def _best(self, scores, kept, orders, ports: int = 1) -> _Test:
+        statistic = np.cumsum(scores)
+        dof = np.cumsum(kept) * ports
+        # the smallest p-value over the scales, times their number (Bonferroni)
+        tests = [
+            _Test(
+                min(1.0, len(orders) * self.p_value(statistic[k - 1], int(dof[k - 1]))),
+                float(statistic[k - 1] - dof[k - 1]),
+                k,
+                int(dof[k - 1]),
+            )
+            for k in orders
+        ]
+        return min(tests, key=lambda test: (test.p_value, -test.excess))
+
+
+def _span_fsr(phase_rad: np.ndarray) -> float:
+    distinct = np.unique(phase_rad)
+    if distinct.size < 2:
+        return 0.0
+    extent = float(distinct[-1] - distinct[0])
+    return (extent + extent / (distinct.size - 1)) / (2.0 * np.pi)
+
+
+def _lag1(residual: np.ndarray) -> np.ndarray:
+    energy = np.einsum("ij,ij->j", residual, residual)
+    lagged = np.einsum("ij,ij->j", residual[1:], residual[:-1])
+    return np.divide(lagged, energy, out=np.zeros_like(energy), where=energy > 0)
+
+
+def _pinv_variance_ratio(matrix, phase_rad, power) -> float:
+    """Mean pseudo-inverse phase variance over the mean Cramer-Rao variance, unit noise."""
+    images = cone_vectors(phase_rad, power) @ matrix.T
+    gradient = pinv_phase_gradient(images, linalg.pinv(matrix))
+    pinv_variance = phase_std_rad(gradient, 1.0) ** 2
+    # the bound in Hz on an FSR of 2 pi "Hz" is the bound on the phase in rad
+    bound = crlb_frequency_std(matrix, phase_rad, power, 1.0, 2.0 * np.pi) ** 2
+    return float(np.mean(pinv_variance) / np.mean(bound))
+
+
+@dataclass(frozen=True)
+class _Scatter:
+    """Residual energy along each reading's power and phase directions against the rest."""
+
+    power_p: float
+    phase_p: float
+    power_excess: float  # statistic minus degrees of freedom (whitened energy)
+    phase_excess: float
+    power_rms: float  # relative source-power noise, RMS over the readings
+    phase_rms_rad: float
+
+    @property
+    def failed(self) -> bool:
+        return min(self.power_p, self.phase_p) < TEST_P_VALUE
+
+
+def _scatter(residual, image, tangent, dof: float, pooled: bool) -> _Scatter:
+    """Tests 6 and 7 (module docstring) on the residual (N, n) and the directions
+    ``a_P`` (``image``) and ``a_t`` (``tangent``) of every reading (N, n); ``pooled``: one
+    noise level for every port."""
+    ports = residual.shape[1]
+    level = np.einsum("ij,ij->j", residual, residual) / dof
+    level = np.sqrt(np.full(ports, level.mean()) if pooled else level)
+    level = np.maximum(level, np.finfo(float).tiny)
+    whitened, along = residual / level, image / level
+    along_norm = np.linalg.norm(along, axis=1)
+    along = along / along_norm[:, None]
+    across = tangent / level
+    across = across - np.einsum("ij,ij->i", across, along)[:, None] * along
+    across_norm = np.linalg.norm(across, axis=1)
+    across = across / across_norm[:, None]
+    power = np.einsum("ij,ij->i", whitened, along)
+    phase = np.einsum("ij,ij->i", whitened, across)
+    rest = float(np.einsum("ij,ij->", whitened, whitened) - power @ power - phase @ phase)
+    rest_dof = dof * (ports - 2)
+    unit = max(rest / rest_dof, np.finfo(float).tiny)  # whitened variance per direction
+
+    def test(component, norm):
+        statistic = float(component @ component) / unit
+        excess_variance = np.mean((component**2 - unit) / norm**2)
+        return (
+            float(stats.f.sf(statistic / dof, dof, rest_dof)),
+            statistic - dof,
+            float(np.sqrt(max(excess_variance, 0.0))),
+        )
+
+    power_p, power_excess, power_rms = test(power, along_norm)
+    phase_p, phase_excess, phase_rms = test(phase, across_norm)
+    return _Scatter(power_p, phase_p, power_excess, phase_excess, power_rms, phase_rms)
+
+
+@dataclass(frozen=True)
+class _Structure:
+    """The residual tests and the drifts they estimate."""
+
+    power: _Test
+    power_error: np.ndarray  # relative source-power error (N,)
+    phase: _Test
+    phase_error_rad: np.ndarray  # (N,)
+    dispersion: _Test | None
+    dispersion_rad: np.ndarray | None  # (N,)
+    harmonics: _Test
+    smooth: _Test
+    scatter: _Scatter
+
+    def p_values(self) -> dict:
+        return {
+            "power": self.power.p_value,
+            "phase": self.phase.p_value,
+            "dispersion": None if self.dispersion is None else self.dispersion.p_value,
+            "harmonics": self.harmonics.p_value,
+            "smooth": self.smooth.p_value,
+            "power_scatter": self.scatter.power_p,
+            "phase_scatter": self.scatter.phase_p,
+        }
+
+    @property
+    def smooth_failed(self) -> bool:
+        """Whether a test of structure along the rows (1-5) failed."""
+        tests = (self.power, self.phase, self.dispersion, self.harmonics, self.smooth)
+        return any(test is not None and test.failed for test in tests)
+
+    @property
+    def failed(self) -> bool:
+        return self.smooth_failed or self.scatter.failed
+
+
+def _orders(samples: int, largest: int) -> tuple[int, ...]:
+    """Scales of SMOOTH_ORDERS up to ``largest`` and a quarter of the readings."""
+    top = max(min(samples // 4, largest), 1)
+    return tuple(k for k in SMOOTH_ORDERS if k <= top) or (top,)
+
+
+def _structure(tests, harmonic_test, image, tangent, frequency, center, span, scatter):
+    """Tests 1-3 and 5 on the whitened residual (``image`` and ``tangent`` whitened too)."""
+    samples = frequency.size
+    orders = _orders(samples, MAX_COUPLED_ORDER)
+    background = _orders(samples, SMOOTH_ORDERS[-1])
+    cosines = _cosines(samples, background[-1])
+    time = cosines[:, : orders[-1]]
+    power, power_error = tests.coupled(time, image, orders)
+    phase, phase_error = tests.coupled(time, tangent, orders)
+    dispersion = dispersion_rad = None
+    if span > DISPERSION_MIN_SPAN_FSR:
+        offset = frequency - center
+        relative = offset / max(float(np.abs(offset).max()), np.finfo(float).tiny)
+        even = np.column_stack([special.eval_legendre(degree, relative) for degree in (2, 4)])
+        dispersion, dispersion_rad = tests.coupled(even, tangent, (2,))
+    smooth, _ = tests.per_port(cosines, background)
+    return _Structure(
+        power=power,
+        power_error=power_error,
+        phase=phase,
+        phase_error_rad=phase_error,
+        dispersion=dispersion,
+        dispersion_rad=dispersion_rad,
+        harmonics=harmonic_test,
+        smooth=smooth,
+        scatter=scatter,
+    )
+
+
+def _rms(values: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(values**2)))
+
+
+def _excess(test: _Test | None) -> float:
+    """Excess energy of a failed test, 0 for one that passed or was not made."""
+    return test.excess if test is not None and test.failed else 0.0
+
+
+def _cause(structure: _Structure) -> str:
+    """The alternative that explains the residual best (module docstring)."""
+    if not structure.smooth_failed:
+        scatter = structure.scatter
+        return "power_drift" if scatter.power_excess >= scatter.phase_excess else "phase_drift"
+    phase, dispersion = _excess(structure.phase), _excess(structure.dispersion)
+    explained = {  # in the order ties are named
+        "phase_drift": max(phase, dispersion),
+        "power_drift": _excess(structure.power),
+        "other_misfit": structure.harmonics.excess,
+    }
+    best = max(explained.values())
+    if best <= 0.0 or best < EXPLAINED_FRACTION * structure.smooth.excess:
+        return "other_misfit"
+    cause = next(name for name, value in explained.items() if _ties(value, best))
+    if cause == "phase_drift" and dispersion > 0.0 and _ties(dispersion, phase):
+        return "dispersion"
+    return cause
+
+
+def _ties(value: float, best: float) -> bool:
+    """Whether ``value`` explains as much as ``best`` within the tolerance of a tie."""
+    return best - value <= TIE_FRACTION * best + TIE_Z * np.sqrt(max(best, 0.0))
+
+
+def _port_list(names, mask) -> str:
+    return ", ".join(name for name, flag in zip(names, mask, strict=True) if flag)
+
+
+def _warning(cause: str, seen: str) -> CalibrationWarning:
+    remedy = REMEDIES[cause]
+    return CalibrationWarning(f"{seen}; {remedy}", cause=cause, remedy=remedy)
+
+
+def _power_clause(error: np.ndarray) -> str:
+    return (
+        f"a relative source-power error of {100 * _rms(error):.3g} % RMS "
+        f"({100 * np.abs(error).max():.3g} % peak)"
+    )
+
+
+def _phase_clause(error: np.ndarray, delay_s: float) -> str:
+    per_rad_mhz = 1e-6 / (2.0 * np.pi * delay_s)
+    return (
+        f"a phase error of {_rms(error):.3g} rad RMS ({_rms(error) * per_rad_mhz:.3g} MHz, "
+        f"{np.abs(error).max():.3g} rad peak)"
+    )
+
+
+def _misfit_warning(structure, names, ratio, lag1, harmonic_power, span, delay, model_free):
+    """The one warning that names the misfit, or None when every residual test passes."""
+    if not structure.failed:
+        return None
+    cause = _cause(structure)
+    residual = f"lag-1 autocorrelation of the residual up to {lag1.max():.2f}"
+    if model_free:
+        high = ratio >= min(ratio.max(), 1.0 + 0.5 * (ratio.max() - 1.0))
+        residual = (
+            f"residual up to {ratio.max():.3g}x the model-free noise "
+            f"({_port_list(names, high)}), {residual}"
+        )
+    power, phase, scatter = structure.power, structure.phase, structure.scatter
+    # a drift of power and one of phase that leave the same residual (a sweep of ~1 FSR)
+    tie = _ties(power.excess, phase.excess)
+    if not structure.smooth_failed:
+        direction, error = (
+            ("power", f"{100 * scatter.power_rms:.3g} % RMS of relative source-power noise")
+            if cause == "power_drift"
+            else ("phase", f"{scatter.phase_rms_rad:.3g} rad RMS of phase noise")
+        )
+        seen = (
+            f"the readings scatter along the fringe's {direction} direction more than across "
+            f"it: {error} from reading to reading, beyond the detector noise (p-value "
+            f"{min(scatter.power_p, scatter.phase_p):.2g}; {residual})"
+        )
+    elif cause == "power_drift":
+        seen = (
+            f"the source power drifts along the sweep: {_power_clause(structure.power_error)} "
+            f"remains in the residual after the fit ({residual}); without a power monitor "
+            "part of a drift is absorbed into the map and the FSR"
+        )
+    elif cause == "phase_drift":
+        seen = (
+            f"the fringe phase drifts along the sweep: "
+            f"{_phase_clause(structure.phase_error_rad, delay)} that is not a polynomial "
+            f"in frequency remains in the residual ({residual})"
+        )
+        if tie and power.failed:
+            seen += (
+                f"; on this sweep {_power_clause(structure.power_error)} would leave the "
+                "same residual: if the source power was not monitored, suspect it too"
+            )
+    elif cause == "dispersion":
+        seen = (
+            f"the fringe phase is not linear in frequency over the {span:.3g} FSR sweep: "
+            f"{_phase_clause(structure.dispersion_rad, delay)} even in f - f0 remains in "
+            f"the residual, as group-delay dispersion gives ({residual}); the FSR changes "
+            "across the sweep"
+        )
+    else:
+        seen = (
+            f"the residual departs from white noise in a way no listed cause explains "
+            f"({residual}; harmonics 2-3 of the fringe phase up to "
+            f"{harmonic_power.max():.3g}x their noise level)"
+        )
+    return _warning(cause, seen)
+
+
+def _offset_warning(offsets, offset_std, readings, names):
+    """``detector_offset`` when a fitted offset exceeds ``MIN_OFFSET_Z`` standard errors."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.abs(offsets) / offset_std
+    z = np.where(offset_std > 0, z, np.where(offsets != 0, np.inf, 0.0))
+    significant = z > MIN_OFFSET_Z
+    if not significant.any():
+        return None
+    mean = np.abs(readings.mean(axis=0))
+    parts = [
+        f"{names[j]} {offsets[j]:+.3g} W ({100 * offsets[j] / mean[j]:+.3g} % of its mean "
+        f"reading, {z[j]:.3g} standard errors)"
+        for j in np.flatnonzero(significant)
+    ]
+    return _warning(
+        "detector_offset",
+        f"the readings carry offsets independent of the source power: {'; '.join(parts)}; "
+        "they were fitted from the power variation the monitor shows",
+    )
+
+
+def _unequal_noise(noise, dof, names):
+    """``unequal_noise`` warning (or None) and the test's p-value."""
+    ports = noise.size
+    factor = float(noise.max() / noise.min())
+    # two noise variances on nu degrees of freedom each: their ratio is F(nu, nu)
+    p_value = float(min(1.0, ports * (ports - 1) * stats.f.sf(factor**2, dof, dof)))
+    if factor <= UNEQUAL_NOISE_RATIO or p_value >= TEST_P_VALUE:
+        return None, p_value
+    levels = ", ".join(f"{name} {level:.3g} W" for name, level in zip(names, noise, strict=True))
+    return (
+        _warning(
+            "unequal_noise",
+            f"the ports' noise differs by a factor {factor:.3g} ({levels}; p-value "
+            f"{p_value:.2g}): the pseudo-inverse retrieval weights them equally",
+        ),
+        p_value,
+    )
+
+
+# ---------------------------------------------------------------------- the report
+def misfit_report(
+    powers,
+    frequency_hz,
+    center_hz: float,
+    delay_s: float,
+    map_,
+    *,
+    scale=None,
+    offset_w=None,
+    offset_std_w=None,
+    dark_given: bool = False,
+    weighted_retrieval: bool = False,
+) -> MisfitReport:
+    """Test a fitted calibration sweep against the model and name what departs from it.
+
+    Parameters
+    ----------
+    powers : array_like, shape (N, n)
+        Calibration readings (W), dark-subtracted, in acquisition order.
+    frequency_hz : array_like, shape (N,)
+        Known frequency of each reading (Hz).
+    center_hz : float
+        Phase origin ``f0`` (Hz).
+    delay_s : float
+        Fitted delay ``tau`` (s); the FSR is ``1 / delay_s``.
+    map_ : array_like, shape (n, 3)
+        Fitted map ``A`` (W).
+    scale : None or array_like, shape (N,)
+        Relative monitored source power per reading (mean 1), or None.
+    offset_w, offset_std_w : None or array_like, shape (n,)
+        Fitted per-port offsets (W, subtracted from the readings) and their standard
+        errors (W); both or neither.
+    dark_given : bool
+        Dark readings were subtracted (fitted offsets then do not warn).
+    weighted_retrieval : bool
+        The retrieval weights the ports by their noise (``"ml"``): unequal noise and an
+        ill-conditioned map cost it nothing, so neither warns.
+
+    Returns
+    -------
+    MisfitReport
+
+    Raises
+    ------
+    InputError
+        For arrays of the wrong shape or with non-finite values.
+    """
+    readings, frequency, center, delay, matrix, power, offsets, offset_std = _check_inputs(
+        powers, frequency_hz, center_hz, delay_s, map_, scale, offset_w, offset_std_w
+    )
+    samples, ports = readings.shape
+    names = [f"p{k + 1}" for k in range(ports)]
+    phase = delay_phase_rad(frequency, center, delay)
+    objects = cone_vectors(phase, power)
+    design = objects if offsets is None else np.column_stack([objects, np.ones(samples)])
+    basis = linalg.orth(design)
+    image = objects @ matrix.T
+    residual = readings - image - (0.0 if offsets is None else offsets)
+
+    residual_dof = max(samples - basis.shape[1] - 1.0 / ports, 1.0)
+    residual_rms = np.sqrt(np.einsum("ij,ij->j", residual, residual) / residual_dof)
+    span = _span_fsr(phase)
+    dense = samples >= MIN_READINGS_PER_FSR * max(span, 1.0)
+    model_free = samples >= MIN_MODEL_FREE_READINGS and dense
+    if model_free:
+        noise, noise_dof = _model_free_noise(residual, basis)
+    else:
+        noise, noise_dof = residual_rms, residual_dof
+    floor = np.finfo(float).eps * max(float(np.abs(readings).max()), np.finfo(float).tiny)
+    noise = np.maximum(noise, floor)
+    ratio = residual_rms / noise
+    lag1 = _lag1(residual)
+    exact_fit = float(np.sqrt(np.mean(residual**2))) <= ROUNDOFF_EPSILONS * floor
+
+    tangent = power[:, None] * (
+        np.stack([-np.sin(phase), np.cos(phase), np.zeros(samples)], axis=1) @ matrix.T
+    )
+    noise_note, unequal_p = _unequal_noise(noise, noise_dof, names)
+    # whitening weights: one noise for all ports unless theirs differ (module docstring)
+    pooled = unequal_p >= POOLED_NOISE_P_VALUE
+    weight = np.full(ports, np.sqrt(np.mean(noise**2))) if pooled else noise
+    delay_column = (2.0 * np.pi * (frequency - center))[:, None] * tangent
+    projector = _Projector(basis, delay_column / weight)
+    tests = _Tests(residual / weight, projector, residual_dof)
+    harmonics = np.column_stack(
+        [power * trig(order * phase) for order in HARMONICS for trig in (np.cos, np.sin)]
+    )
+    harmonic_test, harmonic_scores = tests.per_port(harmonics, (harmonics.shape[1],))
+    # relative to each port's own noise
+    harmonic_power = harmonic_scores * (weight / noise) ** 2 / max(harmonic_test.dof // ports, 1)
+    scatter = _scatter(residual, image, tangent, residual_dof, pooled)
+    structure = _structure(
+        tests, harmonic_test, image / weight, tangent / weight, frequency, center, span, scatter
+    )
+
+    notes = []
+    if not exact_fit:
+        notes.append(
+            _misfit_warning(structure, names, ratio, lag1, harmonic_power, span, delay, model_free)
+        )
+    if offsets is not None and not dark_given:
+        notes.append(_offset_warning(offsets, offset_std, readings, names))
+    if span < 1.0 - SPAN_TOLERANCE:
+        notes.append(
+            _warning(
+                "partial_span",
+                f"the sweep covers {span:.3g} of the fitted FSR ({1e-9 / delay:.6g} GHz): the "
+                "map is learned from part of the fringe and readings outside the span are "
+                "extrapolated",
+            )
+        )
+    if not (weighted_retrieval or exact_fit):
+        notes.append(noise_note)
+    variance_ratio = _pinv_variance_ratio(matrix, phase, power)
+    condition = float(np.linalg.cond(matrix))
+    if variance_ratio > MAX_PINV_VARIANCE_RATIO and not weighted_retrieval:
+        notes.append(
+            _warning(
+                "ill_conditioned",
+                f"the pseudo-inverse retrieval's phase variance is {variance_ratio:.3g}x the "
+                f"Cramer-Rao bound's over the sweep (allowed {MAX_PINV_VARIANCE_RATIO:.3g}x; "
+                f"map condition number {condition:.3g})",
+            )
+        )
+    return MisfitReport(
+        residual_rms_w=residual_rms,
+        noise_std_w=noise,
+        noise_dof=float(noise_dof),
+        noise_method="second_difference" if model_free else "residual",
+        noise_ratio=ratio,
+        lag1_autocorrelation=lag1,
+        harmonic_power=harmonic_power,
+        span_fsr=span,
+        condition_number=condition,
+        pinv_variance_ratio=variance_ratio,
+        p_values={**structure.p_values(), "unequal_noise": unequal_p},
+        power_error_rms=_rms(structure.power_error),
+        phase_error_rms_rad=_rms(structure.phase_error_rad),
+        offset_w=offsets,
+        offset_std_w=offset_std,
+        warnings=tuple(note for note in notes if note is not None),
+    )
