@@ -271,7 +271,7 @@ def test_pipe_input_is_read_once(files, tmp_path, capsys):
     writer.join(timeout=30)
     assert code == 0, err
     data = np.loadtxt(out, delimiter=",", skiprows=1)
-    assert data.shape == (300, 3) and np.isfinite(data).all()
+    assert data.shape == (300, 5) and np.isfinite(data).all()
 
 
 def test_bare_wavemeter_prints_help_and_succeeds(capsys):

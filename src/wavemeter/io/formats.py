@@ -42,7 +42,7 @@ class FileFormat:
     read : callable
         ``read(raw, max_bytes) -> Source``.
     write : callable or None
-        ``write(path, columns)`` with 1-D float64 or text columns; None: read only.
+        ``write(path, columns)`` with 1-D float64, int64 or text columns; None: read only.
     """
 
     name: str
@@ -192,6 +192,9 @@ def _column_array(name, values) -> np.ndarray:
     array = np.asarray(values)
     if array.ndim != 1:
         raise InputError(f"column {name!r} to write must be 1-D, got shape {array.shape}")
-    if array.dtype.kind in "fiub":
+    if array.dtype.kind in "iub":
+        # counts and bit masks (the quality flags) stay integers
+        return array.astype(np.int64)
+    if array.dtype.kind == "f":
         return array.astype(float)
     return array.astype(str)

@@ -65,7 +65,7 @@ def read_parquet(raw: RawInput, max_bytes: int) -> Source:
 
 
 def write_parquet(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write 1-D columns (float64 or text) as one Parquet table."""
+    """Write 1-D columns (float64, int64 or text) as one Parquet table."""
     pa = require_pyarrow("writing")
     table = pa.table({name: pa.array(values) for name, values in arrays.items()})
     pa.parquet.write_table(table, path)

@@ -25,7 +25,7 @@ from .formats import open_source
 from .source import MAX_BYTES, Source
 from .table import InvalidRows, Table
 
-__all__ = ["read_table", "SENTINEL_W", "SENTINEL_DBM", "MAX_DBM", "MAX_PORTS"]
+__all__ = ["read_table", "SENTINEL_W", "SENTINEL_DBM", "MAX_DBM", "MAX_PORTS", "NO_LIGHT_REASON"]
 
 #: raw readings above this (any linear unit) are instrument "no reading" codes (9.91e37)
 SENTINEL_W = 1e20
@@ -33,6 +33,8 @@ SENTINEL_W = 1e20
 SENTINEL_DBM = -200.0
 #: dBm readings above this (1 kW) are not a detector's reading: flagged invalid
 MAX_DBM = 60.0
+#: the reason a row whose ports sum to zero or less is invalid (dark readings have it)
+NO_LIGHT_REASON = "port powers sum to <= 0: no light"
 #: the most ports a 2-D port array may have; the other axis holds the samples
 MAX_PORTS = 64
 
@@ -324,7 +326,7 @@ def _ports_array(roles, data, samples, source, invalid: InvalidRows):
             units.append(unit)
     powers = np.column_stack(columns)
     with np.errstate(invalid="ignore", over="ignore"):
-        invalid.add(~(powers.sum(axis=1) > 0), "port powers sum to <= 0: no light")
+        invalid.add(~(powers.sum(axis=1) > 0), NO_LIGHT_REASON)
     return powers, tuple(names), tuple(units)
 
 

@@ -388,7 +388,7 @@ def _quoted(cell: str, delimiter: str) -> str:
 
 
 def _text_cells(values: np.ndarray, delimiter: str) -> list[str]:
-    if values.dtype.kind == "f":
+    if values.dtype.kind in "fi":
         return list(map(repr, values.tolist()))
     return [_quoted(cell, delimiter) for cell in values.tolist()]
 
@@ -406,10 +406,10 @@ def _write_delimited(path: Path, arrays: dict[str, np.ndarray], delimiter: str) 
 
 
 def write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write 1-D columns (float64 or text) as comma-separated text with a header row."""
+    """Write 1-D columns (float64, int64 or text) as comma-separated text with a header row."""
     _write_delimited(path, arrays, ",")
 
 
 def write_tsv(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """Write 1-D columns (float64 or text) as tab-separated text with a header row."""
+    """Write 1-D columns (float64, int64 or text) as tab-separated text with a header row."""
     _write_delimited(path, arrays, "\t")
