@@ -60,13 +60,23 @@ def test_simulate_calibrate_measure_round_trip(files, tmp_path, capsys):
     keep = "--keep true_frequency_hz,p2_w"
     assert "4000 rows" in ok(capsys, f"measure {files['cal']} {files['test']} -o {out} {keep}")
     header, data = read_csv(out)
-    assert header == ["frequency_hz", "wavelength_nm", "phase_rad", "true_frequency_hz", "p2_w"]
+    assert header == [
+        "frequency_hz",
+        "wavelength_nm",
+        "phase_rad",
+        "frequency_std_hz",
+        "flags",
+        "true_frequency_hz",
+        "p2_w",
+    ]
     _, test = read_csv(files["test"])
     calibration = wm.load_calibration(files["cal"])
     np.testing.assert_array_equal(data[:, 0], calibration.predict(test[:, 1:]))
     np.testing.assert_array_equal(data[:, 2], calibration.phase(test[:, 1:]))
     np.testing.assert_allclose(data[:, 1], C / data[:, 0] * 1e9, rtol=1e-16)
-    np.testing.assert_array_equal(data[:, 3:], test[:, [0, 2]])  # kept columns, in row order
+    np.testing.assert_array_equal(data[:, 3], calibration.frequency_std_hz(test[:, 1:]))
+    np.testing.assert_array_equal(data[:, 4], calibration.flags(test[:, 1:]))
+    np.testing.assert_array_equal(data[:, 5:], test[:, [0, 2]])  # kept columns, in row order
 
 
 @pytest.mark.parametrize("file_format", ["parquet", "hdf5", "npz"])
@@ -120,8 +130,8 @@ def test_lab_like_file_in_nm_and_dbm_meets_the_crlb_of_the_true_device(tmp_path,
     assert test.read_text().startswith("true_wavelength_nm,p1_dBm,p2_dBm,p3_dBm\n")
     ok(capsys, f"calibrate {sweep} -o {cal} --fsr '50 GHz'")
     ok(capsys, f"measure {cal} {test} -o {out} --keep true_wavelength_nm")
-    _, data = read_csv(out)
-    truth_hz = C / (data[:, 3] * 1e-9)
+    header, data = read_csv(out)
+    truth_hz = C / (data[:, header.index("true_wavelength_nm")] * 1e-9)
     device = wm.Interferometer.table1(3, seed=SEED)
     error = wm.frequency_error_hz(data[:, 0], truth_hz, device.true_fsr_hz)
     phase = delay_phase_rad(truth_hz, device.center_hz, device.delay_s)
@@ -153,8 +163,9 @@ def test_per_fsr_set_needs_a_coarse_frequency_and_reproduces_fig9(tmp_path, caps
     assert not out.exists()
     truth = "true_frequency_hz"
     ok(capsys, f"measure {cal} {test} -o {out} --coarse {truth} --keep {truth}")
-    _, data = read_csv(out)
-    assert np.sqrt(np.mean((data[:, 0] - data[:, 3]) ** 2)) < 12e6  # absolute frequency
+    header, data = read_csv(out)
+    error = data[:, 0] - data[:, header.index(truth)]
+    assert np.sqrt(np.mean(error**2)) < 12e6  # absolute frequency
     adjacent = json.loads(ok(capsys, f"evaluate {cal} {test} --adjacent --json"))["adjacent"]
     assert adjacent["windows_evaluated"] == 3
     assert adjacent["adjacent"]["rms_hz"] < 1.2 * adjacent["own"]["rms_hz"]
@@ -176,9 +187,11 @@ def test_drop_invalid_writes_nan_rows_in_place(files, tmp_path, capsys):
     data.write_text("\n".join(lines) + "\n")
     code, _, err = run(capsys, f"measure {files['cal']} {data} -o {out} --drop-invalid")
     assert code == 0 and "skipped 2 invalid row(s), first: line 3" in err
-    _, result = read_csv(out)
-    assert result.shape == (5, 3)
-    assert np.isnan(result[[1, 3]]).all() and np.isfinite(result[[0, 2, 4]]).all()
+    header, result = read_csv(out)
+    assert result.shape == (5, 5) and header[4] == "flags"
+    values = result[:, :4]
+    assert np.isnan(values[[1, 3]]).all() and np.isfinite(values[[0, 2, 4]]).all()
+    assert result[:, 4].tolist() == [0, wm.ReadingFlag.INVALID, 0, wm.ReadingFlag.INVALID, 0]
 
 
 def test_installed_script_round_trip_and_error(tmp_path):
@@ -383,10 +396,11 @@ def test_ml_retrieval_and_per_reading_uncertainty(files, tmp_path, capsys):
         "wavelength_nm",
         "phase_rad",
         "frequency_std_hz",
+        "flags",
         "true_frequency_hz",
     ]
     fsr = wm.load_calibration(cal).fsr_hz_
-    normalised = wm.frequency_error_hz(data[:, 0], data[:, 4], fsr) / data[:, 3]
+    normalised = wm.frequency_error_hz(data[:, 0], data[:, 5], fsr) / data[:, 3]
     # 4000 readings: the RMS of unit-variance errors is known to ~1.1 %; allow 4 of them
     assert np.sqrt(np.mean(normalised**2)) == pytest.approx(1.0, abs=0.045)
 

@@ -13,6 +13,7 @@ import numpy as np
 from ..atomic import check_output
 from ..exceptions import InputError, WavemeterError
 from ..io import FORMATS, ColumnRequest, port_key, read_table, table_format
+from ..io.reading import NO_LIGHT_REASON
 from ..progress import busy
 from ..units import SPEED_OF_LIGHT_M_S
 from ._params import FREQUENCY, FSR, AliasedOption, FrequencyParam
@@ -253,19 +254,49 @@ def column_request(options: dict, **extra) -> ColumnRequest:
     )
 
 
-def read(path, request: ColumnRequest, *, need_x: bool, drop_invalid: bool, quiet: bool):
+def _light_not_needed(table):
+    """The table with rows whose only problem is no light made valid (dark readings)."""
+    no_light = [k for k, reason in enumerate(table.invalid_reasons) if reason == NO_LIGHT_REASON]
+    dark_rows = np.isin(table.invalid_code, no_light)
+    return dataclasses.replace(table, invalid_code=np.where(dark_rows, -1, table.invalid_code))
+
+
+def read(
+    path,
+    request: ColumnRequest,
+    *,
+    need_x: bool,
+    drop_invalid: bool,
+    quiet: bool,
+    light: bool = True,
+):
     """Read a data file (``-``: stdin); with ``drop_invalid`` skip bad rows and say how many.
 
     Files with known frequencies (``need_x``: sweeps, test files) also get their power
-    monitor and temperature columns; readings to measure need neither. The table's
-    ``source`` is the name the user gave (``<stdin>`` for ``-``)."""
+    monitor and temperature columns; readings to measure need neither. Dark readings
+    (``light=False``, the source off) may sum to zero or less: only NaN, sentinels and
+    implausible values make their rows invalid. The table's ``source`` is the name the
+    user gave (``<stdin>`` for ``-``)."""
     label = STDIN_LABEL if is_stdio(path) else path
     with busy(printable(f"reading {label}"), quiet=quiet), _stdin_named(path):
         table = read_table(
-            path, request, need_x=need_x, find_extras=need_x, allow_invalid=drop_invalid
+            path,
+            request,
+            need_x=need_x,
+            find_extras=need_x,
+            allow_invalid=drop_invalid or not light,
         )
     if is_stdio(path):
         table = dataclasses.replace(table, source=Path(STDIN_LABEL))
+    if not light:
+        table = _light_not_needed(table)
+        if table.invalid.any() and not drop_invalid:
+            raise InputError(
+                f"{table.source}: {int(table.invalid.sum())} invalid row(s): "
+                f"{table.describe_invalid()}; fix or delete them, or allow invalid rows to "
+                "skip them (allow_invalid)",
+                parameter="allow_invalid",
+            )
     if table.invalid.any():
         note(
             quiet,

@@ -26,11 +26,14 @@ __all__ = [
     "FrequencyParam",
     "OpticalFrequencyParam",
     "PowerParam",
+    "PowerListParam",
     "FREQUENCY",
     "FSR",
     "OPTICAL_FREQUENCY",
     "POWER",
     "NOISE_POWER",
+    "OFFSETS",
+    "NOISE_POWERS",
     "BARE_FREQUENCY_LIMIT_HZ",
 ]
 
@@ -168,6 +171,43 @@ class PowerParam(click.ParamType):
         return power_w
 
 
+class PowerListParam(click.ParamType):
+    """Powers separated by commas: ``1uW``, ``'2e-7,0,1nW'``; a bare number is in W.
+
+    Converts to a tuple of float (W).
+
+    Parameters
+    ----------
+    signed : bool
+        Offsets (dark readings) may be negative, and dBm, which names only positive
+        powers, is refused for them; otherwise (noise levels) each must be >= 0.
+    """
+
+    name = "W,W,.."
+
+    def __init__(self, signed: bool):
+        self.signed = signed
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        powers_w = []
+        for text in str(value).split(","):
+            try:
+                _, unit = parse_quantity(text, "power", "value")
+                if self.signed and unit == "dBm":
+                    raise InputError(
+                        f"{text.strip()}: dBm names only positive powers, and an offset is "
+                        "signed; give W, mW, uW or nW (e.g. -20nW)"
+                    )
+                powers_w.append(parse_power_w(text, "value"))
+            except InputError as exc:
+                self.fail(str(exc), param, ctx)
+        if not self.signed and min(powers_w) < 0:
+            self.fail(f"{value}: each must be >= 0", param, ctx)
+        return tuple(powers_w)
+
+
 #: any frequency; a bare number is in Hz
 FREQUENCY = FrequencyParam()
 #: a free spectral range: refuses a bare number below 1 MHz (``--fsr 50`` meant 50GHz)
@@ -178,3 +218,7 @@ OPTICAL_FREQUENCY = OpticalFrequencyParam()
 POWER = PowerParam()
 #: a noise standard deviation in power (>= 0)
 NOISE_POWER = PowerParam(allow_zero=True)
+#: signed per-port power offsets (dark readings), W
+OFFSETS = PowerListParam(signed=True)
+#: per-port noise standard deviations (>= 0), W
+NOISE_POWERS = PowerListParam(signed=False)

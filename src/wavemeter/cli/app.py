@@ -6,6 +6,11 @@ costs little more than importing click. Errors: :class:`wavemeter.WavemeterError
 the library parameter at fault named) and exit code 2; anything else is a bug and shows its
 traceback. SIGTERM and SIGHUP end a command like Ctrl-C does, so a half-written output's
 temporary file is removed; the exit code is 128 + the signal number.
+
+Every :class:`wavemeter.CalibrationWarning` a command's fit emits is printed as one line
+``warning: [cause] message`` on stderr, also with ``--quiet`` (a warning is about the
+result, not progress). Warnings a command refuses (``calibrate --strict``) arrive as
+:class:`WarningsRefused`: one ``error: [cause] message`` line each and exit code 3.
 """
 
 from __future__ import annotations
@@ -16,13 +21,18 @@ import re
 import signal
 import sys
 import threading
+import warnings
 
 import click
 
 from .._version import __version__
-from ..exceptions import WavemeterError
+from ..exceptions import CalibrationWarning, WavemeterError
 
-__all__ = ["main", "cli", "COMMANDS", "OPTION_OF_PARAMETER"]
+__all__ = ["main", "cli", "COMMANDS", "OPTION_OF_PARAMETER", "WarningsRefused", "warning_text"]
+
+#: exit codes: bad input, and calibration warnings refused (``--strict``)
+EXIT_INPUT_ERROR = 2
+EXIT_WARNINGS_REFUSED = 3
 
 #: command -> one-line help shown by ``wavemeter --help``; the module is ``wavemeter.cli.<name>``
 COMMANDS = {
@@ -142,11 +152,75 @@ def _error_text(exc: Exception) -> str:
     return str(exc) or type(exc).__name__
 
 
-def _error_line(text: str) -> str:
-    """``error: text`` on one line, without control characters."""
+def _one_line(prefix: str, text: str) -> str:
+    """``prefix`` and ``text`` on one line, without control characters."""
     from ._common import printable
 
-    return "error: " + " ".join(printable(text).split())
+    return prefix + " ".join(printable(text).split())
+
+
+def _error_line(text: str) -> str:
+    """``error: text`` on one line, without control characters."""
+    return _one_line("error: ", text)
+
+
+class WarningsRefused(Exception):
+    """Calibration warnings a command was told to refuse (``--strict``); nothing was written.
+
+    Not a :class:`WavemeterError`: the input was read and fitted, but the result is not
+    trusted. :func:`main` prints one ``error:`` line per warning and returns exit code 3.
+
+    Parameters
+    ----------
+    refused : sequence of CalibrationWarning
+        The warnings, in the order the fit emitted them.
+    consequence : str
+        What did not happen because of them, appended to every line in brackets
+        (``"--strict: no calibration written"``).
+    """
+
+    def __init__(self, refused, consequence: str):
+        super().__init__(f"{len(refused)} calibration warning(s) refused")
+        self.refused = list(refused)
+        self.consequence = consequence
+
+
+#: calibration-warning cause -> the command-line options of its remedy (the library's
+#: messages name parameters: power_monitor_w, dark_w, retrieval, CalibrationSet)
+OPTIONS_OF_CAUSE = {
+    "power_drift": "--monitor COL",
+    "detector_offset": "--dark FILE or --dark-w",
+    "dispersion": "--per-fsr",
+    "unequal_noise": "--retrieval ml",
+    "ill_conditioned": "--retrieval ml",
+}
+
+
+def warning_text(warning: Warning) -> str:
+    """``[cause] message`` of a calibration warning, on one line (``other_misfit`` when the
+    warning names no cause), with the options of its remedy where it has some."""
+    cause = getattr(warning, "cause", "other_misfit")
+    hint = OPTIONS_OF_CAUSE.get(cause)
+    return f"[{cause}] {warning}" + (f" (options: {hint})" if hint else "")
+
+
+@contextlib.contextmanager
+def _calibration_warnings_as_lines():
+    """While a command runs, print every :class:`CalibrationWarning` as one ``warning:``
+    line on stderr, each time it is emitted (not once per place, as Python does by
+    default); other warnings are shown as before."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", CalibrationWarning)
+        show_other = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, CalibrationWarning):
+                click.echo(_one_line("warning: ", warning_text(message)), err=True)
+            else:
+                show_other(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        yield
 
 
 def _exit_on_signal(signum, frame):
@@ -173,9 +247,10 @@ def _signals_end_the_command():
 
 
 def main(argv=None) -> int:
-    """Run the command line; return the exit code (0 ok, 2 user error, 130 interrupted)."""
+    """Run the command line; return the exit code (0 ok, 2 user error, 3 calibration
+    warnings refused by ``--strict``, 130 interrupted)."""
     try:
-        with _signals_end_the_command():
+        with _signals_end_the_command(), _calibration_warnings_as_lines():
             cli.main(args=argv, prog_name="wavemeter", standalone_mode=False)
     except click.exceptions.Exit as exc:
         return exc.exit_code
@@ -184,11 +259,15 @@ def main(argv=None) -> int:
         return 130
     except click.ClickException as exc:
         click.echo(_error_line(exc.format_message()), err=True)
-        return 2
+        return EXIT_INPUT_ERROR
+    except WarningsRefused as exc:
+        for warning in exc.refused:
+            click.echo(_error_line(f"{warning_text(warning)} ({exc.consequence})"), err=True)
+        return EXIT_WARNINGS_REFUSED
     except (WavemeterError, OSError) as exc:
         message = _error_text(exc)
         click.echo(_error_line(message + _option_hint(exc, message, _command_name(argv))), err=True)
-        return 2
+        return EXIT_INPUT_ERROR
     return 0
 
 

@@ -1,13 +1,22 @@
-"""`wavemeter calibrate`: learn a calibration from a sweep file."""
+"""`wavemeter calibrate`: learn a calibration from a sweep file.
+
+Dark readings (``--dark FILE`` averaged per port, or ``--dark-w``) are subtracted from the
+sweep and kept in the calibration. With ``--strict`` a :class:`CalibrationWarning` of the
+fit is an error: nothing is written and the exit code is 3.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import warnings
 from pathlib import Path
 
 import click
+import numpy as np
 
 from ..atomic import check_output
-from ..exceptions import InputError
+from ..exceptions import CalibrationWarning, InputError
+from ..io import port_key
 from ..progress import busy
 from ._common import (
     FORCE,
@@ -24,10 +33,76 @@ from ._common import (
     say,
     setting,
 )
-from ._streams import is_stdio, output_path
+from ._params import OFFSETS
+from ._streams import STDIN_LABEL, is_stdio, output_path
+from .app import WarningsRefused
 
 
-def _fit(options: dict, table, phases):
+@contextlib.contextmanager
+def _refused_if(strict: bool):
+    """With ``strict``, the block's :class:`CalibrationWarning` s are collected instead of
+    shown and raised together after it as :class:`WarningsRefused`; other warnings are
+    shown as usual."""
+    if not strict:
+        yield
+        return
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", CalibrationWarning)
+        yield
+    for record in caught:
+        if not issubclass(record.category, CalibrationWarning):
+            warnings.showwarning(
+                record.message, record.category, record.filename, record.lineno, record.file
+            )
+    refused = [
+        record.message for record in caught if isinstance(record.message, CalibrationWarning)
+    ]
+    if refused:
+        raise WarningsRefused(refused, "--strict: no calibration written")
+
+
+def _port_list(table) -> str:
+    return ", ".join(table.port_names)
+
+
+def _dark_w(options: dict, request, sweep_table) -> np.ndarray | None:
+    """Per-port dark readings (W) from ``--dark FILE`` (averaged) or ``--dark-w``, checked
+    against the sweep's ports; None without either."""
+    path, values = options["dark_file"], options["dark_w"]
+    ports = len(sweep_table.port_names)
+    expected = f"{sweep_table.source} has {ports} ports ({_port_list(sweep_table)})"
+    if values is not None:
+        if len(values) != ports:
+            raise InputError(
+                f"--dark-w gives {len(values)} value(s) but {expected}; give one offset per "
+                "port, in that order",
+                parameter="dark_w",
+            )
+        return np.array(values)
+    if path is None:
+        return None
+    dark = read(
+        path,
+        request,
+        need_x=False,
+        drop_invalid=options["drop_invalid"],
+        quiet=options["quiet"],
+        light=False,
+    ).valid_only()
+    names = [port_key(name) for name in dark.port_names]
+    if len(names) != ports or (
+        request.ports is None and names != [port_key(name) for name in sweep_table.port_names]
+    ):
+        raise InputError(
+            f"{dark.source} has ports {_port_list(dark)} but {expected}; the dark readings "
+            "need the sweep's ports: pass --ports with the columns of both files in order"
+        )
+    if dark.n_rows == 0:
+        raise InputError(f"{dark.source}: no valid dark readings to average")
+    return dark.powers_w.mean(axis=0)
+
+
+def _fit(options: dict, table, phases, dark_w):
     from ..calibration.baselines import ConventionalCalibrator
     from ..calibration.learned import Calibrator
     from ..calibration.set import CalibrationSet
@@ -44,12 +119,19 @@ def _fit(options: dict, table, phases):
         calibrator = CalibrationSet(fsr, tolerance, window=calibrator)
     description = printable(f"calibrating on {table.source}")
     with busy(description, quiet=options["quiet"]), about(table.source):
-        return calibrator.fit(table.powers_w, table.x_hz, table.monitor_w, list(table.port_names))
+        with _refused_if(options["strict"]):
+            return calibrator.fit(
+                table.powers_w,
+                table.x_hz,
+                table.monitor_w,
+                list(table.port_names),
+                dark_w=dark_w,
+            )
 
 
-def _check_calibration_output(out_path, sweep, force: bool) -> None:
-    """Before any work: the output is not the sweep, may be replaced, and is JSON."""
-    check_output(out_path, inputs=(sweep,), force=force)
+def _check_calibration_output(out_path, inputs, force: bool) -> None:
+    """Before any work: the output is not an input, may be replaced, and is JSON."""
+    check_output(out_path, inputs=inputs, force=force)
     if not is_stdio(out_path) and Path(out_path).suffix.lower() != ".json":
         raise InputError(
             f"cannot write {out_path}: a calibration file is JSON; give a name ending in "
@@ -57,10 +139,11 @@ def _check_calibration_output(out_path, sweep, force: bool) -> None:
         )
 
 
-def _metadata(table) -> dict:
-    """What the calibration was read from, kept in the calibration file."""
+def _metadata(table, dark_file) -> dict:
+    """What the calibration was read from, kept in the calibration file (the dark readings'
+    file only when there was one)."""
     temperature = table.temperature_k
-    return {
+    metadata = {
         "sweep_file": str(table.source),
         "x_column": table.x_column,
         "x_unit": table.x_unit,
@@ -74,6 +157,9 @@ def _metadata(table) -> dict:
         "rows": table.n_rows,
         "dropped_rows": table.dropped_rows,
     }
+    if dark_file is not None:
+        metadata["dark_file"] = STDIN_LABEL if is_stdio(dark_file) else str(dark_file)
+    return metadata
 
 
 @click.command()
@@ -107,6 +193,26 @@ def _metadata(table) -> dict:
     is_flag=True,
     help="Calibrate each FSR of a multi-FSR sweep on its own (a calibration set).",
 )
+@click.option(
+    "--dark",
+    "dark_file",
+    metavar="FILE",
+    type=click.Path(dir_okay=False),
+    help="Readings with the source off, with the sweep's port columns (any supported format, "
+    "no frequency column needed); their mean per port is subtracted from every reading.",
+)
+@click.option(
+    "--dark-w",
+    type=OFFSETS,
+    metavar="W,W,..",
+    help="Dark reading of each port, in port order: 1uW,-20nW,0 (signed; a bare number is "
+    "in W); subtracted from every reading.",
+)
+@click.option(
+    "--strict",
+    is_flag=True,
+    help="Treat calibration warnings as errors: write nothing and exit with code 3.",
+)
 @column_options()
 @FORCE
 @QUIET
@@ -116,24 +222,35 @@ def calibrate(sweep, out_path, port_phases_deg, force, **options):
     SWEEP is a CSV/TSV, HDF5, MAT, NPZ or Parquet file ('-' for stdin) with a frequency
     or wavelength column and three or more port columns. The calibration file must not
     exist unless --force is given; with -o - it goes to stdout and the summary to stderr.
+    Calibration warnings print as 'warning: [cause] ...' lines on stderr (also with
+    --quiet); with --strict they are errors (exit code 3) and nothing is written.
 
     \b
     Example:
       wavemeter calibrate sweep.csv -o chip.wmcal.json --fsr 50GHz
+      wavemeter calibrate sweep.csv -o chip.wmcal.json --dark dark.csv --strict
       wavemeter calibrate lab.csv -o chip.wmcal.json --fsr '49.69 GHz' \\
           --x 'Wavelength (nm)' --ports 'Port 1 [dBm]','Port 2 [dBm]','Port 3 [dBm]'
     """
     from ..calibration.files import save_calibration
 
-    _check_calibration_output(out_path, sweep, force)
+    dark_file = options["dark_file"]
+    if dark_file is not None and options["dark_w"] is not None:
+        raise InputError(
+            "--dark and --dark-w both give the dark readings; give a file or values, not both"
+        )
+    if dark_file is not None and is_stdio(dark_file) and is_stdio(sweep):
+        raise InputError("the sweep and --dark cannot both be read from stdin ('-')")
+    _check_calibration_output(out_path, (sweep, *([dark_file] if dark_file else [])), force)
     request = column_request(options)
     quiet = options["quiet"]
     table = read(
         sweep, request, need_x=True, drop_invalid=options["drop_invalid"], quiet=quiet
     ).valid_only()
-    calibration = _fit(options, table, port_phases_rad(port_phases_deg))
+    dark_w = _dark_w(options, request, table)
+    calibration = _fit(options, table, port_phases_rad(port_phases_deg), dark_w)
     with output_path(out_path) as target:
-        save_calibration(calibration, target, _metadata(table))
+        save_calibration(calibration, target, _metadata(table, dark_file))
     to_stderr = is_stdio(out_path)
     say(
         quiet,

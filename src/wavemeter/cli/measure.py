@@ -1,10 +1,16 @@
-"""`wavemeter measure`: port readings to frequency with a calibration."""
+"""`wavemeter measure`: port readings to frequency with a calibration.
+
+Every output row carries ``flags``, the calibration's quality bits for that reading
+(:class:`wavemeter.calibration.flags.ReadingFlag`; a row skipped as invalid gets
+``INVALID``), and ``frequency_std_hz`` where the calibration gives it.
+"""
 
 from __future__ import annotations
 
 import click
 import numpy as np
 
+from ..calibration.flags import ReadingFlag, flag_counts
 from ..exceptions import InputError
 from ..io import write_table
 from ..progress import busy, chunked
@@ -45,10 +51,21 @@ def _coarse(calibration, cal_path, table, coarse_hz):
     )
 
 
+def flag_summary(flags: np.ndarray) -> str:
+    """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2`` (a reading may have
+    several bits, so the counts can add up to more than the readings flagged)."""
+    counts = ", ".join(f"{name} {count}" for name, count in flag_counts(flags).items())
+    text = f"flagged {int(np.count_nonzero(flags))} of {flags.size} readings"
+    return f"{text}: {counts}" if counts else text
+
+
 @click.command()
 @click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
 @click.argument("data", type=click.Path(dir_okay=False))
-@out_option("Output file: frequency_hz, wavelength_nm, phase_rad per input row ('-': stdout).")
+@out_option(
+    "Output file: frequency_hz, wavelength_nm, phase_rad, frequency_std_hz, flags per input row "
+    "('-': stdout)."
+)
 @click.option("--keep", metavar="COL,COL,..", help="Input columns to copy into the output.")
 @FORMAT
 @click.option(
@@ -68,10 +85,10 @@ def _coarse(calibration, cal_path, table, coarse_hz):
     "(calibration sets).",
 )
 @click.option(
-    "--uncertainty",
-    is_flag=True,
-    help="Also write frequency_std_hz: the per-reading Cramer-Rao bound at the detector noise "
-    "estimated from the calibration (learned single-map calibrations).",
+    "--uncertainty/--no-uncertainty",
+    default=None,
+    help="Write frequency_std_hz, each reading's standard deviation with the calibration's own "
+    "uncertainty (default: when the calibration gives it, learned calibrations).",
 )
 @column_options(axis=False)
 @FORCE
@@ -91,8 +108,10 @@ def measure(
     """Turn port readings into frequency with a calibration.
 
     Writes one row per input row, in order: frequency_hz, wavelength_nm (vacuum) and
-    phase_rad at full float64 precision, with --uncertainty frequency_std_hz, then the
-    --keep columns. Rows skipped with --drop-invalid are written as NaN. DATA '-' is
+    phase_rad at full float64 precision, frequency_std_hz (unless --no-uncertainty or
+    the calibration gives none), flags (quality bits: 1 OFF_MODEL, 2 OUTSIDE_SPAN,
+    4 POWER_RANGE, 8 INVALID; 0 when nothing is wrong), then the --keep columns. Rows
+    skipped with --drop-invalid are written as NaN with the INVALID flag. DATA '-' is
     read from stdin; with -o - the table goes to stdout (CSV unless --format) and
     messages to stderr. An existing output is replaced only with --force.
 
@@ -105,11 +124,13 @@ def measure(
         out_path, file_format, inputs=(calibration_file, data), force=force
     )  # before any work
     calibration = load(calibration_file)
-    if uncertainty and "frequency_std" not in calibration.capabilities:
+    offered = "frequency_std" in calibration.capabilities
+    if uncertainty and not offered:
         raise InputError(
             f"{calibration_file}: --uncertainty needs a learned calibration (single or per "
             f"FSR), not a {calibration.method_label} calibration"
         )
+    uncertainty = offered if uncertainty is None else uncertainty
     request = column_request(options, coarse=coarse_column, keep=names(keep) or ())
     table = read(data, request, need_x=False, drop_invalid=options["drop_invalid"], quiet=quiet)
     check_ports(calibration, calibration_file, table, explicit=request.ports is not None)
@@ -118,6 +139,7 @@ def measure(
     frequency = np.full(table.n_rows, np.nan)
     phase = np.full(table.n_rows, np.nan)
     std = np.full(table.n_rows, np.nan)
+    flags = np.where(table.invalid, int(ReadingFlag.INVALID), 0)
     rows = np.flatnonzero(~table.invalid)
     description = printable(f"measuring {table.source}")
     for block in chunked(valid.n_rows, description, quiet=quiet):
@@ -127,11 +149,13 @@ def measure(
             phase[rows[block]] = calibration.phase(valid.powers_w[block], **extra)
             if uncertainty:
                 std[rows[block]] = calibration.frequency_std_hz(valid.powers_w[block], **extra)
+            flags[rows[block]] = calibration.flags(valid.powers_w[block], **extra)
     columns = {
         "frequency_hz": frequency,
         "wavelength_nm": SPEED_OF_LIGHT_M_S / frequency * 1e9,
         "phase_rad": phase,
         **({"frequency_std_hz": std} if uncertainty else {}),
+        "flags": flags,
     }
     for name, values in table.kept.items():
         columns.setdefault(name, values)
@@ -139,6 +163,7 @@ def measure(
         write_table(out_path, columns, file_format)
     written = "stdout" if is_stdio(out_path) else out_path
     say(quiet, f"wrote {written} ({table.n_rows} rows)", err=is_stdio(out_path))
+    say(quiet, flag_summary(flags), err=is_stdio(out_path))
 
 
 command = measure

@@ -1,12 +1,20 @@
-"""`wavemeter simulate`: a sweep of a simulated Table 1 device, written to a file."""
+"""`wavemeter simulate`: a sweep of a simulated Table 1 device, written to a file.
+
+Hardware faults can be added: detector dark offsets, unequal detector noise and group-delay
+dispersion are properties of the device and reach every file; a source-power drift and a
+thermal drift happen during the calibration sweep only.
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import os
 from pathlib import Path
 
 import click
 import numpy as np
+from click.core import ParameterSource
 
 from ..exceptions import InputError
 from ..io import SENTINEL_DBM, write_table
@@ -26,8 +34,39 @@ from ._common import (
     say,
     setting,
 )
-from ._params import NOISE_POWER, POWER
+from ._params import NOISE_POWER, NOISE_POWERS, OFFSETS, POWER
 from ._streams import is_stdio
+
+#: bias phase change per kelvin of ``--thermal-drift`` for a device without a thermal
+#: coefficient (a Table 1 device has none)
+DEFAULT_THERMAL_RAD_PER_K = 1.0
+#: the power drift is drawn from its own stream of the seed, so that adding it leaves the
+#: noise of the readings as it was
+_DRIFT_STREAM = 1
+
+
+class FiniteFloat(click.types.FloatParamType):
+    """A finite number (not inf or nan), in ``[low, high)`` when those are given.
+
+    Parameters
+    ----------
+    low, high : float, optional
+        Inclusive lower and exclusive upper bound.
+    """
+
+    def __init__(self, low: float | None = None, high: float | None = None):
+        self.low = low
+        self.high = high
+
+    def convert(self, value, param, ctx):
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value} is not a finite number", param, ctx)
+        if (self.low is not None and number < self.low) or (
+            self.high is not None and number >= self.high
+        ):
+            self.fail(f"{value}: must be in [{self.low:g}, {self.high:g})", param, ctx)
+        return number
 
 
 def _suffix(unit: str) -> str:
@@ -48,20 +87,74 @@ def _power_columns(powers_w: np.ndarray, unit: str) -> dict[str, np.ndarray]:
     return {f"p{k + 1}_{_suffix(unit)}": values[:, k] for k in range(powers_w.shape[1])}
 
 
-def _readings(device, frequency_hz, options, rng, description) -> dict[str, np.ndarray]:
-    """Port columns (and, with a power fluctuation, a monitor) for frequencies (Hz)."""
+def _readings(
+    device, frequency_hz, options, rng, description, power_factor=None, bias_drift_rad=None
+) -> dict[str, np.ndarray]:
+    """Port columns (and, if ``options["monitor"]``, a monitor) for frequencies (Hz).
+
+    ``power_factor`` multiplies the source power and ``bias_drift_rad`` adds to the bias
+    phase of each reading (shape (N,) each; None: no drift).
+    """
     samples = frequency_hz.size
     power = np.full(samples, options["power_w"])
+    if power_factor is not None:
+        power = power * power_factor
     if options["power_fluctuation"] > 0:
         power = power * (1 + options["power_fluctuation"] * rng.standard_normal(samples))
     powers = np.empty((samples, device.ports))
     for rows in chunked(samples, description, quiet=options["quiet"]):
-        powers[rows] = device.powers(frequency_hz[rows], power[rows], options["noise_w"], rng)
+        drift = None if bias_drift_rad is None else bias_drift_rad[rows]
+        powers[rows] = device.powers(
+            frequency_hz[rows], power[rows], options["noise_w"], rng, bias_drift_rad=drift
+        )
     columns = _power_columns(powers, options["power_unit"])
-    if options["power_fluctuation"] > 0:
+    if options["monitor"]:
         unit = options["power_unit"]
         columns[f"monitor_{_suffix(unit)}"] = w_to_power(device.monitor(power), unit)
     return columns
+
+
+def _per_port(values_w: tuple, ports: int, option: str, *, single: bool) -> np.ndarray:
+    """A per-port array (W) from an option's list: ``ports`` values, or one for all if
+    ``single``."""
+    values_w = np.asarray(values_w)
+    if single and values_w.size == 1:
+        return np.full(ports, values_w[0])
+    if values_w.size != ports:
+        allowed = f"one for all ports or {ports}" if single else f"{ports}, one per port"
+        raise InputError(f"{option} has {values_w.size} value(s) for {ports} ports: give {allowed}")
+    return values_w
+
+
+def _noise_w(options, ports: int):
+    """Detector noise std (W): ``--noise`` for every port, or ``--port-noise`` per port."""
+    if options["port_noise_w"] is None:
+        return options["noise_w"]
+    if click.get_current_context().get_parameter_source("noise_w") != ParameterSource.DEFAULT:
+        raise InputError("give --noise (every port) or --port-noise (each port), not both")
+    return _per_port(options["port_noise_w"], ports, "--port-noise", single=False)
+
+
+def _faulty(device, options):
+    """The device with the faults it carries into every file: dark offset and GDD."""
+    offset_w = options["dark_offset_w"]
+    if offset_w is not None:
+        offset_w = _per_port(offset_w, device.ports, "--dark-offset", single=True)
+    return dataclasses.replace(device, dark_offset_w=offset_w, gdd_s2=options["gdd_s2"])
+
+
+def _sweep_drift(device, samples: int, options) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The calibration sweep's source-power factor and bias drift (rad), None when off."""
+    from ..simulation.drift import slow_power_drift, thermal_ramp_rad
+
+    power_factor = bias_drift_rad = None
+    if options["power_drift"] > 0:
+        drift_rng = np.random.default_rng([options["seed"], _DRIFT_STREAM])
+        power_factor = slow_power_drift(samples, options["power_drift"], drift_rng)
+    if options["thermal_drift_k"] != 0:
+        rad_per_k = device.thermal_phase_rad_per_k or DEFAULT_THERMAL_RAD_PER_K
+        bias_drift_rad = thermal_ramp_rad(samples, options["thermal_drift_k"], rad_per_k)
+    return power_factor, bias_drift_rad
 
 
 def _targets(out_path: str, test_samples: int, test_out: str | None) -> list[str]:
@@ -83,7 +176,7 @@ def _targets(out_path: str, test_samples: int, test_out: str | None) -> list[str
 @click.command()
 @out_option("Sweep file to write (.csv, .tsv, .parquet, .h5, .npz; '-' for stdout).")
 @setting("--ports", 3, click.IntRange(3, 64), "Number of output ports of the MMI.")
-@setting("--seed", 1, int, "Seed of the device impairments and the noise.")
+@setting("--seed", 1, click.IntRange(0), "Seed of the device impairments and the noise.")
 @setting("--samples", 2001, click.IntRange(4), "Readings in the calibration sweep.")
 @setting("--span-fsr", 1.0, click.FloatRange(0, min_open=True), "Sweep span in FSRs.")
 @setting(
@@ -146,6 +239,55 @@ def _targets(out_path: str, test_samples: int, test_out: str | None) -> list[str
     click.FloatRange(0, 0.3),
     "Relative std of the source power per reading; > 0 adds a monitor column.",
 )
+@click.option(
+    "--dark-offset",
+    "dark_offset_w",
+    type=OFFSETS,
+    help="Fault: detector dark/ADC offset added to every reading, one for all ports or one "
+    "per port: 2uW, '1e-7,0,-5e-8'; a bare number is in W. Sweep and test file.",
+)
+@click.option(
+    "--port-noise",
+    "port_noise_w",
+    type=NOISE_POWERS,
+    help="Fault: detector noise standard deviation of each port, replacing --noise (give "
+    "one or the other): '5e-7,2e-6,5e-7'; a bare number is in W. Sweep and test file.",
+)
+@setting(
+    "--gdd",
+    0.0,
+    FiniteFloat(),
+    "Fault: group-delay dispersion of the delay imbalance in s^2 (e.g. 1e-26): the group "
+    "delay is tau + GDD 2 pi (f - centre), so the FSR changes across the band. Sweep and "
+    "test file.",
+    dest="gdd_s2",
+    metavar="S2",
+)
+@setting(
+    "--power-drift",
+    0.0,
+    FiniteFloat(0.0, 1.0),
+    "Fault: slow drift of the source power over the calibration sweep, peak relative "
+    "excursion in [0, 1) (0.05 is +-5 %); adds a monitor column that records the drifting power. "
+    "Sweep only.",
+    metavar="FRACTION",
+)
+@setting(
+    "--thermal-drift",
+    0.0,
+    FiniteFloat(),
+    "Fault: chip temperature rise (K) over the calibration sweep, a linear ramp from 0 "
+    f"moving the bias phase at the device's thermal coefficient ({DEFAULT_THERMAL_RAD_PER_K:g}"
+    " rad/K for a Table 1 device, which has none); no temperature column. Sweep only.",
+    dest="thermal_drift_k",
+    metavar="K",
+)
+@click.option(
+    "--no-monitor",
+    is_flag=True,
+    help="Write no monitor column even when the source power varies (to see a drift "
+    "without the monitor remedy).",
+)
 @FORMAT
 @FORCE
 @QUIET
@@ -156,10 +298,19 @@ def simulate(out_path, test_samples, test_out, force, **options):
     SI (W, Hz). Both files are checked before anything is simulated; an existing file is
     replaced only with --force.
 
+    Fault options (--dark-offset, --port-noise, --gdd, --power-drift, --thermal-drift)
+    model real hardware. The detectors and the chip's dispersion are the device's: they
+    reach the --test file too. The drifts happen during the calibration sweep: the test
+    file has none. The power drift has a random stream of its own, so the noise is the
+    same as without it. A monitor column is written when the source power varies
+    (--power-fluctuation or --power-drift) and records the true source power, in both
+    files unless --no-monitor.
+
     \b
     Example:
       wavemeter simulate -o sweep.csv --ports 3 --seed 1 --test 20000
       wavemeter simulate -o lab.csv --write-axis-unit nm --write-power-unit dBm --noise 20nW
+      wavemeter simulate -o faulty.csv --dark-offset 2uW --power-drift 0.05 --test 2000
     """
     from ..simulation.interferometer import Interferometer
 
@@ -173,18 +324,23 @@ def simulate(out_path, test_samples, test_out, force, **options):
     formats = [output_format(path, options["file_format"], force=force) for path in targets]
     messages_to_stderr = any(is_stdio(path) for path in targets)
     device = Interferometer.table1(options["ports"], seed=options["seed"], fsr_hz=options["fsr"])
+    device = _faulty(device, options)
+    options["noise_w"] = _noise_w(options, device.ports)
+    varies = options["power_fluctuation"] > 0 or options["power_drift"] > 0
+    options["monitor"] = varies and not options["no_monitor"]
     rng = np.random.default_rng(options["seed"])  # as the demo: the same seed, the same data
     sweep_hz = device.sweep_hz(options["samples"], options["span_fsr"])
     frequencies = [(_axis_column(x_unit), sweep_hz)]
     if test_samples:
         low, high = sweep_hz[0], sweep_hz[-1]
         frequencies.append((_axis_column(x_unit, "true_"), rng.uniform(low, high, test_samples)))
+    drifts = [_sweep_drift(device, sweep_hz.size, options)] + [(None, None)] * bool(test_samples)
     tables = [  # everything is simulated before anything is written
         {
             axis: hz_to_axis(frequency, x_unit),
-            **_readings(device, frequency, options, rng, printable(f"simulating {path}")),
+            **_readings(device, frequency, options, rng, printable(f"simulating {path}"), *drift),
         }
-        for path, (axis, frequency) in zip(targets, frequencies, strict=True)
+        for path, (axis, frequency), drift in zip(targets, frequencies, drifts, strict=True)
     ]
     for path, file_format, columns in zip(targets, formats, tables, strict=True):
         with busy(printable(f"writing {path}"), quiet=quiet):
