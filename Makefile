@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench peers fuzz clean
+.PHONY: demo test lint bench trust peers fuzz clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -33,6 +33,10 @@ fuzz: $(BIN)/wavemeter
 
 bench: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/precision.py
+
+# the fault catalogue of issue 9: every fault at three severities, warnings, flags, remedies
+trust: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/trust.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'

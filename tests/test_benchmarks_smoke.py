@@ -123,3 +123,27 @@ def test_port_faults_benchmark_warns_and_its_remedy_restores_the_bound():
         # three good ports of a Table 1 hybrid: the pseudo-inverse's excess stays small
         assert result["with"] < 1.2
     assert port_faults.one_device("stuck", seed=3)["without"] > 5
+
+
+def test_trust_catalogue_quick_prints_its_rows_and_the_verdict(capsys):
+    """The fault catalogue in its tiny configuration, on one fault (the fits take the time):
+    a row per severity and per clean port count, and a line per target."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.syspath_prepend(str(BENCHMARKS))
+        trust = importlib.import_module("trust")
+        trust.main(["--quick", "--seed", "1", "--faults", "thermal_ramp"])
+    lines = capsys.readouterr().out.splitlines()
+    table = _rows("\n".join(line for line in lines if line.startswith("| ")))
+    assert table[0] == list(trust.HEADERS)
+    body = {(row[0], row[1]): row for row in table[1:]}
+    assert len(table) - 1 == len(body) == 3 + 3
+    verdict = [line for line in lines if line.startswith(("PASS ", "FAIL "))]
+    assert len(verdict) == 5
+    ratio = table[0].index("RMS/CRLB")
+    # clean: the learned calibration reaches CRLB sqrt(1 + 3/201) on 300 test readings, whose
+    # RMS has a relative standard error of 1/sqrt(600) = 4 %: 5 standard errors either side
+    for ports in (3, 4, 5):
+        assert 0.8 < float(body[(f"clean, {ports} ports", "-")][ratio]) < 1.25
+    # a 1 rad ramp over a one-way sweep: a phase error of 1 rad (f - f0) / FSR, RMS
+    # 1/sqrt(12) rad = 2.3 GHz at 50 GHz, against a bound of about 15 MHz
+    assert float(body[("thermal ramp, one-way sweep", "1 K")][ratio]) > 50

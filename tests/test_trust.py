@@ -128,7 +128,7 @@ def test_flags_mark_invalid_power_range_and_off_model_readings(calibrated):
     readings[1] = 0.0  # no light
     readings[2] *= 3.0  # three times the calibrated power
     readings[3, 2] += 100 * NOISE_W  # one port 100 noise standard deviations off the cone
-    readings[4] *= 1.5  # within the factor-2 margin, beyond the 1.1 of unknown offsets
+    readings[4] *= 1.5  # within the factor-2 margin, beyond the 1.05 of unknown offsets
     flags = calibrator.flags(readings)
     assert flags[0] == ReadingFlag.INVALID
     assert flags[1] & ReadingFlag.INVALID

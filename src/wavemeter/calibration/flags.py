@@ -17,7 +17,7 @@ integer per reading whose bits are :class:`ReadingFlag` members:
 ``POWER_RANGE`` (4)
     The reading's total power (the sum over ports, dark-corrected) lies outside the range
     of the calibration sweep by more than a factor ``POWER_RANGE_FACTOR`` (2); or by more
-    than ``UNCHECKED_OFFSET_FACTOR`` (1.1) when the calibration could not learn the
+    than ``UNCHECKED_OFFSET_FACTOR`` (1.05) when the calibration could not learn the
     detector offsets (no dark readings given, and no power monitor that varied, which lets
     the learned calibrator fit them): at a constant source power an offset is absorbed
     into the map, exactly, and costs accuracy only at other powers.
@@ -49,7 +49,7 @@ __all__ = [
 
 OFF_MODEL_P_VALUE = 1e-6
 POWER_RANGE_FACTOR = 2.0
-UNCHECKED_OFFSET_FACTOR = 1.1
+UNCHECKED_OFFSET_FACTOR = 1.05
 NO_LIGHT_FRACTION = 0.01
 #: a reading's frequency must leave a partial span by this many standard deviations
 SPAN_MARGIN_STD = 5.0

@@ -239,8 +239,9 @@ class Calibrator(BaseCalibrator):
         Relative tolerance on the delay.
     retrieval : {"pinv", "ml"}
         Phase retrieval: the paper's pseudo-inverse and arctangent, or the cone-constrained
-        maximum-likelihood phase (:mod:`wavemeter.retrieval`), which starts from it and
-        reaches the Cramer-Rao bound also for ill-conditioned maps.
+        maximum-likelihood phase weighted by each port's noise
+        (:mod:`wavemeter.model.retrieval`, the exact global optimum), which reaches the
+        Cramer-Rao bound also for ill-conditioned maps and unequal port noise.
 
     Attributes
     ----------
