@@ -14,18 +14,23 @@ test set over one FSR divided by the RMS Cramer-Rao bound, how often the fit war
 often the first warning names the fault's cause, and the silent failures (RMS > 1.5x the
 bound without a warning).
 
+Timing part (``--timing``, instead of the others): the median time of 5 calls of
+``misfit_report`` and of the learned fit it diagnoses, Table 1 devices of 3 and 5 ports, one
+FSR, 8 to 20001 readings (set ``OPENBLAS_NUM_THREADS=1`` for single-thread times).
+
 Usage: ``python benchmarks/misfit_false_alarms.py [--sweeps 40] [--seed 0]
-[--faults [--devices 10] [--readings 2001] [--ports 3]]``
+[--faults [--devices 10] [--readings 2001] [--ports 3]] [--timing]``
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import statistics
 
 import numpy as np
-from _montecarlo import NOISE_W, POWER_W, markdown_table, progress
+from _montecarlo import NOISE_W, POWER_W, markdown_table, median_time_s, progress
 from scipy import stats
 
 import wavemeter as wm
@@ -163,6 +168,41 @@ def fault_rows(devices: int, seed: int, readings: int, ports: int) -> list[list]
     return rows
 
 
+def timing_rows(seed: int) -> list[list]:
+    rows = []
+    for samples in (*SAMPLES, 20001):
+        for ports in (3, 5):
+            progress(f"timing: {samples} readings, {ports} ports")
+            device = wm.Interferometer.table1(ports, seed=seed)
+            frequency = device.sweep_hz(samples)
+            powers = device.powers(frequency, POWER_W, NOISE_W, rng=seed)
+            center = 0.5 * (frequency.min() + frequency.max())
+            fit_s, fit = median_time_s(
+                functools.partial(
+                    fit_learned_map,
+                    powers,
+                    frequency,
+                    center,
+                    fsr_hz=DESIGN_FSR_HZ,
+                    fsr_tolerance=0.2,
+                )
+            )
+            report = functools.partial(
+                misfit_report, powers, frequency, center, fit.delay_s, fit.map_
+            )
+            report_s, _ = median_time_s(report)
+            rows.append(
+                [
+                    samples,
+                    ports,
+                    f"{1e3 * fit_s:.3g}",
+                    f"{1e3 * report_s:.3g}",
+                    f"{report_s / fit_s:.2g}",
+                ]
+            )
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sweeps", type=int, default=40, help="clean sweeps per row")
@@ -171,7 +211,15 @@ def main() -> None:
     parser.add_argument("--devices", type=int, default=10, help="devices per fault severity")
     parser.add_argument("--readings", type=int, default=2001, help="readings per faulty sweep")
     parser.add_argument("--ports", type=int, default=3, help="ports of the faulty devices")
+    parser.add_argument("--timing", action="store_true", help="only the timing table")
     args = parser.parse_args()
+    if args.timing:
+        rows = timing_rows(args.seed)
+        progress("")
+        print()
+        headers = ["readings", "ports", "learned fit (ms)", "misfit_report (ms)", "report / fit"]
+        print(markdown_table(headers, rows))
+        return
     rows = [
         clean_row(samples, span, args.sweeps, args.seed)
         for samples in SAMPLES

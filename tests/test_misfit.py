@@ -17,6 +17,7 @@ import pytest
 from scipy import stats
 
 import wavemeter as wm
+from wavemeter.calibration import misfit
 from wavemeter.calibration.learned import fit_learned_map
 from wavemeter.calibration.misfit import CAUSES, TEST_P_VALUE, MisfitReport, misfit_report
 from wavemeter.exceptions import CalibrationWarning, InputError
@@ -404,3 +405,68 @@ def test_fewest_readings_do_not_warn(samples):
     for seed in range(5):
         frequency, powers = sweep(device, samples, seed=seed)
         assert not report_of(frequency, powers).misfit
+
+
+# ---------------------------------------------------------------------- the computation
+def p_values_of(report: MisfitReport) -> dict:
+    return {name: value for name, value in report.p_values.items() if value is not None}
+
+
+def test_cosines_through_dcts_give_the_statistics_of_the_formed_columns(monkeypatch):
+    """The DCT route (``_CosineColumns``) and QR of the formed cosine columns are the same
+    algebra in another order: they agree to rounding (1e-16 of statistics of up to ~1e3)
+    amplified by the condition numbers of the column sets (below 1e2 here) and by the F
+    tail's slope (``d ln p / d statistic`` ~ 1/2): 1e-9 relative leaves a wide margin."""
+    device = wm.Interferometer.table1(4, seed=44)
+    rng = np.random.default_rng(44)
+    # frequencies not evenly spaced: no discrete cosine nearly coincides with the fringe (its
+    # remainder after the fit, a tiny difference, would be known only to rounding / its size)
+    frequency = np.sort(device.center_hz + device.true_fsr_hz * rng.uniform(-1.5, 1.5, 600))
+    drift = slow_power_drift(600, 0.002, rng=44)
+    powers = device.powers(frequency, POWER_W * drift, NOISE_W, rng=45)
+    fast = report_of(frequency, powers)
+    monkeypatch.setattr(misfit, "MIN_DCT_READINGS", 10**9)
+    formed = report_of(frequency, powers)
+    assert fast.causes == formed.causes == ("power_drift",)
+    assert 0.0 < fast.p_values["power"] < TEST_P_VALUE  # a drift, p-values not underflowed
+    assert p_values_of(fast) == pytest.approx(p_values_of(formed), rel=1e-9, abs=0.0)
+    assert fast.power_error_rms == pytest.approx(formed.power_error_rms, rel=1e-9)
+    assert fast.phase_error_rms_rad == pytest.approx(formed.phase_error_rms_rad, rel=1e-9)
+    assert fast.harmonic_power == pytest.approx(formed.harmonic_power, rel=1e-9)
+
+
+@pytest.mark.parametrize("samples", [64, 400])
+def test_an_absorbed_cosine_is_left_out_whatever_the_rounding(samples):
+    # with the true delay, cos t and sin t of readings evenly over one FSR span the discrete
+    # cosine b_2 of the row: the smooth test leaves it out. Nudging the frequencies by 1 ulp
+    # (2e-16, a phase change of ~5e-12 rad) moves the residual by ~1e-8 of the noise, so the
+    # p-values may move by about as much, not by the direction rounding gives the remainder
+    device = wm.Interferometer.table1(3, seed=46)
+    frequency, powers = sweep(device, samples, seed=47)
+    arguments = (device.center_hz, device.delay_s, device.true_map() * POWER_W)
+    reference = p_values_of(misfit_report(powers, frequency, *arguments))
+    rng = np.random.default_rng(46)
+    for _ in range(3):
+        nudged = frequency * (1.0 + 2e-16 * rng.standard_normal(samples))
+        report = misfit_report(powers, nudged, *arguments)
+        assert p_values_of(report) == pytest.approx(reference, rel=1e-6, abs=0.0)
+
+
+def test_a_deep_power_dip_forms_the_cosine_columns(monkeypatch):
+    # the source 1e10 times weaker over 15 % of a monitored sweep: the power and phase
+    # columns vanish there and their Gram matrix is too ill-conditioned for the DCT route
+    # (30 % errors in p-values, or no Cholesky factor, by the device): they are formed
+    # (MIN_GRAM_WEIGHT), the same computation as with every cosine column formed
+    device = wm.Interferometer.table1(3, seed=42)
+    power = np.ones(1001)
+    power[600:750] = 1e-10
+    scale = power / power.mean()
+    frequency, powers = sweep(device, 1001, power_w=POWER_W * scale, seed=43)
+    report = report_of(frequency, powers, scale=scale)
+    assert not report.misfit  # in the model
+    monkeypatch.setattr(misfit, "MIN_DCT_READINGS", 10**9)
+    formed = report_of(frequency, powers, scale=scale)
+    for name in ("power", "phase"):
+        assert report.p_values[name] == pytest.approx(formed.p_values[name], rel=1e-12)
+    assert report.power_error_rms == pytest.approx(formed.power_error_rms, rel=1e-12)
+    assert report.phase_error_rms_rad == pytest.approx(formed.phase_error_rms_rad, rel=1e-12)

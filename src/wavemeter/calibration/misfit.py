@@ -52,7 +52,10 @@ the first ``K`` discrete cosines of the row index, ``b_m(k) = cos(pi m (k + 1/2)
 ``m = 1..K``, tested at the nested scales ``K`` of ``SMOOTH_ORDERS`` (up to ``N / 4``;
 ``MAX_COUPLED_ORDER`` for the columns that couple the ports), so that a slow drift and a
 thermostat cycling many times are both caught; a family's p-value is its smallest over the
-scales times their number (Bonferroni).
+scales times their number (Bonferroni). Columns are taken in order, and one that the fit and
+the columns before it absorb (to ``RANK_TOLERANCE`` of its norm: on a sweep of evenly spaced
+frequencies, the fringe's own ``cos t`` and ``sin t`` can span a discrete cosine) is left
+out, with no degree of freedom.
 
 1. **power** (``power_drift``): columns ``b_m(k) a_P,k``, ``a_P,k = A x_k`` (the reading's
    own image): a relative source-power error ``u(k)`` smooth in time.
@@ -131,14 +134,25 @@ Checks of the map and the sweep
 
 A sweep whose residual is at the rounding level of the readings (a noiseless simulation)
 fits exactly: the residual and noise tests are not made.
+
+Computation
+-----------
+The discrete cosines are never formed: their products with the readings are DCTs (they are
+orthogonal, and the product of two is half the sum of two others), so the nested QR
+factors of the cosine columns with the fit projected out come from matrices of ``K`` plus
+the number of fitted directions in size, and a report costs ``O(N log N)`` per port and per
+test instead of the ``O(N K^2)`` of a QR of ``N x K`` columns (``_CosineColumns``). Short
+sweeps (``MIN_DCT_READINGS``) and per-reading directions too uneven for the cosines' Gram
+matrix (``MIN_GRAM_WEIGHT``) form the columns instead.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
-from scipy import linalg, special, stats
+from scipy import fft, linalg, special, stats
 
 from ..exceptions import CalibrationWarning, InputError
 from ..model.cone import cone_vectors, delay_phase_rad
@@ -207,6 +221,12 @@ MAX_PINV_VARIANCE_RATIO = 1.2**2
 ROUNDOFF_EPSILONS = 1e4
 #: relative size under which a projected column counts as absorbed by the fit
 RANK_TOLERANCE = 1e-8
+#: smallest squared norm of a reading's direction, relative to the largest, for which cosine
+#: columns are orthonormalised through their Gram matrix (its condition number is at most
+#: the inverse); below, they are formed and factored explicitly
+MIN_GRAM_WEIGHT = 1e-6
+#: fewest readings for which cosine columns are factored through DCTs (not formed)
+MIN_DCT_READINGS = 128
 HARMONICS = (2, 3)
 
 REMEDIES = {
@@ -423,6 +443,18 @@ def _cosines(samples: int, orders: int) -> np.ndarray:
     return np.cos(np.pi * np.outer(index, np.arange(1, orders + 1)) / samples)
 
 
+def _cosine_analysis(values: np.ndarray, orders: int) -> np.ndarray:
+    """``sum_k b_m(k) v_k`` for ``m = 0..orders - 1`` (DCT-II): (N, ...) -> (orders, ...)."""
+    return fft.dct(values, type=2, axis=0)[:orders] / 2.0
+
+
+def _cosine_synthesis(coefficients: np.ndarray, samples: int) -> np.ndarray:
+    """``sum_m c_m b_m(k)`` for ``m = 1..K`` (DCT-III): (K, ...) -> (N, ...)."""
+    padded = np.zeros((samples,) + coefficients.shape[1:])
+    padded[1 : coefficients.shape[0] + 1] = coefficients / 2.0
+    return fft.dct(padded, type=3, axis=0)
+
+
 class _Projector:
     """Projects whitened (N, n, ...) arrays off what the fit absorbs: each port's fitted
     columns (orthonormal ``basis``, N x c) and the delay (one direction coupling the ports)."""
@@ -443,20 +475,122 @@ class _Projector:
         along = np.tensordot(self.delay, projected, axes=([0, 1], [0, 1]))
         return projected - np.multiply.outer(self.delay, along)
 
+    @cached_property
+    def directions(self) -> np.ndarray:
+        """The orthonormal directions removed, (N, n, r): the fitted columns on every port
+        (``c n`` of them) and the delay, unless it is absorbed (``r = c n + 1`` or ``c n``)."""
+        samples, ports = self.delay.shape
+        fitted = np.zeros((samples, ports, ports, self.basis.shape[1]))
+        for port in range(ports):
+            fitted[:, port, port] = self.basis
+        fitted = fitted.reshape(samples, ports, -1)
+        if not self.delay.any():
+            return fitted
+        return np.concatenate([fitted, self.delay[:, :, None]], axis=2)
+
+
+class _Columns:
+    """Columns (N, p, K) projected off the fitted directions, as the coordinates ``matrix``
+    (M, K) of the projected columns in an orthonormal frame of M arrays (N, p) that holds
+    them, with the ``norms`` (K,) of the columns before projection. This base class is the
+    frame of every reading and port (M = N p): the projected columns themselves."""
+
+    def __init__(self, projected: np.ndarray, norms: np.ndarray):
+        self.shape = projected.shape[:2]
+        self.matrix = projected.reshape(-1, projected.shape[2])
+        self.norms = norms
+
+    def coordinates(self, values: np.ndarray) -> np.ndarray:
+        """Coordinates (M, t) of the part in the frame of ``values`` (N, p, t)."""
+        return values.reshape(-1, values.shape[2])
+
+    def vectors(self, coordinates: np.ndarray) -> np.ndarray:
+        """The array (N, p) with ``coordinates`` (M,) in the frame."""
+        return coordinates.reshape(self.shape)
+
+
+class _CosineColumns(_Columns):
+    """Columns ``x_m(k) = b_m(k) D_k`` (the first K discrete cosines of the row times
+    per-reading directions ``D``, N x p) projected off orthonormal directions ``Z`` (N, p, r),
+    without forming them: every product with ``X`` is a DCT of N points.
+
+    ``X'X = L L'`` is Toeplitz plus Hankel in the cosine transform of ``w_k = |D_k|^2``
+    (``2 b_m b_l = b_{m-l} + b_{m+l}``; its condition number is at most ``max w / min w``),
+    so ``U = X L^-T`` is orthonormal; the part of ``Z`` outside its span (Gram-Schmidt twice)
+    has the QR factors ``V S``, ``Z = U T + V S``. In the frame ``[U, V]`` (M = K + r) the
+    projected columns ``(I - Z Z') X`` are ``[L' - T Z'X; -S Z'X]``: the (K + r, K) matrix
+    that Householder QR factors as it would the (N p, K) columns, to the same rounding
+    relative to the columns' norms.
+    """
+
+    def __init__(self, direction: np.ndarray, fitted: np.ndarray, orders: int):
+        self.direction = direction
+        self.shape = direction.shape
+        weight = np.einsum("ij,ij->i", direction, direction)
+        moments = _cosine_analysis(weight, 2 * orders + 1)
+        index = np.arange(1, orders + 1)
+        gram = 0.5 * (moments[np.abs(index[:, None] - index)] + moments[index[:, None] + index])
+        self.factor = linalg.cholesky(gram, lower=True, check_finite=False)
+        self.norms = np.sqrt(np.diag(gram))
+        cross = self._inner(fitted)  # X'Z (K, r)
+        inside = self._solve(cross)
+        outside = fitted - self._span(inside)
+        step = self._solve(self._inner(outside))
+        outside -= self._span(step)
+        self.frame, triangle = linalg.qr(
+            outside.reshape(-1, outside.shape[2]), mode="economic", check_finite=False
+        )
+        self.matrix = np.vstack([self.factor.T - (inside + step) @ cross.T, -triangle @ cross.T])
+
+    def _solve(self, values: np.ndarray, transposed: bool = False) -> np.ndarray:
+        """``L^-1 v``, or ``L^-T v`` (``transposed``)."""
+        return linalg.solve_triangular(
+            self.factor, values, trans=int(transposed), lower=True, check_finite=False
+        )
+
+    def _inner(self, values: np.ndarray) -> np.ndarray:
+        """``X' v`` for ``values`` (N, p, t): (K, t)."""
+        rows = np.matmul(self.direction[:, None, :], values)[:, 0]
+        return _cosine_analysis(rows, self.factor.shape[0] + 1)[1:]
+
+    def _span(self, coefficients: np.ndarray) -> np.ndarray:
+        """``U c`` for ``coefficients`` (K, t): (N, p, t)."""
+        rows = _cosine_synthesis(self._solve(coefficients, transposed=True), self.shape[0])
+        return self.direction[:, :, None] * rows[:, None, :]
+
+    def coordinates(self, values: np.ndarray) -> np.ndarray:
+        inside = self._solve(self._inner(values))
+        return np.vstack([inside, self.frame.T @ values.reshape(-1, values.shape[2])])
+
+    def vectors(self, coordinates: np.ndarray) -> np.ndarray:
+        orders = self.factor.shape[0]
+        outside = self.frame @ coordinates[orders:]
+        return self._span(coordinates[:orders, None])[:, :, 0] + outside.reshape(self.shape)
+
 
 def _components(columns: np.ndarray, norms: np.ndarray, target: np.ndarray):
-    """QR of ``columns`` (M, K): the components of ``target`` on the orthonormal factor, the
-    mask of the columns kept (those not absorbed by the ones before them, whose components
-    are noise) and the triangular factor."""
-    # Q' target without forming Q (LAPACK geqrf + ormqr)
-    projected, triangle = linalg.qr_multiply(columns, np.atleast_2d(target.T), mode="right")
-    kept = np.abs(np.diag(triangle)) > RANK_TOLERANCE * np.maximum(norms, np.finfo(float).tiny)
-    return projected.T.reshape((-1,) + target.shape[1:]), kept, triangle
+    """Nested projections of ``target`` (M, t) on ``columns`` (M, K) taken in order.
 
-
-def _kept_squares(components: np.ndarray, kept: np.ndarray) -> np.ndarray:
-    mask = kept.reshape(kept.shape + (1,) * (components.ndim - 1))
-    return np.where(mask, components, 0.0) ** 2
+    Returns the mask of the columns kept (those not absorbed, to ``RANK_TOLERANCE`` of their
+    ``norms``, by the fitted directions and the columns kept before them), an orthonormal
+    basis (M, kept) of the kept columns' nested spans (QR) and the components (K, t) of
+    ``target`` on it, 0 for the columns not kept.
+    """
+    kept = np.ones(columns.shape[1], dtype=bool)
+    while kept.any():
+        frame, triangle = linalg.qr(columns[:, kept], mode="economic", check_finite=False)
+        size = np.zeros(np.count_nonzero(kept))
+        size[: min(triangle.shape)] = np.abs(np.diag(triangle))
+        absorbed = size <= RANK_TOLERANCE * np.maximum(norms[kept], np.finfo(float).tiny)
+        if not absorbed.any():
+            break
+        # drop the first absorbed column only: those after it are judged without it
+        kept[np.flatnonzero(kept)[np.argmax(absorbed)]] = False
+    else:
+        frame = np.zeros((columns.shape[0], 0))
+    components = np.zeros((kept.size, target.shape[1]))
+    components[kept] = frame.T @ target
+    return kept, frame, components
 
 
 @dataclass(frozen=True)
@@ -483,53 +617,71 @@ class _Tests:
         self.total_dof = residual_dof * self.ports
         self.energy = float(np.einsum("ij,ij->", self.residual, self.residual))
 
-    def p_value(self, statistic: float, dof: int) -> float:
-        """Upper tail of a score statistic with ``dof`` degrees of freedom: the lack-of-fit
+    def p_values(self, statistic: np.ndarray, dof: np.ndarray) -> np.ndarray:
+        """Upper tail of score statistics with ``dof`` degrees of freedom: the lack-of-fit
         F test against the rest of the whitened residual."""
         remaining = self.total_dof - dof
-        if dof <= 0 or remaining < 1.0:  # the columns leave no residual to compare with
-            return 1.0
-        ratio = (statistic / dof) / max(self.energy - statistic, 1e-300) * remaining
-        return float(stats.f.sf(ratio, dof, remaining))
+        # 1 where the columns leave no residual to compare with
+        valid = (dof > 0) & (remaining >= 1.0)
+        dof, remaining = np.where(valid, dof, 1), np.where(valid, remaining, 1.0)
+        ratio = (statistic / dof) / np.maximum(self.energy - statistic, 1e-300) * remaining
+        return np.where(valid, special.fdtrc(dof, remaining, ratio), 1.0)  # F(dof, remaining)
 
-    def coupled(self, basis: np.ndarray, direction: np.ndarray, orders) -> tuple[_Test, np.ndarray]:
-        """Columns ``basis_m(k) direction_k`` (functions of the row times a per-reading image
-        direction, N x n), nested at ``orders``; also, per reading, the amplitude along
-        ``direction`` of the residual these columns explain at the best order (what the fit
-        did not absorb of the drift, in the unit of the direction's coefficient)."""
-        columns = basis[:, None, :] * direction[:, :, None]
-        norms = np.sqrt(np.einsum("ijk,ijk->k", columns, columns))
-        projected = self.projector(columns).reshape(-1, basis.shape[1])
-        components, kept, triangle = _components(projected, norms, self.residual.ravel())
-        best = self._best(_kept_squares(components, kept), kept, orders)
-        # least squares on the kept columns of the best order, through their QR factors
-        used = np.flatnonzero(kept[: best.orders])
-        coefficients, *_ = linalg.lstsq(triangle[:, used], components)
-        explained = (projected[:, used] @ coefficients).reshape(direction.shape)
+    def columns(self, basis: np.ndarray, direction: np.ndarray | None = None) -> _Columns:
+        """Columns ``basis_m(k)`` (N, K) on every port separately (``direction`` None) or
+        times a per-reading image direction (N, n), projected off what the fit absorbs."""
+        columns = (
+            basis[:, None, :] if direction is None else basis[:, None, :] * direction[..., None]
+        )
+        projected = (
+            self.projector.per_port(columns) if direction is None else self.projector(columns)
+        )
+        return _Columns(projected, np.sqrt(np.einsum("ijk,ijk->k", columns, columns)))
+
+    def cosines(self, orders: int, direction: np.ndarray | None = None) -> _Columns:
+        """:meth:`columns` of the first ``orders`` discrete cosines of the row: through DCTs
+        (:class:`_CosineColumns`), or formed for a sweep of fewer than ``MIN_DCT_READINGS``
+        readings (faster there) or a ``direction`` too uneven (``MIN_GRAM_WEIGHT``)."""
+        samples = self.residual.shape[0]
+        unit = np.ones((samples, 1)) if direction is None else direction
+        weight = np.einsum("ij,ij->i", unit, unit)
+        if samples < MIN_DCT_READINGS or weight.min() < MIN_GRAM_WEIGHT * weight.max():
+            return self.columns(_cosines(samples, orders), direction)
+        fitted = self.projector.basis[:, None] if direction is None else self.projector.directions
+        return _CosineColumns(unit, fitted, orders)
+
+    def coupled(self, columns: _Columns, direction: np.ndarray, orders) -> tuple[_Test, np.ndarray]:
+        """Columns ``basis_m(k) direction_k`` (:meth:`columns` with a direction), nested at
+        ``orders``; also, per reading, the amplitude along ``direction`` of the residual these
+        columns explain at the best order (what the fit did not absorb of the drift, in the
+        unit of the direction's coefficient)."""
+        target = columns.coordinates(self.residual[..., None])
+        kept, frame, components = _components(columns.matrix, columns.norms, target)
+        best = self._best(components[:, 0] ** 2, kept, orders)
+        # the projection on the kept columns of the best order
+        used = np.count_nonzero(kept[: best.orders])
+        explained = columns.vectors(frame[:, :used] @ components[kept][:used, 0])
         return best, np.einsum("ij,ij->i", explained, direction) / np.einsum(
             "ij,ij->i", direction, direction
         )
 
-    def per_port(self, basis: np.ndarray, orders) -> tuple[_Test, np.ndarray]:
-        """Columns ``basis_m(k)`` on every port separately, nested at ``orders``; also each
-        port's statistic at the largest order."""
-        projected = self.projector.per_port(basis)
-        components, kept, _ = _components(projected, np.linalg.norm(basis, axis=0), self.residual)
-        scores = _kept_squares(components, kept)
+    def per_port(self, columns: _Columns, orders) -> tuple[_Test, np.ndarray]:
+        """Columns ``basis_m(k)`` (:meth:`columns` without a direction) on every port
+        separately, nested at ``orders``; also each port's statistic at the largest order."""
+        target = columns.coordinates(self.residual[:, None, :])
+        kept, _, components = _components(columns.matrix, columns.norms, target)
+        scores = components**2
         return self._best(scores.sum(axis=1), kept, orders, self.ports), scores.sum(axis=0)
 
     def _best(self, scores, kept, orders, ports: int = 1) -> _Test:
         statistic = np.cumsum(scores)
         dof = np.cumsum(kept) * ports
+        index = np.array(orders) - 1
         # the smallest p-value over the scales, times their number (Bonferroni)
+        p_values = np.minimum(1.0, len(orders) * self.p_values(statistic[index], dof[index]))
         tests = [
-            _Test(
-                min(1.0, len(orders) * self.p_value(statistic[k - 1], int(dof[k - 1]))),
-                float(statistic[k - 1] - dof[k - 1]),
-                k,
-                int(dof[k - 1]),
-            )
-            for k in orders
+            _Test(float(p_value), float(statistic[k - 1] - dof[k - 1]), k, int(dof[k - 1]))
+            for p_value, k in zip(p_values, orders, strict=True)
         ]
         return min(tests, key=lambda test: (test.p_value, -test.excess))
 
@@ -656,17 +808,15 @@ def _structure(tests, harmonic_test, image, tangent, frequency, center, span, sc
     samples = frequency.size
     orders = _orders(samples, MAX_COUPLED_ORDER)
     background = _orders(samples, SMOOTH_ORDERS[-1])
-    cosines = _cosines(samples, background[-1])
-    time = cosines[:, : orders[-1]]
-    power, power_error = tests.coupled(time, image, orders)
-    phase, phase_error = tests.coupled(time, tangent, orders)
+    power, power_error = tests.coupled(tests.cosines(orders[-1], image), image, orders)
+    phase, phase_error = tests.coupled(tests.cosines(orders[-1], tangent), tangent, orders)
     dispersion = dispersion_rad = None
     if span > DISPERSION_MIN_SPAN_FSR:
         offset = frequency - center
         relative = offset / max(float(np.abs(offset).max()), np.finfo(float).tiny)
         even = np.column_stack([special.eval_legendre(degree, relative) for degree in (2, 4)])
-        dispersion, dispersion_rad = tests.coupled(even, tangent, (2,))
-    smooth, _ = tests.per_port(cosines, background)
+        dispersion, dispersion_rad = tests.coupled(tests.columns(even, tangent), tangent, (2,))
+    smooth, _ = tests.per_port(tests.cosines(background[-1]), background)
     return _Structure(
         power=power,
         power_error=power_error,
@@ -925,7 +1075,7 @@ def misfit_report(
     harmonics = np.column_stack(
         [power * trig(order * phase) for order in HARMONICS for trig in (np.cos, np.sin)]
     )
-    harmonic_test, harmonic_scores = tests.per_port(harmonics, (harmonics.shape[1],))
+    harmonic_test, harmonic_scores = tests.per_port(tests.columns(harmonics), (harmonics.shape[1],))
     # relative to each port's own noise
     harmonic_power = harmonic_scores * (weight / noise) ** 2 / max(harmonic_test.dof // ports, 1)
     scatter = _scatter(residual, image, tangent, residual_dof, pooled)
