@@ -234,10 +234,11 @@ class BaseCalibrator:
         self.port_names_ = names
         self.dark_w_ = dark
         self.offset_w_ = np.zeros(n_ports)
-        total = powers.sum(axis=1)
-        self.total_power_range_w_ = (float(total.min()), float(total.max()))
         self._fit(powers, frequency, monitor)
         corrected = powers - self.offset_w_
+        total = corrected.sum(axis=1)
+        # the range the flags compare readings with, offset-corrected like them
+        self.total_power_range_w_ = (float(total.min()), float(total.max()))
         error = wrap_to_period(self._predict_checked(corrected) - frequency, self.fsr_hz_)
         self.calibration_rms_hz_ = float(np.sqrt(np.mean(error**2)))
         misfit = self._misfit_report(powers, frequency, scale, delay)
