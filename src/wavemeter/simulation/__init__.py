@@ -1,6 +1,13 @@
 """Simulated interferometers with the impairments of the paper's Table 1 and hardware faults."""
 
 from .drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
-from .interferometer import Interferometer
+from .interferometer import THERMAL_PRESETS, Interferometer, ThermalPreset
 
-__all__ = ["Interferometer", "slow_power_drift", "flicker_power_noise", "thermal_ramp_rad"]
+__all__ = [
+    "Interferometer",
+    "ThermalPreset",
+    "THERMAL_PRESETS",
+    "slow_power_drift",
+    "flicker_power_noise",
+    "thermal_ramp_rad",
+]

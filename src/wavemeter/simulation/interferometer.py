@@ -3,12 +3,14 @@
 Beyond Table 1 the device can carry hardware faults a real chip has: per-port detector dark
 (ADC) offsets, group-delay dispersion of the delay imbalance, unequal detector noise per port
 and a bias phase that drifts during a sweep (see :mod:`wavemeter.simulation.drift` for
-per-sample drift series).
+per-sample drift series). Temperature moves both the bias phase and the delay imbalance;
+:data:`THERMAL_PRESETS` holds the thermal coefficients of two photonic platforms.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from types import MappingProxyType
 
 import numpy as np
 
@@ -17,11 +19,47 @@ from ..model.cone import delay_phase_rad
 from ..model.couplers import mmi_2x2, mmi_matrix, port_phases_rad, y_junction
 from ..validation import as_rng
 
-__all__ = ["Interferometer"]
+__all__ = ["Interferometer", "ThermalPreset", "THERMAL_PRESETS"]
 
 DEFAULT_FSR_HZ = 50e9
 DEFAULT_CENTER_HZ = 193.4e12
 SPLITTERS = ("mmi", "y")
+
+#: thermo-optic coefficient of crystalline silicon near 1550 nm (1/K)
+SILICON_DN_DT_PER_K = 1.8e-4
+#: group index of a silicon-on-insulator strip waveguide near 1550 nm
+SOI_GROUP_INDEX = 4.2
+
+
+@dataclass(frozen=True)
+class ThermalPreset:
+    """Thermal coefficients of a photonic platform, see :meth:`Interferometer.with_thermal`.
+
+    Parameters
+    ----------
+    fringe_shift_hz_per_k : float
+        How far (Hz) a fringe moves per kelvin of heating, to lower frequency (red shift)
+        for a positive value.
+    delay_per_k : float
+        Relative change of the delay imbalance per kelvin (1/K): ``d tau / (tau dT)``.
+    """
+
+    fringe_shift_hz_per_k: float
+    delay_per_k: float
+
+
+#: Thermal coefficients by platform. ``"sin"``: silicon nitride, fringes move 2.6 GHz/K and
+#: the delay 1.35e-5 /K. ``"soi"``: silicon on insulator, fringes move 10 GHz/K; the delay
+#: rate is the thermo-optic coefficient of silicon over the group index, ``1.8e-4 / 4.2``
+#: (about 4.3e-5 /K; the dispersion of dn/dT is neglected).
+THERMAL_PRESETS = MappingProxyType(
+    {
+        "sin": ThermalPreset(fringe_shift_hz_per_k=2.6e9, delay_per_k=1.35e-5),
+        "soi": ThermalPreset(
+            fringe_shift_hz_per_k=10e9, delay_per_k=SILICON_DN_DT_PER_K / SOI_GROUP_INDEX
+        ),
+    }
+)
 
 
 def _splitter_amplitudes(splitter: str) -> np.ndarray:
@@ -99,9 +137,12 @@ class Interferometer:
     design_port_phases_rad : ndarray, shape (n,)
         Nominal fringe phases of the design (rad), what the conventional method assumes.
     thermal_phase_rad_per_k : float
-        Bias phase change per kelvin away from ``reference_temperature_k``.
+        Bias phase change per kelvin away from ``reference_temperature_k`` (rad/K). A
+        positive rate moves the fringes to lower frequency on heating, by
+        ``thermal_phase_rad_per_k * fsr / (2 pi)`` Hz/K at ``center_hz``.
     reference_temperature_k : float
-        Temperature (K) at which the bias phase is ``bias_phase_rad``.
+        Temperature (K) at which the bias phase is ``bias_phase_rad`` and the delay
+        ``delay_s``.
     monitor_ratio : float
         Power-monitor reading per watt of source power.
     dark_offset_w : ndarray, shape (n,), optional
@@ -112,6 +153,11 @@ class Interferometer:
         ``delay_s + gdd_s2 * 2 pi (f - center_hz)`` and the phase gains
         ``gdd_s2 / 2 * (2 pi (f - center_hz))**2`` (see :meth:`phase_rad`); ``delay_s`` and
         :attr:`true_fsr_hz` stay those at ``center_hz``.
+    thermal_delay_per_k : float
+        Relative change of the delay imbalance per kelvin (1/K): at temperature ``T`` the
+        delay is ``delay_s * (1 + thermal_delay_per_k * (T - reference_temperature_k))``
+        (see :meth:`delay_at`), so the FSR moves too (:meth:`true_fsr_hz_at`). The
+        dispersion ``gdd_s2`` does not change with temperature.
 
     Notes
     -----
@@ -133,6 +179,7 @@ class Interferometer:
     monitor_ratio: float = 0.01
     dark_offset_w: np.ndarray | None = None
     gdd_s2: float = 0.0
+    thermal_delay_per_k: float = 0.0
 
     def __post_init__(self):
         coupler = np.array(self.output_coupler, dtype=complex)
@@ -161,6 +208,11 @@ class Interferometer:
             raise InputError(
                 f"gdd_s2 must be a finite number (s^2), got {self.gdd_s2}", parameter="gdd_s2"
             )
+        for name in ("thermal_phase_rad_per_k", "thermal_delay_per_k", "reference_temperature_k"):
+            if not np.isfinite(getattr(self, name)):
+                raise InputError(
+                    f"{name} must be a finite number, got {getattr(self, name)}", parameter=name
+                )
         arrays = [coupler, splitter, responsivity, design]
         if self.dark_offset_w is not None:
             offset = np.array(self.dark_offset_w, dtype=float)
@@ -251,6 +303,36 @@ class Interferometer:
             design_port_phases_rad=ideal.design_port_phases_rad,
         )
 
+    def with_thermal(self, platform: str) -> Interferometer:
+        """This device with the thermal coefficients of ``platform`` (see :data:`THERMAL_PRESETS`).
+
+        The bias rate makes a fringe at ``center_hz`` move by the platform's fringe shift per
+        kelvin at this device's FSR: ``thermal_phase_rad_per_k = 2 pi shift_hz_per_k /
+        true_fsr_hz``, positive, so heating moves the fringes to lower frequency (the
+        optical path grows with temperature). ``thermal_delay_per_k`` is the platform's
+        relative delay rate. Everything else is kept.
+
+        Parameters
+        ----------
+        platform : str
+            ``"sin"`` (silicon nitride) or ``"soi"`` (silicon on insulator).
+
+        Returns
+        -------
+        Interferometer
+        """
+        if platform not in THERMAL_PRESETS:
+            raise InputError(
+                f"platform must be one of {tuple(THERMAL_PRESETS)}, got {platform!r}",
+                parameter="platform",
+            )
+        preset = THERMAL_PRESETS[platform]
+        return replace(
+            self,
+            thermal_phase_rad_per_k=2.0 * np.pi * preset.fringe_shift_hz_per_k / self.true_fsr_hz,
+            thermal_delay_per_k=preset.delay_per_k,
+        )
+
     # ------------------------------------------------------------------ properties
     @property
     def ports(self) -> int:
@@ -266,33 +348,87 @@ class Interferometer:
         """Angular detuning ``w = 2 pi (f - center_hz)`` (rad/s) of frequencies ``f_hz`` (Hz)."""
         return 2.0 * np.pi * (np.asarray(f_hz, dtype=float) - self.center_hz)
 
-    def phase_rad(self, f_hz) -> np.ndarray:
+    def _temperature_offset_k(self, temperature_k) -> np.ndarray:
+        """``T - reference_temperature_k`` (K) of finite temperatures ``temperature_k`` (K)."""
+        temperature = np.asarray(temperature_k, dtype=float)
+        if not np.all(np.isfinite(temperature)):
+            raise InputError("temperature_k must be finite (K)", parameter="temperature_k")
+        return temperature - self.reference_temperature_k
+
+    def delay_at(self, temperature_k=None) -> np.ndarray:
+        """Delay imbalance (s) at a temperature (K); ``None`` means the reference temperature.
+
+        ``tau(T) = delay_s (1 + thermal_delay_per_k (T - reference_temperature_k))``.
+
+        Parameters
+        ----------
+        temperature_k : None, float or array_like, shape (N,)
+            Chip temperature (K).
+
+        Returns
+        -------
+        ndarray, shape () or (N,), s
+        """
+        if temperature_k is None:
+            return np.asarray(self.delay_s, dtype=float)
+        scale = 1.0 + self.thermal_delay_per_k * self._temperature_offset_k(temperature_k)
+        if np.any(scale <= 0):
+            raise InputError(
+                "temperature_k is so far from reference_temperature_k that the delay "
+                f"would not be positive at thermal_delay_per_k={self.thermal_delay_per_k}",
+                parameter="temperature_k",
+            )
+        return self.delay_s * scale
+
+    def true_fsr_hz_at(self, temperature_k=None) -> np.ndarray:
+        """The free spectral range ``1 / tau(T)`` (Hz) at a temperature (K), see :meth:`delay_at`.
+
+        With dispersion this is the FSR at ``center_hz``, as :attr:`true_fsr_hz`.
+        """
+        return 1.0 / self.delay_at(temperature_k)
+
+    def phase_rad(self, f_hz, temperature_k=None) -> np.ndarray:
         """Fringe phase ``t`` (rad) at source frequencies ``f_hz`` (Hz), bias excluded.
 
-        ``t = w tau + gdd_s2 w**2 / 2`` with ``w = 2 pi (f - center_hz)``: the phase of the
-        cone vector that :meth:`true_map` maps to the port powers (the bias is a rotation
-        inside the map). Its derivative ``dt/dw`` is :meth:`group_delay_s`.
+        ``t = w tau(T) + gdd_s2 w**2 / 2`` with ``w = 2 pi (f - center_hz)`` and ``tau(T)``
+        from :meth:`delay_at`: the phase of the cone vector that :meth:`true_map` at the same
+        temperature maps to the port powers (the bias is a rotation inside the map). Its
+        derivative ``dt/dw`` is :meth:`group_delay_s`.
 
         Parameters
         ----------
         f_hz : array_like, shape (N,)
             Source optical frequency (Hz).
+        temperature_k : None, float or array_like, shape (N,)
+            Chip temperature (K), scalar or per sample; ``None`` is the reference.
 
         Returns
         -------
         ndarray, shape (N,), rad
         """
         detuning_rad_s = self._detuning_rad_s(f_hz)
-        return delay_phase_rad(f_hz, self.center_hz, self.delay_s) + (
+        return delay_phase_rad(f_hz, self.center_hz, self.delay_at(temperature_k)) + (
             0.5 * self.gdd_s2 * detuning_rad_s**2
         )
 
-    def group_delay_s(self, f_hz) -> np.ndarray:
-        """Group delay of the imbalance (s) at ``f_hz`` (Hz): ``tau + gdd_s2 2 pi (f - f0)``.
+    def group_delay_s(self, f_hz, temperature_k=None) -> np.ndarray:
+        """Group delay of the imbalance (s) at ``f_hz`` (Hz): ``tau(T) + gdd_s2 2 pi (f - f0)``.
 
-        The local FSR at ``f`` is its inverse; at ``center_hz`` that is :attr:`true_fsr_hz`.
+        The local FSR at ``f`` is its inverse; at ``center_hz`` that is
+        :meth:`true_fsr_hz_at` (:attr:`true_fsr_hz` at the reference temperature).
+
+        Parameters
+        ----------
+        f_hz : array_like, shape (N,)
+            Source optical frequency (Hz).
+        temperature_k : None, float or array_like, shape (N,)
+            Chip temperature (K), scalar or per sample; ``None`` is the reference.
+
+        Returns
+        -------
+        ndarray, shape (N,), s
         """
-        return self.delay_s + self.gdd_s2 * self._detuning_rad_s(f_hz)
+        return self.delay_at(temperature_k) + self.gdd_s2 * self._detuning_rad_s(f_hz)
 
     def _port_fields(self) -> tuple[np.ndarray, np.ndarray]:
         """Per-port field amplitudes (delayed arm, other arm), shape (n,) each."""
@@ -302,18 +438,22 @@ class Interferometer:
         return self.output_coupler[:, a] * arms[0], self.output_coupler[:, b] * arms[1]
 
     def bias_at(self, temperature_k=None) -> np.ndarray:
-        """Bias phase (rad) at a temperature (K); ``None`` means the reference temperature."""
+        """Bias phase (rad) at a temperature (K); ``None`` means the reference temperature.
+
+        ``bias_phase_rad + thermal_phase_rad_per_k (T - reference_temperature_k)``.
+        """
         if temperature_k is None:
             return np.asarray(self.bias_phase_rad, dtype=float)
-        offset = np.asarray(temperature_k, dtype=float) - self.reference_temperature_k
+        offset = self._temperature_offset_k(temperature_k)
         return self.bias_phase_rad + self.thermal_phase_rad_per_k * offset
 
     def true_map(self, temperature_k=None) -> np.ndarray:
         """The exact map ``A`` (n x 3) with ``p = A @ (P [cos t, sin t, sqrt 2])``.
 
-        ``t`` is :meth:`phase_rad` (``2 pi (f - center_hz) tau`` without dispersion): the
-        phase origin is the centre frequency and the bias phase is absorbed into ``A`` as a
-        rotation about the cone axis. A dark offset is not part of the map.
+        ``t`` is :meth:`phase_rad` at the same temperature (``2 pi (f - center_hz) tau(T)``
+        without dispersion): the phase origin is the centre frequency and the bias phase at
+        ``temperature_k`` (K, scalar) is absorbed into ``A`` as a rotation about the cone
+        axis. A dark offset is not part of the map.
         """
         delayed, other = self._port_fields()
         cross = delayed * np.conj(other) * np.exp(1j * self.bias_at(temperature_k))
@@ -338,7 +478,7 @@ class Interferometer:
         """Port readings (W) from the fields, for source frequencies ``f_hz``.
 
         Each reading is ``responsivity |E|^2 P + dark_offset_w + noise``, where the fields
-        interfere at phase :meth:`phase_rad` plus the bias at ``temperature_k`` plus
+        interfere at phase :meth:`phase_rad` plus the bias, both at ``temperature_k``, plus
         ``bias_drift_rad``.
 
         Parameters
@@ -353,7 +493,8 @@ class Interferometer:
         rng : None, int or numpy.random.Generator
             Source of the noise.
         temperature_k : None, float or array_like, shape (N,)
-            Chip temperature (K); moves the bias phase by ``thermal_phase_rad_per_k``.
+            Chip temperature (K), scalar or per sample; moves the bias phase by
+            ``thermal_phase_rad_per_k`` and the delay by ``thermal_delay_per_k`` per kelvin.
         bias_drift_rad : None, float or array_like, shape (N,)
             Extra bias phase (rad) of each reading, e.g. a thermal drift during a sweep.
 
@@ -373,7 +514,13 @@ class Interferometer:
                 f"noise_w must be a non-negative number (W) or {self.ports} of them, got {noise_w}",
                 parameter="noise_w",
             )
-        psi = self.phase_rad(f) + self.bias_at(temperature_k)
+        if temperature_k is not None and np.shape(temperature_k) not in ((), f.shape):
+            raise InputError(
+                f"temperature_k must be a number or {f.size} of them (K), "
+                f"got shape {np.shape(temperature_k)}",
+                parameter="temperature_k",
+            )
+        psi = self.phase_rad(f, temperature_k) + self.bias_at(temperature_k)
         if bias_drift_rad is not None:
             drift = np.asarray(bias_drift_rad, dtype=float)
             if drift.shape not in ((), f.shape) or not np.all(np.isfinite(drift)):
