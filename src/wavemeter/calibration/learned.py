@@ -45,7 +45,7 @@ from ..model.uncertainty import (
     pinv_phase_gradient,
     student_factor,
 )
-from ..validation import check_choice, check_positive
+from ..validation import check_choice, check_fitted, check_positive
 from .base import BaseCalibrator
 from .delay_search import SEARCH_METHODS, DelaySearchResult, search_delay
 from .files import state_array, state_float
@@ -59,6 +59,7 @@ from .linear_map import (
     unfitted_cost,
 )
 from .misfit import MisfitReport, misfit_report
+from .reanchor import check_reference_readings, fit_reanchor, reanchored_copy
 from .summary import FitValue
 
 RETRIEVALS = ("pinv", "ml")
@@ -479,6 +480,53 @@ class Calibrator(BaseCalibrator):
         phase = self._phase(readings) if phase_rad is None else np.asarray(phase_rad, float)
         power = source_power_ratio(readings, self.map_, phase, self.port_noise_std_w_)
         return crlb_frequency_std(self.map_, phase, power, self.port_noise_std_w_, self.fsr_hz_)
+
+    def reanchor(self, powers, frequency_hz, *, temperature_k=None) -> Calibrator:
+        """A copy re-anchored to readings of reference lines of known frequency.
+
+        The bias phase (and, when the lines pin it better than the sweep did, the delay) is
+        corrected as :mod:`wavemeter.calibration.reanchor` describes; the phase of each
+        reading is retrieved as :meth:`phase` does. This calibrator is untouched.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Readings of one or more reference lines (W, the unit of the calibration).
+        frequency_hz : float or array_like, shape (N,)
+            Known frequency of each reading (Hz); readings of equal frequency are one line.
+        temperature_k : None, float or array_like, shape (N,)
+            Accepted for the common API; not used by this calibrator.
+
+        Returns
+        -------
+        Calibrator
+            A deep copy with the corrected ``map_`` (and ``delay_s_``, ``fsr_hz_``,
+            ``delay_std_s_``) and ``diagnostics_["reanchor"]``: ``phase_shift_rad``,
+            ``phase_shift_std_rad``, ``delay_change_s`` (None when kept),
+            ``delay_change_std_s``, ``lines_hz``, ``readings``.
+
+        Raises
+        ------
+        InputError
+            Naming ``powers``, ``frequency_hz`` or ``temperature_k`` for readings or values
+            that are missing, not finite or of the wrong shape.
+        """
+        check_fitted(self)
+        raw, frequency, _ = check_reference_readings(
+            powers, frequency_hz, self.n_ports_, temperature_k
+        )
+        readings = raw - self._reading_offset_w()
+        phase = self._phase(readings)
+        reading_std = self._frequency_std_checked(readings, include_calibration=False)
+        fit = fit_reanchor(
+            phase,
+            frequency,
+            self.center_hz_,
+            self.delay_s_,
+            delay_std_s=self.delay_std_s_,
+            reading_phase_std_rad=reading_std * (2.0 * np.pi / self.fsr_hz_),
+        )
+        return reanchored_copy(self, fit)
 
     def _span_margin_std_hz(self, readings):
         return self._frequency_std_checked(readings)

@@ -21,6 +21,7 @@ window's readings modulo the FSR it picks the alias nearest the coarse value.
 
 from __future__ import annotations
 
+import copy
 import warnings
 
 import numpy as np
@@ -40,6 +41,7 @@ from .base import BaseCalibrator
 from .files import calibrator_fields, calibrator_from_fields, state_array, state_float
 from .flags import ReadingFlag
 from .learned import Calibrator
+from .reanchor import ReanchorFit, check_reference_readings, reanchored_copy
 from .registry import calibrator_class
 
 __all__ = ["CalibrationSet", "WINDOW_FSR_TOLERANCE", "clone", "window_label"]
@@ -452,6 +454,116 @@ class CalibrationSet(BaseCalibrator):
                 readings[rows], phase_rad=None if phase is None else phase[rows]
             )
         return result
+
+    def reanchor(self, powers, frequency_hz, *, coarse_hz=None, temperature_k=None):
+        """A copy whose windows are re-anchored to readings of reference lines.
+
+        Each reading goes to the window of its known frequency (the exact coarse value);
+        every window with readings is re-anchored by its own ``reanchor`` (bias phase, and
+        delay where its lines pin it better, :mod:`wavemeter.calibration.reanchor`). A
+        window without a line gets the phase shift linearly interpolated in window centre
+        frequency between the nearest re-anchored windows below and above it (the shifts
+        unwrapped in frequency order: a bias change is common to all windows and a delay
+        change adds a part linear in frequency), or held from the nearest one beyond the
+        outermost; its delay is kept, and the shift's standard error is that of the
+        interpolation (model error not included). The global delay and the window edges
+        are kept. This set is untouched.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Readings of one or more reference lines (W, the unit of the calibration).
+        frequency_hz : float or array_like, shape (N,)
+            Known frequency of each reading (Hz), inside :meth:`covered_hz`.
+        coarse_hz, temperature_k : None, float or array_like, shape (N,)
+            Accepted for the common API (checked); not used: the known frequency is the
+            coarse value.
+
+        Returns
+        -------
+        CalibrationSet
+            A deep copy; each window's ``diagnostics_["reanchor"]`` tells what it changed
+            (``interpolated_from``: indices of the windows its shift came from, empty when it
+            had lines) and ``diagnostics_["reanchor"]`` of the set lists every window's.
+
+        Raises
+        ------
+        InputError
+            Naming ``powers``, ``frequency_hz`` (also a frequency outside the calibrated
+            span), ``coarse_hz`` or ``temperature_k``; naming ``window`` when the windows
+            cannot be re-anchored.
+        """
+        check_fitted(self)
+        raw, frequency, temperature = check_reference_readings(
+            powers, frequency_hz, self.n_ports_, temperature_k
+        )
+        if coarse_hz is not None:
+            try:
+                check_per_reading("coarse_hz", coarse_hz, frequency.size)
+            except InputError as exc:
+                raise InputError(str(exc), parameter="coarse_hz") from exc
+        low, high = self.covered_hz()
+        outside = (frequency < low) | (frequency > high)
+        if outside.any():
+            raise InputError(
+                f"frequency_hz {frequency[outside][0]!r} Hz is outside the calibrated span "
+                f"{low / 1e12:.6f} to {high / 1e12:.6f} THz: no window to re-anchor there",
+                parameter="frequency_hz",
+            )
+        if not callable(getattr(self.windows_[0], "reanchor", None)):
+            raise InputError(
+                f"windows of method {type(self.windows_[0]).method!r} cannot be re-anchored",
+                parameter="window",
+            )
+        readings = raw - self._reading_offset_w()
+        index = self.window_index(frequency)
+        windows = list(self.windows_)
+        anchored = np.unique(index)
+        for number in anchored:
+            rows = index == number
+            windows[number] = self.windows_[number].reanchor(
+                readings[rows],
+                frequency[rows],
+                temperature_k=None if temperature is None else temperature[rows],
+            )
+            windows[number].diagnostics_["reanchor"]["interpolated_from"] = []
+        centers = np.array([window.center_hz_ for window in self.windows_])
+        records = [windows[number].diagnostics_["reanchor"] for number in anchored]
+        shifts = np.unwrap([record["phase_shift_rad"] for record in records])
+        variances = np.square([record["phase_shift_std_rad"] for record in records])
+        for number in np.setdiff1d(np.arange(len(windows)), anchored):
+            # weight of each re-anchored window: linear interpolation, held beyond the ends
+            weight = np.array(
+                [
+                    np.interp(centers[number], centers[anchored], unit)
+                    for unit in np.eye(anchored.size)
+                ]
+            )
+            shift_std = float(np.sqrt(weight**2 @ variances))
+            fit = ReanchorFit(
+                phase_shift_rad=float(weight @ shifts),
+                phase_shift_std_rad=shift_std,
+                delay_change_s=None,
+                delay_change_std_s=None,
+                covariance=np.diag([shift_std**2, 0.0]),
+                lines_hz=(),
+                readings=0,
+            )
+            source = anchored[weight > 0].tolist()
+            windows[number] = reanchored_copy(
+                self.windows_[number], fit, {**fit.record(), "interpolated_from": source}
+            )
+        corrected = copy.deepcopy(self)
+        corrected.windows_ = windows
+        corrected.diagnostics_ = {
+            **(corrected.diagnostics_ or {}),
+            "reanchor": {
+                "lines_hz": np.unique(frequency).tolist(),
+                "readings": int(frequency.size),
+                "windows": [window.diagnostics_["reanchor"] for window in windows],
+            },
+        }
+        return corrected
 
     def _offsets_known(self) -> bool:
         return super()._offsets_known() or any(w._offsets_known() for w in self.windows_)
