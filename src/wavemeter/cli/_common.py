@@ -306,13 +306,29 @@ def read(
     return table
 
 
-def load(path):
-    """A calibration from its file (not stdin: a calibration is small and named)."""
-    from ..calibration.files import load_calibration
+def read_calibration(path):
+    """A calibration file's content, calibrator and metadata (not from stdin: a calibration
+    is small and named)."""
+    from ..calibration.files import read_calibration_file
 
     if is_stdio(path):
         raise InputError("a calibration is read from its file, not from stdin ('-')")
-    return load_calibration(path)
+    return read_calibration_file(path)
+
+
+def load(path):
+    """A calibration from its file (see :func:`read_calibration`)."""
+    return read_calibration(path).calibrator
+
+
+def check_calibration_output(out_path, inputs, force: bool) -> None:
+    """Before any work: the output is not an input, may be replaced, and is JSON."""
+    check_output(out_path, inputs=inputs, force=force)
+    if not is_stdio(out_path) and Path(out_path).suffix.lower() != ".json":
+        raise InputError(
+            f"cannot write {out_path}: a calibration file is JSON; give a name ending in "
+            ".json (e.g. chip.wmcal.json), or - for stdout"
+        )
 
 
 def output_format(path, file_format: str | None, *, inputs=(), force: bool = False) -> str:

@@ -42,6 +42,7 @@ COMMANDS = {
     "measure": "Turn port readings into frequency with a calibration.",
     "evaluate": "Frequency errors on a test file with known frequencies, against the CRLB.",
     "report": "Write an HTML report with figures of a calibration on its sweep.",
+    "reanchor": "Re-anchor a calibration to readings of reference lines of known frequency.",
     "info": "Print a summary of a calibration file.",
 }
 

@@ -9,12 +9,10 @@ from __future__ import annotations
 
 import contextlib
 import warnings
-from pathlib import Path
 
 import click
 import numpy as np
 
-from ..atomic import check_output
 from ..exceptions import CalibrationWarning, InputError
 from ..io import port_key
 from ..progress import busy
@@ -24,6 +22,7 @@ from ._common import (
     PORT_PHASES,
     QUIET,
     about,
+    check_calibration_output,
     column_options,
     column_request,
     out_option,
@@ -129,16 +128,6 @@ def _fit(options: dict, table, phases, dark_w):
             )
 
 
-def _check_calibration_output(out_path, inputs, force: bool) -> None:
-    """Before any work: the output is not an input, may be replaced, and is JSON."""
-    check_output(out_path, inputs=inputs, force=force)
-    if not is_stdio(out_path) and Path(out_path).suffix.lower() != ".json":
-        raise InputError(
-            f"cannot write {out_path}: a calibration file is JSON; give a name ending in "
-            ".json (e.g. chip.wmcal.json), or - for stdout"
-        )
-
-
 def _metadata(table, dark_file) -> dict:
     """What the calibration was read from, kept in the calibration file (the dark readings'
     file only when there was one)."""
@@ -241,7 +230,7 @@ def calibrate(sweep, out_path, port_phases_deg, force, **options):
         )
     if dark_file is not None and is_stdio(dark_file) and is_stdio(sweep):
         raise InputError("the sweep and --dark cannot both be read from stdin ('-')")
-    _check_calibration_output(out_path, (sweep, *([dark_file] if dark_file else [])), force)
+    check_calibration_output(out_path, (sweep, *([dark_file] if dark_file else [])), force)
     request = column_request(options)
     quiet = options["quiet"]
     table = read(

@@ -1,0 +1,146 @@
+"""`wavemeter reanchor`: correct a calibration's bias phase (and delay) from reference lines.
+
+Readings of one or more lines of known frequency (a reference laser, a gas-cell line)
+re-anchor a learned calibration, single or per FSR, as
+:mod:`wavemeter.calibration.reanchor` describes; the result is a new calibration file with
+the original's metadata and ``reanchor_file``, the readings' file.
+"""
+
+from __future__ import annotations
+
+import click
+
+from ..exceptions import InputError
+from ..progress import busy
+from ._common import (
+    FORCE,
+    QUIET,
+    about,
+    check_calibration_output,
+    check_ports,
+    column_options,
+    column_request,
+    fsr_text,
+    out_option,
+    printable,
+    read,
+    read_calibration,
+    say,
+)
+from ._params import OPTICAL_FREQUENCY
+from ._streams import is_stdio, output_path
+
+
+def _check_frequency_options(frequency_hz, x_column, x_unit) -> None:
+    """Exactly one of ``--frequency`` and ``--x``; ``--x-unit`` only with ``--x``."""
+    if (frequency_hz is None) == (x_column is None):
+        raise InputError(
+            "give the readings' known frequency with --frequency VALUE (one line for the "
+            "file) or --x COL (a frequency or wavelength per row), exactly one of the two"
+        )
+    if x_column is None and x_unit is not None:
+        raise InputError("--x-unit is the unit of --x COL; with --frequency it has no use")
+
+
+def _change_lines(record: dict) -> list[str]:
+    """What one re-anchoring record changed: phase shift, delay."""
+    lines = [
+        f"phase shift {record['phase_shift_rad']:+.6f} rad (std "
+        f"{record['phase_shift_std_rad']:.2g} rad)"
+    ]
+    if record["delay_change_s"] is None:
+        lines.append("delay kept")
+    else:
+        lines.append(
+            f"delay change {record['delay_change_s']:+.4g} s (std "
+            f"{record['delay_change_std_s']:.2g} s)"
+        )
+    return lines
+
+
+def summary_lines(calibration) -> list[str]:
+    """What re-anchoring changed, from ``diagnostics_["reanchor"]`` of the result: lines and
+    readings, then the phase shift and delay (per window for a calibration set)."""
+    record = calibration.diagnostics_["reanchor"]
+    lines_thz = ", ".join(f"{line_hz / 1e12:.6f}" for line_hz in record["lines_hz"])
+    lines = [f"{record['readings']} readings of {len(record['lines_hz'])} line(s): {lines_thz} THz"]
+    windows = record.get("windows")
+    if windows is None:
+        lines += _change_lines(record)
+        if record["delay_change_s"] is not None:
+            lines.append(f"FSR now {fsr_text(calibration.fsr_hz_)}")
+        return lines
+    for number, window in enumerate(windows):
+        source = window["interpolated_from"]
+        origin = f" (interpolated from window(s) {', '.join(map(str, source))})" if source else ""
+        lines.append(f"window {number}: {', '.join(_change_lines(window))}{origin}")
+    return lines
+
+
+@click.command()
+@click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
+@click.argument("readings", type=click.Path(dir_okay=False))
+@out_option("Calibration file to write: JSON, e.g. chip-today.wmcal.json ('-' for stdout).")
+@click.option(
+    "--frequency",
+    "frequency_hz",
+    type=OPTICAL_FREQUENCY,
+    help="Known frequency of every reading (one line), 193.4THz or 1550nm; a bare number is "
+    "in Hz. Or --x COL.",
+)
+@column_options()
+@FORCE
+@QUIET
+def reanchor(calibration_file, readings, out_path, frequency_hz, force, **options):
+    """Re-anchor a calibration to readings of reference lines of known frequency.
+
+    The chip's bias phase moves with temperature and age; readings of one or more lines
+    of known frequency measure the change, and of lines spread over the FSR also a delay
+    change. Give the frequency with --frequency (one line for the file) or --x COL (per
+    row, unit from the name or --x-unit). Needs a learned calibration, single or per FSR
+    (a window without lines gets its shift interpolated). The new file keeps the
+    original's metadata; it must not exist unless --force is given, and is never CAL or
+    READINGS.
+
+    \b
+    Example:
+      wavemeter reanchor chip.wmcal.json hcn.csv --frequency 193.4THz -o chip-today.wmcal.json
+      wavemeter reanchor chip.wmcal.json lines.csv --x wavelength_nm -o chip-today.wmcal.json
+    """
+    from ..calibration.files import save_calibration
+
+    quiet = options["quiet"]
+    x_column = options["x_column"]
+    _check_frequency_options(frequency_hz, x_column, options["x_unit"])  # before any work
+    check_calibration_output(out_path, (calibration_file, readings), force)
+    content = read_calibration(calibration_file)
+    calibration = content.calibrator
+    if not callable(getattr(calibration, "reanchor", None)):
+        raise InputError(
+            f"{calibration_file}: a {calibration.method_label} calibration cannot be "
+            "re-anchored; re-anchoring needs a learned calibration (single or per FSR)"
+        )
+    request = column_request(options)
+    table = read(
+        readings,
+        request,
+        need_x=x_column is not None,
+        drop_invalid=options["drop_invalid"],
+        quiet=quiet,
+    ).valid_only()
+    check_ports(calibration, calibration_file, table, explicit=request.ports is not None)
+    known_hz = table.x_hz if frequency_hz is None else frequency_hz
+    description = printable(f"re-anchoring on {table.source}")
+    with busy(description, quiet=quiet), about(table.source):
+        anchored = calibration.reanchor(table.powers_w, known_hz, temperature_k=table.temperature_k)
+    metadata = {**content.metadata, "reanchor_file": str(table.source)}
+    with output_path(out_path) as target:
+        save_calibration(anchored, target, metadata)
+    to_stderr = is_stdio(out_path)
+    say(quiet, f"re-anchored {calibration_file} on {table.source}", err=to_stderr)
+    for line in summary_lines(anchored):
+        say(quiet, line, err=to_stderr)
+    say(quiet, f"wrote {'the calibration to stdout' if to_stderr else out_path}", err=to_stderr)
+
+
+command = reanchor
