@@ -8,6 +8,9 @@ a command-line flag (the CLI adds flag hints where it knows them).
 
 from __future__ import annotations
 
+import contextlib
+import warnings
+
 __all__ = [
     "WavemeterError",
     "InputError",
@@ -15,6 +18,7 @@ __all__ = [
     "NotFittedError",
     "EdgeMinimumError",
     "CalibrationWarning",
+    "recorded_calibration_warnings",
 ]
 
 
@@ -72,3 +76,27 @@ class CalibrationWarning(UserWarning):
         super().__init__(message)
         self.cause = cause
         self.remedy = remedy
+
+    def record(self) -> dict:
+        """JSON-ready ``{"cause", "message", "remedy"}``, as ``diagnostics_`` keeps it."""
+        return {"cause": self.cause, "message": str(self), "remedy": self.remedy}
+
+
+@contextlib.contextmanager
+def recorded_calibration_warnings():
+    """Record the :class:`CalibrationWarning` s emitted inside, every one, in order.
+
+    Yields a list that holds them once the block has run; any other warning is shown as
+    it would have been without the block.
+    """
+    notes: list[CalibrationWarning] = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", CalibrationWarning)
+        yield notes
+    for entry in caught:
+        if isinstance(entry.message, CalibrationWarning):
+            notes.append(entry.message)
+        else:
+            warnings.showwarning(
+                entry.message, entry.category, entry.filename, entry.lineno, entry.file
+            )

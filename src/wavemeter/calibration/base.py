@@ -248,9 +248,7 @@ class BaseCalibrator:
             "fsr_estimate_hz": None if estimate is None else estimate.fsr_hz,
             "ports": [port.to_dict() for port in health],
             "fit": misfit.to_dict(),
-            "warnings": [
-                {"cause": note.cause, "message": str(note), "remedy": note.remedy} for note in notes
-            ],
+            "warnings": [note.record() for note in notes],
         }
         for note in notes:
             warnings.warn(note, stacklevel=2)

@@ -359,10 +359,7 @@ class MisfitReport:
             "offset_w": plain(self.offset_w),
             "offset_std_w": plain(self.offset_std_w),
             "misfit": self.misfit,
-            "warnings": [
-                {"cause": note.cause, "message": str(note), "remedy": note.remedy}
-                for note in self.warnings
-            ],
+            "warnings": [note.record() for note in self.warnings],
         }
 
 

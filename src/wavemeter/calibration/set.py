@@ -26,7 +26,7 @@ import warnings
 
 import numpy as np
 
-from ..exceptions import CalibrationWarning, InputError
+from ..exceptions import CalibrationWarning, InputError, recorded_calibration_warnings
 from ..model.cone import wrap_to_period
 from ..validation import (
     MIN_SAMPLES,
@@ -218,16 +218,11 @@ class CalibrationSet(BaseCalibrator):
             the message names the window.
         """
         self._check_params()
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", CalibrationWarning)
+        with recorded_calibration_warnings() as caught:
             whole = Calibrator(fsr_hz=self.fsr_hz, fsr_tolerance=self.fsr_tolerance).fit(
                 powers, frequency_hz, power_monitor_w, port_names, dark_w=dark_w
             )
-        notes = [
-            note.message
-            for note in caught
-            if isinstance(note.message, CalibrationWarning) and note.message.cause != "dispersion"
-        ]
+        notes = [note for note in caught if note.cause != "dispersion"]
         powers = check_powers(powers, min_samples=MIN_SAMPLES)
         if whole.dark_w_ is not None:
             powers = powers - whole.dark_w_
@@ -252,8 +247,7 @@ class CalibrationSet(BaseCalibrator):
             rows = position == index
             window = self._window_calibrator(fsr)
             try:
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always", CalibrationWarning)
+                with recorded_calibration_warnings() as caught:
                     window.fit(
                         powers[rows],
                         frequency[rows],
@@ -268,22 +262,17 @@ class CalibrationSet(BaseCalibrator):
             # the whole-sweep fit has judged the ports once already
             notes += [
                 CalibrationWarning(
-                    f"{window_label(edges, index)}: {note.message}",
-                    cause=note.message.cause,
-                    remedy=note.message.remedy,
+                    f"{window_label(edges, index)}: {note}", cause=note.cause, remedy=note.remedy
                 )
                 for note in caught
-                if isinstance(note.message, CalibrationWarning)
-                and note.message.cause != "dead_port"
+                if note.cause != "dead_port"
             ]
             windows.append(window)
         self.delay_s_ = whole.delay_s_
         self.delay_std_s_ = whole.delay_std_s_
         self.diagnostics_ = {
             **whole.diagnostics_,
-            "warnings": [
-                {"cause": note.cause, "message": str(note), "remedy": note.remedy} for note in notes
-            ],
+            "warnings": [note.record() for note in notes],
         }
         self.dark_w_ = whole.dark_w_
         self.offset_w_ = np.zeros(whole.n_ports_)

@@ -8,12 +8,11 @@ fit is an error: nothing is written and the exit code is 3.
 from __future__ import annotations
 
 import contextlib
-import warnings
 
 import click
 import numpy as np
 
-from ..exceptions import CalibrationWarning, InputError
+from ..exceptions import InputError, recorded_calibration_warnings
 from ..io import port_key
 from ..progress import busy
 from ._common import (
@@ -45,17 +44,8 @@ def _refused_if(strict: bool):
     if not strict:
         yield
         return
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", CalibrationWarning)
+    with recorded_calibration_warnings() as refused:
         yield
-    for record in caught:
-        if not issubclass(record.category, CalibrationWarning):
-            warnings.showwarning(
-                record.message, record.category, record.filename, record.lineno, record.file
-            )
-    refused = [
-        record.message for record in caught if isinstance(record.message, CalibrationWarning)
-    ]
     if refused:
         raise WarningsRefused(refused, "--strict: no calibration written")
 
