@@ -299,15 +299,11 @@ class BaseCalibrator:
         """Validated readings (N, n) and per-reading inputs (one value or one per reading,
         None where not given); missing required ones raise :class:`InputError` naming them."""
         readings = self._check_readings(powers)
-        samples = readings.shape[0]
-        given = self._check_required(coarse_hz, temperature_k)
-        return readings, {
-            name: None if value is None else check_per_reading(name, value, samples)
-            for name, value in given.items()
-        }
+        return readings, self._reading_inputs(coarse_hz, temperature_k, readings.shape[0])
 
-    def _check_required(self, coarse_hz, temperature_k) -> dict:
-        """The per-reading inputs by name; raise when one named in ``requires`` is None."""
+    def _reading_inputs(self, coarse_hz, temperature_k, samples: int) -> dict:
+        """The per-reading inputs by name, each None or ``samples`` values; raise when one
+        named in ``requires`` is None."""
         given = {"coarse_hz": coarse_hz, "temperature_k": temperature_k}
         missing = [name for name in sorted(self.requires) if given[name] is None]
         if missing:
@@ -315,7 +311,10 @@ class BaseCalibrator:
                 f"{type(self).__name__} needs {' and '.join(missing)} for each reading "
                 f"({self._requirement_reason()}); got None"
             )
-        return given
+        return {
+            name: None if value is None else check_per_reading(name, value, samples)
+            for name, value in given.items()
+        }
 
     def _requirement_reason(self) -> str:
         return "declared in its requires"
@@ -405,10 +404,9 @@ class BaseCalibrator:
             lit = finite & (readings.sum(axis=1) > 0)
         flags[~lit] |= ReadingFlag.INVALID
         usable = (flags & ReadingFlag.INVALID) == 0
-        given = self._check_required(coarse_hz, temperature_k)
         inputs = {
-            name: None if value is None else check_per_reading(name, value, samples)[usable]
-            for name, value in given.items()
+            name: None if value is None else value[usable]
+            for name, value in self._reading_inputs(coarse_hz, temperature_k, samples).items()
         }
         if usable.any():
             flags[usable] |= self._model_flags(corrected[usable], **inputs)
