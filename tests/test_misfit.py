@@ -17,7 +17,7 @@ import pytest
 from scipy import stats
 
 import wavemeter as wm
-from wavemeter.calibration import misfit
+from wavemeter.calibration import residual_tests
 from wavemeter.calibration.learned import fit_learned_map
 from wavemeter.calibration.misfit import CAUSES, TEST_P_VALUE, MisfitReport, misfit_report
 from wavemeter.exceptions import CalibrationWarning, InputError
@@ -425,7 +425,7 @@ def test_cosines_through_dcts_give_the_statistics_of_the_formed_columns(monkeypa
     drift = slow_power_drift(600, 0.002, rng=44)
     powers = device.powers(frequency, POWER_W * drift, NOISE_W, rng=45)
     fast = report_of(frequency, powers)
-    monkeypatch.setattr(misfit, "MIN_DCT_READINGS", 10**9)
+    monkeypatch.setattr(residual_tests, "MIN_DCT_READINGS", 10**9)
     formed = report_of(frequency, powers)
     assert fast.causes == formed.causes == ("power_drift",)
     assert 0.0 < fast.p_values["power"] < TEST_P_VALUE  # a drift, p-values not underflowed
@@ -464,7 +464,7 @@ def test_a_deep_power_dip_forms_the_cosine_columns(monkeypatch):
     frequency, powers = sweep(device, 1001, power_w=POWER_W * scale, seed=43)
     report = report_of(frequency, powers, scale=scale)
     assert not report.misfit  # in the model
-    monkeypatch.setattr(misfit, "MIN_DCT_READINGS", 10**9)
+    monkeypatch.setattr(residual_tests, "MIN_DCT_READINGS", 10**9)
     formed = report_of(frequency, powers, scale=scale)
     for name in ("power", "phase"):
         assert report.p_values[name] == pytest.approx(formed.p_values[name], rel=1e-12)
