@@ -286,7 +286,10 @@ class BaseCalibrator:
     def _check_readings(self, powers) -> np.ndarray:
         """Validated readings with the dark readings and fitted offsets subtracted."""
         check_fitted(self)
-        return check_powers(powers, ports=self.n_ports_) - self._reading_offset_w()
+        readings = check_powers(powers, ports=self.n_ports_)
+        offset = self._reading_offset_w()
+        # most calibrations have none: no copy of the readings then
+        return readings - offset if offset.any() else readings
 
     def _reading_offset_w(self) -> np.ndarray:
         """What every reading carries besides the light (W, per port): dark plus fitted offsets."""
