@@ -53,3 +53,37 @@ def simulated_files(folder: Path, test_rows: int, seed: int = 1) -> dict[str, Pa
     assert main(shlex.split(simulate)) == 0
     assert main(shlex.split(f"calibrate {sweep} -o {cal} --quiet")) == 0
     return {"sweep": sweep, "test": folder / "sweep-test.csv", "cal": cal}
+
+
+#: calibration temperatures of the thermal tests (K): four, symmetric about the simulator's
+#: reference temperature 293.15 K, the closest two 1.5 K apart
+THERMAL_SWEEP_TEMPERATURES_K = (289.15, 292.4, 293.9, 297.15)
+
+
+def thermal_sweep(
+    device: wm.Interferometer,
+    samples_per_temperature: int,
+    noise_w: float,
+    rng,
+    temperatures_k=THERMAL_SWEEP_TEMPERATURES_K,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One-FSR sweeps of a device at several temperatures, stacked in acquisition order.
+
+    Returns
+    -------
+    powers : ndarray, shape (N, n), W
+    frequency_hz : ndarray, shape (N,), Hz
+    temperature_k : ndarray, shape (N,), K (the true chip temperature of each reading)
+    """
+    frequency = device.sweep_hz(samples_per_temperature)
+    generator = np.random.default_rng(rng)
+    powers = [
+        device.powers(frequency, POWER_W, noise_w, rng=generator, temperature_k=temperature)
+        for temperature in temperatures_k
+    ]
+    count = len(temperatures_k)
+    return (
+        np.vstack(powers),
+        np.tile(frequency, count),
+        np.repeat(np.asarray(temperatures_k, dtype=float), frequency.size),
+    )

@@ -16,7 +16,10 @@ the sum of port powers as source power), so their recovery clauses use an ideal 
 Enrolment is automatic: a test class is made for every class in the calibration registry
 (every calibrator with a file tag), with the per-class settings of ``CASES`` where the
 defaults do not fit; a new calibrator cannot skip the contract. Each call passes the
-per-reading inputs the class declares in ``requires`` (the truth as ``coarse_hz``).
+per-reading inputs the class declares in ``requires`` (the truth as ``coarse_hz``; the
+chip temperature as ``temperature_k``). A class that requires the temperature is fitted
+on a device whose fringes move with it (the silicon-nitride preset), swept at four
+temperatures about the simulator's reference temperature, and tested at that one.
 """
 
 from __future__ import annotations
@@ -31,6 +34,8 @@ import wavemeter as wm
 from wavemeter.calibration.base import BaseCalibrator
 from wavemeter.calibration.registry import registered
 
+from .conftest import thermal_sweep
+
 POWER_W = 1e-3
 NOISE_W = 5e-7  # Table 1: 5e-4 mW at 1 mW
 SWEEP_SAMPLES = 1000
@@ -43,24 +48,33 @@ RMS_STATISTICS = 4.0 / math.sqrt(2 * TEST_SAMPLES)
 CALIBRATION_EXCESS = math.sqrt(1.0 + 13 / SWEEP_SAMPLES)
 
 
-def make_device(kind: str, ports: int) -> wm.Interferometer:
-    if kind == "ideal":
-        return wm.Interferometer.ideal(ports)
-    return wm.Interferometer.table1(ports, seed=7)
+def make_device(kind: str, ports: int, thermal: bool = False) -> wm.Interferometer:
+    device = (
+        wm.Interferometer.ideal(ports)
+        if kind == "ideal"
+        else wm.Interferometer.table1(ports, seed=7)
+    )
+    return device.with_thermal("sin") if thermal else device
 
 
 @functools.cache
-def simulated(kind: str, ports: int, noise_w: float):
-    """Sweep (powers, frequencies) and test (powers, frequencies) of one device."""
-    device = make_device(kind, ports)
+def simulated(kind: str, ports: int, noise_w: float, thermal: bool = False):
+    """Sweep (powers, frequencies, per-reading fit inputs) and test (powers, frequencies)
+    of one device; with ``thermal`` the sweep is taken at four temperatures and the test
+    readings at the device's reference temperature."""
+    device = make_device(kind, ports, thermal)
     sweep_hz = device.sweep_hz(SWEEP_SAMPLES)
     # inside the calibrated span: a calibration set refuses readings beyond it
     test_hz = np.random.default_rng(13).uniform(sweep_hz[0], sweep_hz[-1], TEST_SAMPLES)
-    sweep = device.powers(sweep_hz, POWER_W, noise_w, rng=11)
+    if thermal:
+        sweep, sweep_hz, temperature = thermal_sweep(device, SWEEP_SAMPLES, noise_w, rng=11)
+        inputs = {"temperature_k": temperature}
+    else:
+        sweep, inputs = device.powers(sweep_hz, POWER_W, noise_w, rng=11), {}
     test = device.powers(test_hz, POWER_W, noise_w, rng=12)
-    for array in (sweep_hz, test_hz, sweep, test):
+    for array in (sweep_hz, test_hz, sweep, test, *inputs.values()):
         array.setflags(write=False)
-    return device, sweep, sweep_hz, test, test_hz
+    return device, sweep, sweep_hz, test, test_hz, inputs
 
 
 def bound_rms_hz(device, frequency_hz, ports, known_power: bool) -> float:
@@ -81,8 +95,19 @@ def bound_rms_hz(device, frequency_hz, ports, known_power: bool) -> float:
 
 
 def reading_inputs(calibrator, frequency_hz) -> dict:
-    """The per-reading inputs a calibrator declares it needs, from the true frequencies."""
-    return {"coarse_hz": frequency_hz} if "coarse_hz" in calibrator.requires else {}
+    """The per-reading inputs a calibrator declares it needs: the true frequencies, and
+    the temperature of the test readings (the device's reference temperature)."""
+    inputs = {}
+    if "coarse_hz" in calibrator.requires:
+        inputs["coarse_hz"] = frequency_hz
+    if "temperature_k" in calibrator.requires:
+        inputs["temperature_k"] = wm.Interferometer.reference_temperature_k
+    return inputs
+
+
+def rows_of(inputs: dict, rows) -> dict:
+    """The per-reading fit inputs of some sweep readings."""
+    return {name: values[rows] for name, values in inputs.items()}
 
 
 def rms(values) -> float:
@@ -104,9 +129,14 @@ class CalibratorContract:
     #: the method assumes the calibration source power (offsets or a fixed ellipse)
     known_power = False
 
+    def data(self, kind: str, noise_w: float):
+        """:func:`simulated` for this class (thermal when it requires the temperature)."""
+        thermal = "temperature_k" in self.make().requires
+        return simulated(kind, self.ports, noise_w, thermal)
+
     def fitted(self, kind: str, noise_w: float):
-        device, sweep, sweep_hz, test, test_hz = simulated(kind, self.ports, noise_w)
-        return self.make().fit(sweep, sweep_hz), device, test, test_hz
+        device, sweep, sweep_hz, test, test_hz, inputs = self.data(kind, noise_w)
+        return self.make().fit(sweep, sweep_hz, **inputs), device, test, test_hz
 
     def estimator_excess(self, device, test_hz) -> float:
         """Ratio of the estimator's first-order noise to the bound (1: efficient)."""
@@ -132,9 +162,9 @@ class CalibratorContract:
 
     # ------------------------------------------------------------------ estimator shape
     def test_fit_returns_self_and_prediction_shape(self):
-        device, sweep, sweep_hz, test, test_hz = simulated("table1", self.ports, NOISE_W)
+        device, sweep, sweep_hz, test, test_hz, inputs = self.data("table1", NOISE_W)
         cal = self.make()
-        assert cal.fit(sweep, sweep_hz) is cal
+        assert cal.fit(sweep, sweep_hz, **inputs) is cal
         first = reading_inputs(cal, test_hz[:7])
         predicted = cal.predict(test[:7], **first)
         assert predicted.shape == (7,)
@@ -143,10 +173,11 @@ class CalibratorContract:
         assert cal.phase(test[:7], **first).shape == (7,)
 
     def test_inputs_not_modified(self):
-        _, sweep, sweep_hz, test, test_hz = simulated("table1", self.ports, NOISE_W)
-        writable = [np.array(a) for a in (sweep, sweep_hz, test, test_hz)]
+        _, sweep, sweep_hz, test, test_hz, inputs = self.data("table1", NOISE_W)
+        writable = [np.array(a) for a in (sweep, sweep_hz, test, test_hz, *inputs.values())]
         copies = [a.copy() for a in writable]
-        cal = self.make().fit(writable[0], writable[1])
+        fit_inputs = dict(zip(inputs, writable[4:], strict=True))
+        cal = self.make().fit(writable[0], writable[1], **fit_inputs)
         cal.predict(writable[2], **reading_inputs(cal, writable[3]))
         cal.phase(writable[2], **reading_inputs(cal, writable[3]))
         for array, copy in zip(writable, copies, strict=True):
@@ -166,7 +197,7 @@ class CalibratorContract:
         assert loaded.center_hz_ == cal.center_hz_
 
     def test_predict_before_fit_raises(self):
-        _, _, _, test, test_hz = simulated("table1", self.ports, NOISE_W)
+        _, _, _, test, test_hz, _ = self.data("table1", NOISE_W)
         inputs = reading_inputs(self.make(), test_hz)
         with pytest.raises(wm.NotFittedError, match="not fitted"):
             self.make().predict(test, **inputs)
@@ -174,11 +205,11 @@ class CalibratorContract:
             self.make().phase(test, **inputs)
 
     def test_rejects_nan_rows(self):
-        _, sweep, sweep_hz, _, _ = simulated("table1", self.ports, NOISE_W)
+        _, sweep, sweep_hz, _, _, inputs = self.data("table1", NOISE_W)
         bad = np.array(sweep)
         bad[5, 1] = np.nan
         with pytest.raises(wm.InputError, match=r"NaN or inf in rows \[5\]"):
-            self.make().fit(bad, sweep_hz)
+            self.make().fit(bad, sweep_hz, **inputs)
 
     def test_rejects_wrong_port_count(self):
         cal, _, test, test_hz = self.fitted("table1", NOISE_W)
@@ -186,16 +217,17 @@ class CalibratorContract:
             cal.predict(np.column_stack([test, test[:, :1]]), **reading_inputs(cal, test_hz))
 
     def test_rejects_fewer_than_four_samples(self):
-        _, sweep, sweep_hz, _, _ = simulated("table1", self.ports, NOISE_W)
+        _, sweep, sweep_hz, _, _, inputs = self.data("table1", NOISE_W)
+        rows = slice(0, 900, 300)
         with pytest.raises(wm.InputError, match="at least 4 samples, got 3"):
-            self.make().fit(sweep[::300][:3], sweep_hz[::300][:3])
+            self.make().fit(sweep[rows], sweep_hz[rows], **rows_of(inputs, rows))
 
     def test_learned_attributes_end_in_underscore(self):
         cal = self.make()
         settings = set(cal.get_params())
         assert set(vars(cal)) == settings  # __init__ stores settings only
-        _, sweep, sweep_hz, _, _ = simulated("table1", self.ports, NOISE_W)
-        cal.fit(sweep, sweep_hz)
+        _, sweep, sweep_hz, _, _, inputs = self.data("table1", NOISE_W)
+        cal.fit(sweep, sweep_hz, **inputs)
         learned = set(vars(cal)) - settings
         assert learned >= set(wm.Calibrator.common_attributes)
         assert all(name.endswith("_") and not name.startswith("_") for name in learned)
@@ -283,6 +315,8 @@ CASES = {
     "conventional": [("", {"exact_device": "ideal"})],
     # the offsets are absolute powers
     "extended_conventional": [("", {"known_power": True})],
+    # the learned map's contract at the reference temperature, with the pseudo-inverse
+    "thermal": [("", {"efficient_device": "table1", "estimator_excess": pinv_excess})],
     # the sum of port powers is the source power only when ideal
     "nonlinear_fit": [("", {"exact_device": "ideal"})],
     # in quadrature on a 90-degree hybrid: a circle, Heydemann efficient; a fixed ellipse

@@ -18,7 +18,7 @@ import wavemeter as wm
 from wavemeter.calibration.learned import map_cost, object_vectors
 from wavemeter.calibration.registry import registered
 
-from .conftest import NOISE_W, POWER_W
+from .conftest import NOISE_W, POWER_W, thermal_sweep
 
 MONTE_CARLO_SEEDS = 200
 MONTE_CARLO_RTOL = 0.2
@@ -103,10 +103,16 @@ def test_the_standard_error_matches_a_monte_carlo_over_noise_seeds():
 def test_every_calibrator_has_a_summary(sweep, tag, tmp_path):
     device, frequency, readings = sweep
     cls = registered()[tag]
+    inputs = {}
     if tag == "calibration_set":
         frequency = device.sweep_hz(4002, span_fsr=2.0)
         readings = device.powers(frequency, POWER_W, NOISE_W, rng=2)
-    cal = cls(fsr_hz=50e9).fit(readings, frequency)
+    if "temperature_k" in cls.requires:
+        readings, frequency, temperature = thermal_sweep(
+            device.with_thermal("sin"), 1000, NOISE_W, rng=2
+        )
+        inputs = {"temperature_k": temperature}
+    cal = cls(fsr_hz=50e9).fit(readings, frequency, **inputs)
     report = cal.summary()
     assert report.method == tag and report["fsr_hz"].value == cal.fsr_hz_
     assert "FSR" in report.text and "fitted: FSR" in repr(cal)

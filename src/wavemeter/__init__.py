@@ -23,6 +23,7 @@ _WHERE = {
     "ExtendedConventionalCalibrator": "calibration",
     "NonlinearFitCalibrator": "calibration",
     "PlaneEllipseCalibrator": "calibration",
+    "ThermalCalibrator": "calibration",
     "load_calibration": "calibration",
     "save_calibration": "calibration",
     "predict_frequency_hz": "calibration",

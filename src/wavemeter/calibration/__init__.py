@@ -17,6 +17,7 @@ from .flags import ReadingFlag
 from .learned import Calibrator, predict_frequency_hz, retrieve_phase_rad
 from .registry import registered
 from .set import CalibrationSet
+from .thermal import ThermalCalibrator
 
 __all__ = [
     "BaseCalibrator",
@@ -33,4 +34,5 @@ __all__ = [
     "registered",
     "retrieve_phase_rad",
     "save_calibration",
+    "ThermalCalibrator",
 ]

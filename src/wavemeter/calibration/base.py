@@ -161,7 +161,16 @@ class BaseCalibrator:
         return list(range(ports))
 
     # ------------------------------------------------------------------ fitting
-    def fit(self, powers, frequency_hz, power_monitor_w=None, port_names=None, *, dark_w=None):
+    def fit(
+        self,
+        powers,
+        frequency_hz,
+        power_monitor_w=None,
+        port_names=None,
+        *,
+        dark_w=None,
+        temperature_k=None,
+    ):
         """Learn the calibration from a sweep of known frequencies.
 
         Parameters
@@ -177,6 +186,10 @@ class BaseCalibrator:
         dark_w : None or array_like, shape (n,)
             Per-port dark readings (W, the unit of ``powers``): detector and ADC offsets
             with the source off. Subtracted from every reading, in fit and in predict.
+        temperature_k : None, float or array_like, shape (N,)
+            Chip temperature of each reading (K). Required by calibrators that name
+            ``temperature_k`` in ``requires`` (the thermal one); its range is kept in
+            ``diagnostics_["temperature_range_k"]`` by every calibrator.
 
         Returns
         -------
@@ -209,24 +222,13 @@ class BaseCalibrator:
         names = [f"p{k + 1}" for k in range(n_ports)] if port_names is None else list(port_names)
         if len(names) != n_ports or not all(isinstance(name, str) for name in names):
             raise InputError(f"port_names must be {n_ports} strings, got {port_names!r}")
+        temperature = self._sweep_temperature(temperature_k, n_samples=raw.shape[0])
         scale = None if monitor is None else monitor / monitor.mean()
         # before any delay grid: a design FSR the sweep cannot resolve or contradicts
-        estimate = check_design_fsr(
-            powers,
-            frequency,
-            fsr_hz=float(self.fsr_hz),
-            fsr_tolerance=self._fsr_tolerance(),
-            scale=scale,
-        )
+        estimate = self._check_sweep(powers, frequency, scale, temperature)
         low, high = float(frequency.min()), float(frequency.max())
         center = 0.5 * (low + high)
         delay = 1.0 / self.fsr_hz if estimate is None else estimate.delay_s
-        health = port_health(powers, frequency, center, delay, names, scale)
-        notes = check_port_health(
-            [health[k] for k in self._ports_read(n_ports)],
-            powers.shape[0],
-            needed=self.fringe_ports_needed,
-        )
         self.center_hz_ = center
         self.span_hz_ = (low, high)
         self.n_ports_ = n_ports
@@ -234,25 +236,85 @@ class BaseCalibrator:
         self.port_names_ = names
         self.dark_w_ = dark
         self.offset_w_ = np.zeros(n_ports)
+        self._sweep_temperature_k = temperature
+        health = self._port_health(powers, frequency, center, delay, names, scale)
+        notes = check_port_health(
+            [health[k] for k in self._ports_read(n_ports)],
+            powers.shape[0],
+            needed=self.fringe_ports_needed,
+        )
         self._fit(powers, frequency, monitor)
         corrected = powers - self.offset_w_
         total = corrected.sum(axis=1)
         # the range the flags compare readings with, offset-corrected like them
         self.total_power_range_w_ = (float(total.min()), float(total.max()))
-        error = wrap_to_period(self._predict_checked(corrected) - frequency, self.fsr_hz_)
+        predicted = self._predict_checked(corrected, temperature)
+        error = wrap_to_period(predicted - frequency, self.fsr_hz_)
         self.calibration_rms_hz_ = float(np.sqrt(np.mean(error**2)))
         misfit = self._misfit_report(powers, frequency, scale, delay)
         self._use_misfit_report(misfit)
-        notes = notes + list(misfit.warnings)
+        del self._sweep_temperature_k
+        notes = notes + list(misfit.warnings) + self._fit_notes()
         self.diagnostics_ = {
             "fsr_estimate_hz": None if estimate is None else estimate.fsr_hz,
             "ports": [port.to_dict() for port in health],
             "fit": misfit.to_dict(),
+            "temperature_range_k": None
+            if temperature is None
+            else [float(temperature.min()), float(temperature.max())],
+            **self._method_diagnostics(),
             "warnings": [note.record() for note in notes],
         }
         for note in notes:
             warnings.warn(note, stacklevel=2)
         return self
+
+    def _sweep_temperature(self, temperature_k, n_samples: int) -> np.ndarray | None:
+        """The sweep's chip temperatures (K) checked, one per reading; None when not given
+        (an error for a calibrator that requires them)."""
+        if temperature_k is None:
+            if "temperature_k" in self.requires:
+                raise InputError(
+                    f"{type(self).__name__} needs temperature_k (K) for each calibration "
+                    "reading: give the chip temperature the sweep was recorded at",
+                    parameter="temperature_k",
+                )
+            return None
+        try:
+            temperature = check_per_reading("temperature_k", temperature_k, n_samples)
+        except InputError as exc:
+            raise InputError(str(exc), parameter="temperature_k") from exc
+        if np.any(temperature <= 0):
+            raise InputError(
+                "temperature_k must be > 0 (K, absolute temperature); convert from Celsius",
+                parameter="temperature_k",
+            )
+        return temperature
+
+    def _check_sweep(self, powers, frequency_hz, scale, temperature_k):
+        """Check the sweep before any fit: the design FSR against its fringes
+        (:func:`~wavemeter.calibration.fsr_guard.check_design_fsr`); a class whose
+        fringes move with temperature checks the temperatures too."""
+        return check_design_fsr(
+            powers,
+            frequency_hz,
+            fsr_hz=float(self.fsr_hz),
+            fsr_tolerance=self._fsr_tolerance(),
+            scale=scale,
+        )
+
+    def _port_health(self, powers, frequency_hz, center_hz, delay_s, names, scale):
+        """Every port's fringe (:func:`~wavemeter.calibration.diagnostics.port_health`) at
+        the sweep's own delay."""
+        return port_health(powers, frequency_hz, center_hz, delay_s, names, scale)
+
+    def _fit_notes(self) -> list:
+        """Method-specific :class:`CalibrationWarning` s of the fit (none by default)."""
+        return []
+
+    def _method_diagnostics(self) -> dict:
+        """Method-specific entries of ``diagnostics_`` (none by default)."""
+        return {}
 
     def _misfit_report(self, powers, frequency_hz, scale, sweep_delay_s) -> MisfitReport:
         """The sweep against the cone model (:mod:`.misfit`).
@@ -336,11 +398,16 @@ class BaseCalibrator:
         -------
         ndarray, shape (N,), rad
         """
-        readings, _ = self._check_reading_data(powers, coarse_hz, temperature_k)
-        return self._phase(readings)
+        readings, inputs = self._check_reading_data(powers, coarse_hz, temperature_k)
+        return self._phase_at(readings, inputs["temperature_k"])
 
     def _phase(self, powers: np.ndarray) -> np.ndarray:
         raise NotImplementedError
+
+    def _phase_at(self, powers: np.ndarray, temperature_k: np.ndarray | None) -> np.ndarray:
+        """Phase (rad, zero at ``center_hz_``) of validated readings at their temperatures
+        (K, or None); only a thermal calibration uses the temperature."""
+        return self._phase(powers)
 
     def predict(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
         """Source frequency (Hz) of each reading, within ``center_hz_ +- fsr_hz_/2``.
@@ -356,11 +423,14 @@ class BaseCalibrator:
         -------
         ndarray, shape (N,), Hz
         """
-        readings, _ = self._check_reading_data(powers, coarse_hz, temperature_k)
-        return self._predict_checked(readings)
+        readings, inputs = self._check_reading_data(powers, coarse_hz, temperature_k)
+        return self._predict_checked(readings, inputs["temperature_k"])
 
-    def _predict_checked(self, powers: np.ndarray) -> np.ndarray:
-        return phase_to_frequency_hz(self._phase(powers), self.center_hz_, self.fsr_hz_)
+    def _predict_checked(self, powers: np.ndarray, temperature_k=None) -> np.ndarray:
+        """Frequency (Hz) of validated readings at their temperatures (K, or None)."""
+        return phase_to_frequency_hz(
+            self._phase_at(powers, temperature_k), self.center_hz_, self.fsr_hz_
+        )
 
     def frequency_std_hz(
         self, powers, *, coarse_hz=None, temperature_k=None, include_calibration=True
@@ -437,8 +507,8 @@ class BaseCalibrator:
         samples = self.n_samples_
         covered = (high - low) * samples / max(samples - 1, 1)
         if covered < self.fsr_hz_:
-            frequency = self._predict_checked(readings)
-            margin = SPAN_MARGIN_STD * self._span_margin_std_hz(readings)
+            frequency = self._predict_checked(readings, temperature_k)
+            margin = SPAN_MARGIN_STD * self._span_margin_std_hz(readings, temperature_k)
             outside = (frequency < low - margin) | (frequency > high + margin)
             flags[outside] |= ReadingFlag.OUTSIDE_SPAN
         off_model = self._off_model(readings)
@@ -446,7 +516,7 @@ class BaseCalibrator:
             flags[off_model] |= ReadingFlag.OFF_MODEL
         return flags
 
-    def _span_margin_std_hz(self, readings: np.ndarray) -> np.ndarray | float:
+    def _span_margin_std_hz(self, readings: np.ndarray, temperature_k=None) -> np.ndarray | float:
         """Frequency uncertainty (Hz) that widens a partial span before a reading leaves it."""
         return 0.0
 

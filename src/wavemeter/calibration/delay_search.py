@@ -50,6 +50,7 @@ from ..validation import check_choice, check_positive
 
 __all__ = [
     "DEFAULT_FSR_TOLERANCE",
+    "bracket_grid",
     "DelaySearchResult",
     "EDGE_POINTS",
     "EdgeMinimumError",
@@ -220,7 +221,7 @@ class DelaySearchResult:
     grid_cost: np.ndarray
 
 
-def _bracket_grid(fsr_hz: float, fsr_tolerance: float, span_hz: float) -> np.ndarray:
+def bracket_grid(fsr_hz: float, fsr_tolerance: float, span_hz: float) -> np.ndarray:
     """Relative delays ``u`` scanning the bracket ``[u_lo, u_hi]``, ends included.
 
     Raises InputError (``parameter="fsr_tolerance"``) when the bracket and the
@@ -349,7 +350,7 @@ def search_delay(
     span_hz = check_positive("span_hz", span_hz)
     design_delay = 1.0 / fsr_hz
     # Search the dimensionless delay u = tau / tau_design; FSR = fsr_hz / u.
-    grid = _bracket_grid(fsr_hz, fsr_tolerance, span_hz)
+    grid = bracket_grid(fsr_hz, fsr_tolerance, span_hz)
     u_lo, u_hi = grid[0], grid[-1]
 
     def scaled(u: float) -> float:

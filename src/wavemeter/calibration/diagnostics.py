@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..exceptions import CalibrationWarning, InputError
+from ..model.cone import cone_vectors
 from .linear_map import map_cost, object_vectors
 
 __all__ = [
@@ -119,6 +120,8 @@ def port_health(
     delay_s: float,
     names,
     scale=None,
+    *,
+    phase_rad=None,
 ) -> list[PortHealth]:
     """Fringe amplitude, its significance and the clipping of every port.
 
@@ -136,12 +139,18 @@ def port_health(
         Port names.
     scale : None or ndarray, shape (N,)
         Relative monitored source power per reading.
+    phase_rad : None or ndarray, shape (N,)
+        The model phase of each reading (rad) when it is not ``2 pi (f - f0) tau`` (the
+        thermal model's); ``center_hz`` and ``delay_s`` are then not used.
 
     Returns
     -------
     list of PortHealth, one per port
     """
-    objects = object_vectors(frequency_hz, center_hz, delay_s, scale)
+    if phase_rad is None:
+        objects = object_vectors(frequency_hz, center_hz, delay_s, scale)
+    else:
+        objects = cone_vectors(phase_rad, 1.0 if scale is None else scale)
     matrix, _ = map_cost(objects, powers)
     residual = powers - objects @ matrix.T
     samples = powers.shape[0]

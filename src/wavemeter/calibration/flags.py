@@ -24,6 +24,11 @@ integer per reading whose bits are :class:`ReadingFlag` members:
 ``INVALID`` (8)
     A value is NaN or infinite (a sentinel the reader turned into NaN), or there is no
     light: the total power is below ``NO_LIGHT_FRACTION`` (1 %) of the sweep's smallest.
+``TEMPERATURE_RANGE`` (16)
+    For a thermally compensated calibration: the reading's chip temperature lies outside
+    the calibrated temperature range by more than ``TEMPERATURE_MARGIN_FRACTION`` (10 %) of
+    that range, or ``TEMPERATURE_MARGIN_STD`` (5) sensor standard deviations if more: the
+    linear thermal model is extrapolated there.
 
 The pure functions here decide each rule; the calibrators supply the numbers.
 """
@@ -42,6 +47,9 @@ __all__ = [
     "UNCHECKED_OFFSET_FACTOR",
     "NO_LIGHT_FRACTION",
     "SPAN_MARGIN_STD",
+    "TEMPERATURE_MARGIN_FRACTION",
+    "TEMPERATURE_MARGIN_STD",
+    "temperature_flags",
     "off_model_threshold",
     "power_flags",
     "flag_counts",
@@ -53,6 +61,10 @@ UNCHECKED_OFFSET_FACTOR = 1.05
 NO_LIGHT_FRACTION = 0.01
 #: a reading's frequency must leave a partial span by this many standard deviations
 SPAN_MARGIN_STD = 5.0
+#: a reading's temperature must leave the calibrated range by this fraction of it ...
+TEMPERATURE_MARGIN_FRACTION = 0.1
+#: ... or by this many sensor standard deviations, whichever is more
+TEMPERATURE_MARGIN_STD = 5.0
 
 
 class ReadingFlag(enum.IntFlag):
@@ -62,6 +74,7 @@ class ReadingFlag(enum.IntFlag):
     OUTSIDE_SPAN = 2
     POWER_RANGE = 4
     INVALID = 8
+    TEMPERATURE_RANGE = 16
 
 
 def off_model_threshold(ports: int, noise_dof: float) -> float:
@@ -119,3 +132,27 @@ def flag_counts(flags) -> dict[str, int]:
     mask = np.asarray(flags, dtype=np.int64)
     counts = {bit.name: int(np.count_nonzero(mask & bit)) for bit in ReadingFlag}
     return {name: count for name, count in counts.items() if count}
+
+
+def temperature_flags(
+    temperature_k: np.ndarray, range_k: tuple[float, float], sensor_std_k: float
+) -> np.ndarray:
+    """``TEMPERATURE_RANGE`` bits of readings at chip temperatures ``temperature_k`` (K).
+
+    Parameters
+    ----------
+    temperature_k : ndarray, shape (N,)
+        Chip temperature of each reading (K).
+    range_k : (float, float)
+        Lowest and highest calibration temperature (K).
+    sensor_std_k : float
+        Standard deviation of the temperature sensor (K).
+
+    Returns
+    -------
+    ndarray of int64, shape (N,)
+    """
+    low, high = range_k
+    margin = max(TEMPERATURE_MARGIN_FRACTION * (high - low), TEMPERATURE_MARGIN_STD * sensor_std_k)
+    outside = (temperature_k < low - margin) | (temperature_k > high + margin)
+    return np.where(outside, np.int64(ReadingFlag.TEMPERATURE_RANGE), np.int64(0))

@@ -30,6 +30,7 @@ The pure functions here and the :class:`Calibrator` methods compute the same num
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from scipy import linalg
@@ -38,8 +39,9 @@ from ..model.cone import cone_vectors, phase_to_frequency_hz
 from ..model.limits import crlb_frequency_std
 from ..model.retrieval import cone_ml_phase_rad, source_power_ratio
 from ..model.uncertainty import (
-    calibration_frequency_variance_hz2,
+    calibration_variance_hz2,
     fit_parameter_covariance,
+    map_frequency_gradient_hz,
     ml_phase_gradient,
     phase_std_rad,
     pinv_phase_gradient,
@@ -85,13 +87,16 @@ __all__ = [
 ]
 
 
-def port_noise_std_w(residual: np.ndarray, columns: int) -> tuple[np.ndarray, float]:
+def port_noise_std_w(
+    residual: np.ndarray, columns: int, shared: int = 1
+) -> tuple[np.ndarray, float]:
     """Per-port noise (W) from a fit residual, and its degrees of freedom.
 
-    Each port's residual has ``N - k - 1/n`` degrees of freedom (``k`` map columns per
-    port, the delay shared by the ``n`` ports). With at least ``PER_PORT_MIN_DOF`` of them
-    each port gets its own estimate; otherwise every port gets the pooled one, on
-    ``N n - n k - 1`` degrees of freedom.
+    Each port's residual has ``N - k - q/n`` degrees of freedom (``k`` map columns per
+    port, ``q`` nonlinear parameters shared by the ``n`` ports: the delay, or the thermal
+    model's three). With at least ``PER_PORT_MIN_DOF`` of them each port gets its own
+    estimate; otherwise every port gets the pooled one, on ``N n - n k - q`` degrees of
+    freedom.
 
     Parameters
     ----------
@@ -99,6 +104,8 @@ def port_noise_std_w(residual: np.ndarray, columns: int) -> tuple[np.ndarray, fl
         Readings minus the fitted model (W).
     columns : int
         Map columns per port ``k`` (3, or 4 with offsets).
+    shared : int
+        Nonlinear parameters ``q`` shared by the ports (1: the delay).
 
     Returns
     -------
@@ -106,11 +113,11 @@ def port_noise_std_w(residual: np.ndarray, columns: int) -> tuple[np.ndarray, fl
     dof : float
     """
     samples, ports = residual.shape
-    per_port_dof = samples - columns - 1.0 / ports
+    per_port_dof = samples - columns - shared / ports
     squares = np.einsum("ij,ij->j", residual, residual)
     if per_port_dof >= PER_PORT_MIN_DOF:
         return np.sqrt(squares / per_port_dof), per_port_dof
-    pooled_dof = max(samples * ports - ports * columns - 1.0, 1.0)
+    pooled_dof = max(samples * ports - ports * columns - float(shared), 1.0)
     return np.full(ports, np.sqrt(squares.sum() / pooled_dof)), pooled_dof
 
 
@@ -289,6 +296,8 @@ class Calibrator(BaseCalibrator):
 
     method = "learned"
     capabilities = frozenset({"frequency_std", "power_monitor"})
+    #: nonlinear parameters after the map in ``parameter_covariance_`` (the delay)
+    nonlinear_parameters: ClassVar[int] = 1
 
     def __init__(
         self,
@@ -352,18 +361,22 @@ class Calibrator(BaseCalibrator):
         self._set_covariance()
 
     def _set_covariance(self) -> None:
-        """Covariance of map (and offsets) and delay at the current per-port noise."""
-        frequency_hz, scale, affine = self._sweep
-        args = (frequency_hz, self.center_hz_, self.delay_s_, scale, affine)
+        """Covariance of map (and offsets) and the nonlinear parameters at the current
+        per-port noise."""
+        affine = self._sweep[2]
         matrix = np.column_stack([self.map_, self.offset_w_]) if affine else self.map_
+        objects, derivatives = self._sweep_objects()
         # the paper's fit is unweighted: the sandwich covariance holds for unequal noise
         self.parameter_covariance_ = fit_parameter_covariance(
-            object_vectors(*args),
-            object_delay_derivative(*args),
-            matrix,
-            self.port_noise_std_w_,
-            weighted=False,
+            objects, derivatives, matrix, self.port_noise_std_w_, weighted=False
         )
+
+    def _sweep_objects(self) -> tuple[np.ndarray, np.ndarray]:
+        """The sweep's object vectors (N, k) and their derivatives (q, N, k) by the
+        nonlinear parameters (here the delay alone)."""
+        frequency_hz, scale, affine = self._sweep
+        args = (frequency_hz, self.center_hz_, self.delay_s_, scale, affine)
+        return object_vectors(*args), object_delay_derivative(*args)[None]
 
     def _misfit_report(self, powers, frequency_hz, scale, sweep_delay_s) -> MisfitReport:
         offsets = self.offset_w_ if self._sweep[2] else None
@@ -382,7 +395,13 @@ class Calibrator(BaseCalibrator):
             offset_std_w=offset_std,
             dark_given=self.dark_w_ is not None,
             weighted_retrieval=self.retrieval == "ml",
+            phase_rad=self._sweep_model_phase_rad(),
         )
+
+    def _sweep_model_phase_rad(self) -> np.ndarray | None:
+        """The model phase of each sweep reading when it is not ``2 pi (f - f0) tau``
+        (None: it is)."""
+        return None
 
     def _use_misfit_report(self, report: MisfitReport) -> None:
         """With a misfit, weight and state uncertainties with the model-free noise."""
@@ -444,27 +463,50 @@ class Calibrator(BaseCalibrator):
         -------
         ndarray, shape (N,), Hz
         """
-        readings, _ = self._check_reading_data(powers, coarse_hz, temperature_k)
-        return self._frequency_std_checked(readings, include_calibration)
+        readings, inputs = self._check_reading_data(powers, coarse_hz, temperature_k)
+        return self._frequency_std_checked(readings, include_calibration, inputs["temperature_k"])
 
-    def _frequency_std_checked(self, readings, include_calibration=True) -> np.ndarray:
+    def _frequency_std_checked(
+        self, readings, include_calibration=True, temperature_k=None
+    ) -> np.ndarray:
         phase = self._phase(readings)
         gradient = self._phase_gradient(readings, phase)
-        per_rad = self.fsr_hz_ / (2.0 * np.pi)
+        per_rad = self._hz_per_rad(temperature_k)
         variance = (phase_std_rad(gradient, self.port_noise_std_w_) * per_rad) ** 2
         if include_calibration and self.parameter_covariance_ is not None:
             power = source_power_ratio(readings, self.map_, phase, self.port_noise_std_w_)
             objects = cone_vectors(phase, power)
-            if self.parameter_covariance_.shape[0] == 4 * self.n_ports_ + 1:
+            if self._map_columns() == 4:
                 objects = np.column_stack([objects, np.ones(objects.shape[0])])
-            variance = variance + calibration_frequency_variance_hz2(
-                gradient, objects, phase, self.delay_s_, self.parameter_covariance_
+            variance = variance + calibration_variance_hz2(
+                map_frequency_gradient_hz(gradient, objects, per_rad),
+                self._parameter_frequency_gradient_hz(phase, temperature_k),
+                self.parameter_covariance_,
             )
         if self.noise_dof_ <= 2:
             # a noise estimated on 2 or fewer degrees of freedom bounds nothing
             return np.full(readings.shape[0], np.inf)
         # both parts scale with the estimated noise: one Student factor for its uncertainty
-        return np.sqrt(variance) * student_factor(self.noise_dof_)
+        variance = variance * student_factor(self.noise_dof_) ** 2
+        return np.sqrt(variance + self._sensor_variance_hz2(phase, temperature_k))
+
+    def _map_columns(self) -> int:
+        """Map columns ``k`` the parameter covariance holds: 3, or 4 with fitted offsets."""
+        size = self.parameter_covariance_.shape[0] - self.nonlinear_parameters
+        return size // self.n_ports_
+
+    def _hz_per_rad(self, temperature_k=None):
+        """``df / dt`` (Hz/rad): ``FSR / (2 pi)``."""
+        return self.fsr_hz_ / (2.0 * np.pi)
+
+    def _parameter_frequency_gradient_hz(self, phase_rad, temperature_k=None) -> np.ndarray:
+        """``df / d theta`` (N, q) of readings of phase ``phase_rad`` for the nonlinear
+        parameters (the delay: ``-t / (2 pi tau^2)``, Hz/s)."""
+        return (-np.asarray(phase_rad) * self._hz_per_rad() / self.delay_s_)[:, None]
+
+    def _sensor_variance_hz2(self, phase_rad, temperature_k=None):
+        """Variance (Hz^2) from the per-reading inputs' own noise (none here)."""
+        return 0.0
 
     def crlb_hz(self, powers, *, coarse_hz=None, temperature_k=None, phase_rad=None):
         """Cramer-Rao bound (Hz) of each reading under the calibrated map and port noise.
@@ -476,10 +518,12 @@ class Calibrator(BaseCalibrator):
         -------
         ndarray, shape (N,), Hz
         """
-        readings, _ = self._check_reading_data(powers, coarse_hz, temperature_k)
+        readings, inputs = self._check_reading_data(powers, coarse_hz, temperature_k)
         phase = self._phase(readings) if phase_rad is None else np.asarray(phase_rad, float)
         power = source_power_ratio(readings, self.map_, phase, self.port_noise_std_w_)
-        return crlb_frequency_std(self.map_, phase, power, self.port_noise_std_w_, self.fsr_hz_)
+        # the bound in phase (FSR 2 pi), in Hz at each reading's FSR
+        phase_bound = crlb_frequency_std(self.map_, phase, power, self.port_noise_std_w_, 2 * np.pi)
+        return phase_bound * self._hz_per_rad(inputs["temperature_k"])
 
     def reanchor(self, powers, frequency_hz, *, temperature_k=None) -> Calibrator:
         """A copy re-anchored to readings of reference lines of known frequency.
@@ -528,8 +572,8 @@ class Calibrator(BaseCalibrator):
         )
         return reanchored_copy(self, fit)
 
-    def _span_margin_std_hz(self, readings):
-        return self._frequency_std_checked(readings)
+    def _span_margin_std_hz(self, readings, temperature_k=None):
+        return self._frequency_std_checked(readings, temperature_k=temperature_k)
 
     def _off_model(self, readings):
         """Weighted squared distance of each reading to the calibrated cone, tested."""
@@ -571,13 +615,11 @@ class Calibrator(BaseCalibrator):
             self.noise_dof_ = state_float(state, "noise_dof", minimum=2.0, open_minimum=True)
             self.parameter_covariance_ = state_array(state, "parameter_covariance", (None, None))
             size = self.parameter_covariance_.shape[0]
-            if self.parameter_covariance_.shape != (size, size) or size not in (
-                3 * ports + 1,
-                4 * ports + 1,
-            ):
+            sizes = (3 * ports + self.nonlinear_parameters, 4 * ports + self.nonlinear_parameters)
+            if self.parameter_covariance_.shape != (size, size) or size not in sizes:
                 raise ValueError(
-                    f"field 'parameter_covariance' must be square of size {3 * ports + 1} or "
-                    f"{4 * ports + 1}, got shape {self.parameter_covariance_.shape}"
+                    f"field 'parameter_covariance' must be square of size {sizes[0]} or "
+                    f"{sizes[1]}, got shape {self.parameter_covariance_.shape}"
                 )
             if np.any(self.port_noise_std_w_ <= 0):
                 raise ValueError("field 'port_noise_std_w' must hold positive numbers (W)")

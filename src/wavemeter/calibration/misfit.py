@@ -712,6 +712,7 @@ def misfit_report(
     offset_std_w=None,
     dark_given: bool = False,
     weighted_retrieval: bool = False,
+    phase_rad=None,
 ) -> MisfitReport:
     """Test a fitted calibration sweep against the model and name what departs from it.
 
@@ -737,6 +738,10 @@ def misfit_report(
     weighted_retrieval : bool
         The retrieval weights the ports by their noise (``"ml"``): unequal noise and an
         ill-conditioned map cost it nothing, so neither warns.
+    phase_rad : None or array_like, shape (N,)
+        The model phase of each reading (rad) when it is not ``2 pi (f - f0) tau`` (the
+        thermal model's, which moves with temperature); the delay's direction stays
+        ``2 pi (f - f0)`` along the fringe.
 
     Returns
     -------
@@ -752,7 +757,11 @@ def misfit_report(
     )
     samples, ports = readings.shape
     names = [f"p{k + 1}" for k in range(ports)]
-    phase = delay_phase_rad(frequency, center, delay)
+    phase = (
+        delay_phase_rad(frequency, center, delay)
+        if phase_rad is None
+        else _vector("phase_rad", phase_rad, samples)
+    )
     objects = cone_vectors(phase, power)
     design = objects if offsets is None else np.column_stack([objects, np.ones(samples)])
     basis = linalg.orth(design)

@@ -277,27 +277,33 @@ def rotation_about_axis(phase_shift_rad: float, columns: int = 3) -> np.ndarray:
     return rotation
 
 
-def reanchored_covariance(covariance: np.ndarray, map_: np.ndarray, fit: ReanchorFit) -> np.ndarray:
-    """Covariance of ``[vec(A R(delta)) row-major, tau']`` after re-anchoring.
+def reanchored_covariance(
+    covariance: np.ndarray, map_: np.ndarray, fit: ReanchorFit, nonlinear: int = 1
+) -> np.ndarray:
+    """Covariance of ``[vec(A R(delta)) row-major, tau', ...]`` after re-anchoring.
 
     Parameters
     ----------
-    covariance : ndarray, shape (n k + 1, n k + 1)
-        The calibration's parameter covariance (``k`` = 3, or 4 with offsets).
+    covariance : ndarray, shape (n k + q, n k + q)
+        The calibration's parameter covariance (``k`` = 3, or 4 with offsets), its ``q``
+        nonlinear parameters last, the delay first among them.
     map_ : ndarray, shape (n, 3)
         The corrected map ``A R(delta)`` (W).
     fit : ReanchorFit
+    nonlinear : int
+        ``q``: 1 (the delay), or 3 for the thermal model (delay, bias rate, delay rate).
 
     Returns
     -------
-    ndarray, shape (n k + 1, n k + 1)
+    ndarray, shape (n k + q, n k + q)
     """
     ports = map_.shape[0]
-    size = covariance.shape[0] - 1
+    size = covariance.shape[0] - nonlinear
     columns = size // ports
     # each map row a becomes a R: its entries transform by R^T
     transform = linalg.block_diag(
-        np.kron(np.eye(ports), rotation_about_axis(fit.phase_shift_rad, columns).T), 1.0
+        np.kron(np.eye(ports), rotation_about_axis(fit.phase_shift_rad, columns).T),
+        np.eye(nonlinear),
     )
     result = transform @ covariance @ transform.T
     if fit.delay_change_s is not None:
@@ -307,7 +313,7 @@ def reanchored_covariance(covariance: np.ndarray, map_: np.ndarray, fit: Reancho
     # d(A R(delta)) / d delta = A R(delta) K, K the generator of the rotation
     generator = np.zeros((columns, columns))
     generator[1, 0], generator[0, 1] = 1.0, -1.0
-    direction = np.zeros((size + 1, 2))
+    direction = np.zeros((size + nonlinear, 2))
     direction[:size, 0] = (np.pad(map_, ((0, 0), (0, columns - 3))) @ generator).ravel()
     direction[size, 1] = 1.0
     result += direction @ fit.covariance @ direction.T
@@ -343,7 +349,9 @@ def reanchored_copy(calibrator, fit: ReanchorFit, record: dict | None = None):
         corrected.fsr_hz_ = 1.0 / corrected.delay_s_
     covariance = getattr(calibrator, "parameter_covariance_", None)
     if covariance is not None:
-        corrected.parameter_covariance_ = reanchored_covariance(covariance, corrected.map_, fit)
+        corrected.parameter_covariance_ = reanchored_covariance(
+            covariance, corrected.map_, fit, getattr(calibrator, "nonlinear_parameters", 1)
+        )
     corrected.diagnostics_ = {
         **(corrected.diagnostics_ or {}),
         "reanchor": fit.record() if record is None else record,

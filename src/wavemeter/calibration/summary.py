@@ -41,7 +41,40 @@ class FitValue:
 
 
 def _line(label: str, text: str) -> str:
-    return f"{label:<{LABEL_WIDTH}}{text}"
+    return f"{label:<{LABEL_WIDTH - 1}} {text}"
+
+
+def _thermal_lines(values: dict, diagnostics: dict) -> list[str]:
+    """The thermal rates, the reference temperature and the calibrated range (popped from
+    ``values``); none for a calibration that does not follow temperature."""
+    rate = values.pop("thermal_phase_rad_per_k", None)
+    if rate is None:
+        return []
+    shift = values.pop("fringe_shift_hz_per_k")
+    delay_rate = values.pop("thermal_delay_per_k")
+    reference = values.pop("reference_temperature_k")
+    thermal = diagnostics.get("thermal", {})
+    low, high = thermal.get("temperature_range_k", (reference.value, reference.value))
+    clusters = ", ".join(f"{value:.4g}" for value in thermal.get("temperatures_k", ()))
+    unambiguous = thermal.get("unambiguous_phase_rate_rad_per_k")
+    resolved = (
+        "continuous temperatures: no alias"
+        if unambiguous is None
+        else f"bias rate unambiguous within +-{unambiguous:.3g} rad/K"
+    )
+    return [
+        _line(
+            "bias rate",
+            f"{rate.value:.6g} +- {rate.stderr:.3g} rad/K (fringes move "
+            f"{frequency_text(shift.value)}/K +- {frequency_text(shift.stderr, 3)}/K)",
+        ),
+        _line("delay rate", f"{delay_rate.value:.4g} +- {delay_rate.stderr:.3g} 1/K"),
+        _line(
+            "temperature",
+            f"reference {reference.value:.6g} K, calibrated {low:.6g} to {high:.6g} K "
+            f"(clusters at {clusters} K; {resolved})",
+        ),
+    ]
 
 
 def _frequency_with_error(value: FitValue) -> str:
@@ -219,6 +252,7 @@ class FitReport:
         if delay is not None:
             error = "" if delay.stderr is None else f" +- {delay.stderr * 1e12:.3g} ps"
             lines.append(_line("delay", f"{delay.value * 1e12:.6f} ps{error}"))
+        lines += _thermal_lines(values, self.diagnostics or {})
         for name, value in values.items():
             error = "" if value.stderr is None else f" +- {value.stderr:.3g}"
             lines.append(_line(name, f"{value.value:.6g}{error} {value.unit}".rstrip()))

@@ -54,6 +54,8 @@ __all__ = [
     "phase_std_rad",
     "fit_parameter_covariance",
     "calibration_frequency_variance_hz2",
+    "calibration_variance_hz2",
+    "map_frequency_gradient_hz",
     "student_factor",
 ]
 
@@ -150,15 +152,20 @@ def phase_std_rad(gradient, noise_std_w) -> np.ndarray:
 
 
 def _fisher(x, d, matrix, weight) -> np.ndarray:
-    """``J' W J`` of the fit, blockwise (map entries row-major, then the delay)."""
+    """``J' W J`` of the fit, blockwise (map entries row-major, then the ``q`` nonlinear
+    parameters whose object derivatives are ``d``, shape (q, N, k))."""
     ports, k = matrix.shape
-    xx, xd, dd = x.T @ x, x.T @ d, d.T @ d
     size = ports * k
-    fisher = np.empty((size + 1, size + 1))
-    fisher[:size, :size] = np.kron(np.diag(weight), xx)
-    cross = (weight[:, None] * (matrix @ xd.T)).ravel()
-    fisher[:size, size] = fisher[size, :size] = cross
-    fisher[size, size] = np.einsum("j,jl,lm,jm->", weight, matrix, dd, matrix)
+    count = d.shape[0]
+    fisher = np.empty((size + count, size + count))
+    fisher[:size, :size] = np.kron(np.diag(weight), x.T @ x)
+    for first in range(count):
+        cross = (weight[:, None] * (matrix @ (x.T @ d[first]).T)).ravel()
+        fisher[:size, size + first] = fisher[size + first, :size] = cross
+        for second in range(first, count):
+            block = d[first].T @ d[second]
+            value = np.einsum("j,jl,lm,jm->", weight, matrix, block, matrix)
+            fisher[size + first, size + second] = fisher[size + second, size + first] = value
     return fisher
 
 
@@ -166,8 +173,8 @@ def _inverse(fisher: np.ndarray) -> np.ndarray:
     """Inverse of a symmetric positive definite information matrix, Jacobi-scaled first
     (map entries in W and the delay in s differ by many decades)."""
     singular = InputError(
-        "the calibration sweep does not determine the map and the delay (its Fisher "
-        "matrix is singular): too few readings, or too little of the phase covered",
+        "the calibration sweep does not determine the map and the nonlinear parameters (its "
+        "Fisher matrix is singular): too few readings, or too little of the phase covered",
         parameter="objects",
     )
     diagonal = np.diag(fisher)
@@ -185,21 +192,23 @@ def _inverse(fisher: np.ndarray) -> np.ndarray:
 def fit_parameter_covariance(
     objects, objects_delay_derivative, map_, noise_std_w, *, weighted: bool = True
 ) -> np.ndarray:
-    """Covariance of the least-squares calibration ``[vec(map_) row-major, delay_s]``.
+    """Covariance of the least-squares calibration ``[vec(map_) row-major, theta]``.
 
-    For the noise-weighted fit (the maximum-likelihood one) it is the inverse Fisher
-    matrix ``(J' W J)^-1``. The paper's fit is unweighted: its covariance is the sandwich
+    ``theta`` are the nonlinear parameters of the object vectors: the delay alone for the
+    paper's model, or more (the thermal model's delay, bias rate and delay rate). For the
+    noise-weighted fit (the maximum-likelihood one) it is the inverse Fisher matrix
+    ``(J' W J)^-1``. The paper's fit is unweighted: its covariance is the sandwich
     ``H^-1 (J' S J) H^-1`` with ``H = J' J`` and ``S = diag(s_j^2)``, which equals the
     inverse Fisher matrix when every port has the same noise. Each map row is its own
-    least-squares fit either way; weights move only the delay, shared by the ports.
+    least-squares fit either way; weights move only ``theta``, shared by the ports.
 
     Parameters
     ----------
     objects : array_like, shape (N, k)
-        Object vectors ``X`` of the sweep at the fitted delay (``k = 3``, or 4 with a
+        Object vectors ``X`` of the sweep at the fitted parameters (``k = 3``, or 4 with a
         column of ones for per-port offsets).
-    objects_delay_derivative : array_like, shape (N, k)
-        ``D = dX / d delay`` (1/s).
+    objects_delay_derivative : array_like, shape (N, k) or (q, N, k)
+        ``D = dX / d theta``: by the delay alone (1/s), or by each of ``q`` parameters.
     map_ : array_like, shape (n, k)
         Fitted map (W).
     noise_std_w : float or array_like, shape (n,)
@@ -209,11 +218,14 @@ def fit_parameter_covariance(
 
     Returns
     -------
-    ndarray, shape (n k + 1, n k + 1)
-        In the order ``A[0, 0], A[0, 1], ..., A[n-1, k-1], delay``; W^2, W s, s^2.
+    ndarray, shape (n k + q, n k + q)
+        In the order ``A[0, 0], A[0, 1], ..., A[n-1, k-1], theta``.
     """
     x = _matrix("objects", objects, (None, None))
-    d = _matrix("objects_delay_derivative", objects_delay_derivative, x.shape)
+    d = np.asarray(objects_delay_derivative, dtype=float)
+    if d.ndim == 2:
+        d = d[None]
+    d = _matrix("objects_delay_derivative", d, (None, *x.shape))
     matrix = _matrix("map_", map_, (None, x.shape[1]))
     weight = _inverse_variance(noise_std_w, matrix.shape[0])
     if weighted:
@@ -223,10 +235,64 @@ def fit_parameter_covariance(
     return 0.5 * (covariance + covariance.T)
 
 
+def map_frequency_gradient_hz(gradient, objects_estimate, hz_per_rad) -> np.ndarray:
+    """``df / dvec(A)`` (Hz/W, row-major) of each reading's frequency.
+
+    A map error ``dA`` moves the retrieved phase by ``-g . (dA x)``, so
+    ``df / dA_jm = -g_j x_m (df / dt)``.
+
+    Parameters
+    ----------
+    gradient : array_like, shape (N, n)
+        ``d t / d p`` of each reading (rad/W).
+    objects_estimate : array_like, shape (N, k)
+        The reading's object vector: ``P u(t)``, and a 1 for an offset column.
+    hz_per_rad : float or array_like, shape (N,)
+        ``df / dt`` (Hz/rad), ``1 / (2 pi tau)``.
+
+    Returns
+    -------
+    ndarray, shape (N, n k), Hz/W
+    """
+    g = _matrix("gradient", gradient, (None, None))
+    samples, ports = g.shape
+    x = _matrix("objects_estimate", objects_estimate, (samples, None))
+    scale = np.broadcast_to(np.asarray(hz_per_rad, dtype=float), (samples,))
+    return -(g[:, :, None] * x[:, None, :]).reshape(samples, ports * x.shape[1]) * scale[:, None]
+
+
+def calibration_variance_hz2(map_gradient_hz, parameter_gradient_hz, covariance) -> np.ndarray:
+    """Variance (Hz^2) of each reading's frequency from the calibration's covariance.
+
+    Parameters
+    ----------
+    map_gradient_hz : array_like, shape (N, m)
+        ``df / dvec(A)`` of each reading (:func:`map_frequency_gradient_hz`).
+    parameter_gradient_hz : array_like, shape (N, q)
+        ``df / d theta`` of each reading for the ``q`` nonlinear parameters.
+    covariance : array_like, shape (m + q, m + q)
+        Covariance of ``[vec(A), theta]`` (:func:`fit_parameter_covariance`).
+
+    Returns
+    -------
+    ndarray, shape (N,), Hz^2
+    """
+    along_map = _matrix("map_gradient_hz", map_gradient_hz, (None, None))
+    along = np.column_stack(
+        [
+            along_map,
+            _matrix("parameter_gradient_hz", parameter_gradient_hz, (along_map.shape[0], None)),
+        ]
+    )
+    c = _matrix("covariance", covariance, (along.shape[1], along.shape[1]))
+    return np.einsum("ia,ia->i", along @ c, along)
+
+
 def calibration_frequency_variance_hz2(
     gradient, objects_estimate, phase_rad, delay_s, covariance
 ) -> np.ndarray:
-    """Variance (Hz^2) of each reading's frequency from the calibration's own uncertainty.
+    """Variance (Hz^2) of each reading's frequency from the calibration's own uncertainty,
+    for the paper's model ``f = f0 + t / (2 pi tau)`` (parameters: map and delay).
 
     Parameters
     ----------
@@ -245,21 +311,11 @@ def calibration_frequency_variance_hz2(
     -------
     ndarray, shape (N,), Hz^2
     """
-    g = _matrix("gradient", gradient, (None, None))
-    samples, ports = g.shape
-    x = _matrix("objects_estimate", objects_estimate, (samples, None))
-    t = _matrix("phase_rad", phase_rad, (samples,))
-    size = ports * x.shape[1]
-    c = _matrix("covariance", covariance, (size + 1, size + 1))
     delay_s = check_positive("delay_s", delay_s)
     to_hz = 1.0 / (2.0 * np.pi * delay_s)
-    along_map = -(g[:, :, None] * x[:, None, :]).reshape(samples, size) * to_hz
-    along_delay = -t * to_hz / delay_s
-    return (
-        np.einsum("ia,ia->i", along_map @ c[:size, :size], along_map)
-        + 2.0 * along_delay * (along_map @ c[:size, size])
-        + along_delay**2 * c[size, size]
-    )
+    along_map = map_frequency_gradient_hz(gradient, objects_estimate, to_hz)
+    t = _matrix("phase_rad", phase_rad, (along_map.shape[0],))
+    return calibration_variance_hz2(along_map, (-t * to_hz / delay_s)[:, None], covariance)
 
 
 def student_factor(dof) -> float:

@@ -1,0 +1,903 @@
+"""Thermally compensated calibration: one map, a bias phase and a delay that move with temperature.
+
+On a chip the bias phase of the interferometer and its delay change with temperature; the
+coupler and the photodiodes hardly do. With ``dT = T - T0`` (``T0`` the reference
+temperature, the mean of the calibration temperatures) the model of a reading at frequency
+``f`` and chip temperature ``T`` is
+
+    p = A u(t),  t = 2 pi (f - f0) tau0 (1 + beta dT) + alpha dT,
+
+one map ``A`` (n, 3) for every temperature, the delay ``tau0`` at ``T0``, the bias phase rate
+``alpha`` (rad/K, at the centre frequency ``f0``) and the relative delay rate ``beta`` (1/K).
+A reading gives ``f = f0 + wrap(t_hat - alpha dT) / (2 pi tau0 (1 + beta dT))``.
+
+**The fit.** For given nonlinear parameters ``theta = (tau0, alpha, beta)`` the map is linear
+least squares (as in the paper); ``theta`` is found by variable projection:
+
+1. a grid over ``(tau0, alpha)`` with ``beta = 0``: the delays of the paper's bracket scan
+   and bias rates over the range the temperatures can resolve (below), the cost of every
+   pair from the normal equations of the map on at most ``GRID_READINGS`` readings;
+2. Levenberg-Marquardt on all readings from the best pair, over all three, with the
+   Jacobian of the projected residual (Kaufman's approximation).
+
+**What the temperatures can tell.** Readings at a few discrete temperatures ("clusters",
+separated by more than ``CLUSTER_GAP_STD`` sensor standard deviations) give the bias change
+between clusters only modulo ``2 pi``: ``alpha`` is resolved within ``+-pi / step``, ``step``
+the smallest temperature step between clusters. The fit searches that range (at most
+``RATE_SEARCH_FACTOR`` times the plausible one), states it in ``diagnostics_["thermal"]``
+and warns (cause ``"thermal_ambiguity"``) when it is narrower than a chip's fringes may move,
+``PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K`` (silicon on insulator moves 7.5-11 GHz/K). A recording
+during which the temperature changes continuously has no such ambiguity.
+
+**When the rates cannot be told.** ``alpha dT`` is a phase the map absorbs when ``dT`` is
+constant, and a delay change when ``dT`` follows the frequency linearly (one sweep during a
+linear ramp). The temperatures' spread left after their least-squares fit by a line in
+frequency (the *effective spread*) must therefore exceed ``MIN_SPREAD_STD`` sensor standard
+deviations, and the fitted rate must be precise enough: ``RATE_BUDGET_K`` kelvin away from
+``T0`` its error may cost at most one reading's phase noise. Otherwise the fit refuses with
+the spread it would need, or names the collinearity.
+
+**Uncertainty.** :meth:`ThermalCalibrator.frequency_std_hz` adds to the learned calibrator's
+(noise and the parameter covariance, now of the map and all three of ``theta``) the
+temperature sensor's noise ``temperature_std_k`` times ``df / dT`` of each reading.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from scipy import linalg, optimize
+
+from ..exceptions import CalibrationWarning, InputError
+from ..model.cone import cone_vectors, wrap_phase_rad
+from ..validation import check_choice, check_fitted, check_positive
+from .base import BaseCalibrator
+from .delay_search import bracket_grid, frequency_text
+from .diagnostics import port_health
+from .files import state_array, state_float
+from .flags import temperature_flags
+from .fsr_guard import check_design_fsr
+from .learned import AFFINE_MIN_POWER_SPREAD, RETRIEVALS, Calibrator, port_noise_std_w
+from .misfit import TEST_P_VALUE
+from .reanchor import check_reference_readings, fit_reanchor, reanchored_copy
+from .summary import FitValue
+
+__all__ = [
+    "CLUSTER_GAP_STD",
+    "MIN_SPREAD_STD",
+    "PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K",
+    "RATE_BUDGET_K",
+    "TemperatureLayout",
+    "ThermalCalibrator",
+    "ThermalFit",
+    "fit_thermal_map",
+    "temperature_layout",
+    "thermal_objects",
+    "thermal_phase_rad",
+]
+
+#: largest fringe shift (Hz per kelvin) a chip is expected to have: SOI moves 7.5-11 GHz/K
+PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K = 15e9
+#: the bias rates searched reach this multiple of the plausible one (when resolvable)
+RATE_SEARCH_FACTOR = 2.0
+#: a gap between calibration temperatures larger than this many sensor std separates clusters
+CLUSTER_GAP_STD = 10.0
+#: the effective temperature spread (std, K) must reach this many sensor std
+MIN_SPREAD_STD = 10.0
+#: kelvin from the reference at which the bias rate's error may cost one reading's noise
+RATE_BUDGET_K = 1.0
+#: readings the grid stage of the fit uses, at most (evenly spaced in acquisition order)
+GRID_READINGS = 4000
+#: bias-rate grid step times the temperature range (rad): a phase error of 1/4 rad
+RATE_GRID_STEP_RAD = 0.25
+#: bias-rate grid points, at most
+MAX_RATE_POINTS = 4096
+#: share of the calibration residual power the temperature sensor's noise may hold unnoted
+SENSOR_SHARE_NOTED = 0.2
+#: the three nonlinear parameters, in the order of ``parameter_covariance_``
+PARAMETERS = ("delay_s", "thermal_phase_rad_per_k", "thermal_delay_per_k")
+
+
+# ---------------------------------------------------------------------- the model
+def thermal_phase_rad(
+    frequency_hz,
+    temperature_k,
+    center_hz: float,
+    reference_temperature_k: float,
+    delay_s: float,
+    phase_rate_rad_per_k: float,
+    delay_rate_per_k: float,
+) -> np.ndarray:
+    """Object phase ``t = 2 pi (f - f0) tau0 (1 + beta dT) + alpha dT`` (rad).
+
+    Parameters
+    ----------
+    frequency_hz, temperature_k : array_like, shape (N,)
+        Source frequency (Hz) and chip temperature (K) of each reading.
+    center_hz, reference_temperature_k : float
+        ``f0`` (Hz) and ``T0`` (K).
+    delay_s, phase_rate_rad_per_k, delay_rate_per_k : float
+        ``tau0`` (s), ``alpha`` (rad/K), ``beta`` (1/K).
+
+    Returns
+    -------
+    ndarray, shape (N,), rad
+    """
+    offset = np.asarray(temperature_k, dtype=float) - reference_temperature_k
+    detuning = 2.0 * np.pi * (np.asarray(frequency_hz, dtype=float) - center_hz)
+    return detuning * delay_s * (1.0 + delay_rate_per_k * offset) + phase_rate_rad_per_k * offset
+
+
+def _phase_derivatives(frequency_hz, temperature_k, center_hz, reference_k, theta) -> np.ndarray:
+    """``dt / dtheta`` (3, N): by ``tau0`` (rad/s), ``alpha`` (K), ``beta`` (rad K)."""
+    delay, _, delay_rate = theta
+    offset = temperature_k - reference_k
+    detuning = 2.0 * np.pi * (frequency_hz - center_hz)
+    return np.stack(
+        [detuning * (1.0 + delay_rate * offset), offset, detuning * delay * offset], axis=0
+    )
+
+
+def thermal_objects(
+    phase_rad, scale=None, affine: bool = False, derivatives=None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Object vectors (N, k) at phases ``t`` and, given ``dt / dtheta`` (q, N), their
+    derivatives (q, N, k); ``k`` = 3, or 4 with a column of ones when ``affine``.
+
+    ``x = m [cos t, sin t, sqrt 2]`` (``m`` the relative monitored power or 1) gives
+    ``dx / dtheta = m [-sin t, cos t, 0] dt / dtheta``.
+    """
+    power = 1.0 if scale is None else np.asarray(scale, dtype=float)
+    objects = cone_vectors(phase_rad, power)
+    if affine:
+        objects = np.column_stack([objects, np.ones(objects.shape[0])])
+    if derivatives is None:
+        return objects, None
+    tangent = np.zeros_like(objects)
+    tangent[:, 0], tangent[:, 1] = -np.sin(phase_rad), np.cos(phase_rad)
+    tangent *= np.broadcast_to(power, phase_rad.shape)[:, None]
+    return objects, np.asarray(derivatives)[:, :, None] * tangent[None]
+
+
+# ---------------------------------------------------------------------- the temperatures
+@dataclass(frozen=True)
+class TemperatureLayout:
+    """What the calibration temperatures can tell about the thermal rates.
+
+    Attributes
+    ----------
+    reference_k : float
+        ``T0``: the mean calibration temperature (K).
+    range_k : (float, float)
+        Lowest and highest calibration temperature (K).
+    clusters_k : tuple of float
+        Mean temperature of each cluster (K); one cluster for a continuous recording.
+    smallest_step_k : float or None
+        Smallest step between adjacent clusters (K); None with one cluster.
+    unambiguous_rad_per_k : float or None
+        ``pi / smallest_step_k``: the bias rate is resolved within +- this (rad/K).
+    searched_rad_per_k : float
+        Half width of the bias rates searched (rad/K).
+    plausible_rad_per_k : float
+        Half width a chip's bias rate may have at the design FSR (rad/K).
+    spread_k : float
+        Standard deviation of the calibration temperatures (K).
+    effective_spread_k : float
+        Their standard deviation left after a least-squares line in frequency (K).
+    largest_cluster : ndarray of bool, shape (N,)
+        Readings of the most populated cluster.
+    """
+
+    reference_k: float
+    range_k: tuple[float, float]
+    clusters_k: tuple[float, ...]
+    smallest_step_k: float | None
+    unambiguous_rad_per_k: float | None
+    searched_rad_per_k: float
+    plausible_rad_per_k: float
+    spread_k: float
+    effective_spread_k: float
+    largest_cluster: np.ndarray
+
+    def record(self) -> dict:
+        """JSON-ready entries of ``diagnostics_["thermal"]``."""
+        return {
+            "reference_temperature_k": self.reference_k,
+            "temperature_range_k": list(self.range_k),
+            "temperatures_k": list(self.clusters_k),
+            "smallest_step_k": self.smallest_step_k,
+            "unambiguous_phase_rate_rad_per_k": self.unambiguous_rad_per_k,
+            "searched_phase_rate_rad_per_k": self.searched_rad_per_k,
+            "plausible_phase_rate_rad_per_k": self.plausible_rad_per_k,
+            "spread_k": self.spread_k,
+            "effective_spread_k": self.effective_spread_k,
+        }
+
+
+def _spread_error(layout_spread_k: float, effective_k: float, needed_k: float, why: str):
+    """The InputError for temperatures that cannot separate the thermal rates; ``why``
+    says what sets the ``needed_k`` standard deviation."""
+    if layout_spread_k >= needed_k > effective_k:
+        return InputError(
+            f"the calibration temperature changes together with the frequency: of its "
+            f"spread (std {layout_spread_k:.3g} K) only {effective_k:.3g} K is not a straight "
+            f"line in frequency, so the bias rate cannot be told from the delay "
+            f"({needed_k:.3g} K needed: {why}); record sweeps at two or more temperatures, "
+            "or sweep the laser repeatedly (up and down) while the temperature changes",
+            parameter="temperature_k",
+        )
+    return InputError(
+        f"the calibration temperatures spread too little to fit the thermal rates: their "
+        f"standard deviation is {effective_k:.3g} K, and {needed_k:.3g} K is needed ({why}); "
+        f"spread the calibration temperatures that much (e.g. two sweeps "
+        f"{2 * needed_k:.3g} K apart, or more sweeps over a wider range)",
+        parameter="temperature_k",
+    )
+
+
+def temperature_layout(
+    frequency_hz, temperature_k, *, sensor_std_k: float, fsr_hz: float
+) -> TemperatureLayout:
+    """Clusters, steps and spread of the calibration temperatures.
+
+    Parameters
+    ----------
+    frequency_hz, temperature_k : ndarray, shape (N,)
+        Known frequency (Hz) and chip temperature (K) of each calibration reading.
+    sensor_std_k : float
+        Standard deviation of the temperature sensor (K).
+    fsr_hz : float
+        Design FSR (Hz), for the plausible bias rate.
+
+    Returns
+    -------
+    TemperatureLayout
+
+    Raises
+    ------
+    InputError
+        ``parameter="temperature_k"``: the effective spread is below ``MIN_SPREAD_STD``
+        sensor standard deviations (all temperatures equal, or collinear with frequency).
+    """
+    order = np.argsort(temperature_k, kind="stable")
+    ordered = temperature_k[order]
+    gaps = np.flatnonzero(np.diff(ordered) > CLUSTER_GAP_STD * sensor_std_k)
+    members = np.split(order, gaps + 1)
+    centres = np.array([temperature_k[group].mean() for group in members])
+    largest = np.zeros(temperature_k.size, dtype=bool)
+    largest[max(members, key=len)] = True
+    step = float(np.diff(centres).min()) if centres.size > 1 else None
+    plausible = 2.0 * np.pi * PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K / fsr_hz
+    unambiguous = None if step is None else float(np.pi / step)
+    searched = RATE_SEARCH_FACTOR * plausible
+    if unambiguous is not None:
+        searched = min(searched, unambiguous)
+    design = np.column_stack([np.ones_like(frequency_hz), frequency_hz - frequency_hz.mean()])
+    line = design @ linalg.lstsq(design, temperature_k)[0]
+    spread = float(np.std(temperature_k))
+    effective = float(np.std(temperature_k - line))
+    needed = MIN_SPREAD_STD * sensor_std_k
+    if effective < needed:
+        raise _spread_error(
+            spread,
+            effective,
+            needed,
+            f"{MIN_SPREAD_STD:g} x the temperature sensor's {sensor_std_k:g} K standard deviation",
+        )
+    return TemperatureLayout(
+        reference_k=float(temperature_k.mean()),
+        range_k=(float(ordered[0]), float(ordered[-1])),
+        clusters_k=tuple(float(centre) for centre in centres),
+        smallest_step_k=step,
+        unambiguous_rad_per_k=unambiguous,
+        searched_rad_per_k=float(searched),
+        plausible_rad_per_k=float(plausible),
+        spread_k=spread,
+        effective_spread_k=effective,
+        largest_cluster=largest,
+    )
+
+
+# ---------------------------------------------------------------------- the fit
+@dataclass(frozen=True)
+class ThermalFit:
+    """Outcome of :func:`fit_thermal_map`.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (3,)
+        ``(tau0 (s), alpha (rad/K), beta (1/K))``.
+    map_ : ndarray, shape (n, 3) or (n, 4)
+        Least-squares map at ``theta`` (W); with ``affine`` a fourth column of offsets.
+    cost : float
+        ``J = mean_k ||p_k - A x_k||^2`` (W^2).
+    phase_rad : ndarray, shape (N,)
+        Object phase of every reading at ``theta``.
+    """
+
+    theta: np.ndarray
+    map_: np.ndarray
+    cost: float
+    phase_rad: np.ndarray
+
+
+def _grid_costs(powers, phases, scale, affine) -> np.ndarray:
+    """Cost ``J`` (W^2) of the least-squares map for each row of trial phases (R, M), from
+    the normal equations (accurate enough to rank the trials)."""
+    power = 1.0 if scale is None else scale
+    cosine, sine = np.cos(phases) * power, np.sin(phases) * power
+    axis = np.sqrt(2.0) * power
+    columns = [cosine, sine, np.broadcast_to(axis, cosine.shape)]
+    if affine:
+        columns.append(np.ones_like(cosine))
+    k = len(columns)
+    gram = np.empty((phases.shape[0], k, k))
+    for row in range(k):
+        for col in range(row, k):
+            gram[:, row, col] = gram[:, col, row] = np.einsum(
+                "rm,rm->r", columns[row], columns[col]
+            )
+    projections = np.stack([column @ powers for column in columns], axis=1)
+    solution = np.linalg.solve(gram, projections)
+    explained = np.einsum("rkn,rkn->r", projections, solution)
+    return (np.einsum("mn,mn->", powers, powers) - explained) / powers.shape[0]
+
+
+def fit_thermal_map(
+    powers,
+    frequency_hz,
+    temperature_k,
+    center_hz: float,
+    layout: TemperatureLayout,
+    *,
+    fsr_hz: float,
+    fsr_tolerance: float,
+    scale=None,
+    affine: bool = False,
+) -> ThermalFit:
+    """Fit one map and ``theta = (tau0, alpha, beta)`` to readings at many temperatures.
+
+    Parameters
+    ----------
+    powers : ndarray, shape (N, n)
+        Validated calibration readings (W), dark-subtracted.
+    frequency_hz, temperature_k : ndarray, shape (N,)
+        Known frequency (Hz) and chip temperature (K) of each reading.
+    center_hz : float
+        ``f0`` (Hz).
+    layout : TemperatureLayout
+        :func:`temperature_layout` of the temperatures (``T0``, the rates to search).
+    fsr_hz, fsr_tolerance : float
+        Design FSR (Hz) and the relative half width of the delay bracket.
+    scale : None or ndarray, shape (N,)
+        Relative monitored source power per reading.
+    affine : bool
+        Fit per-port offsets too (a fourth map column).
+
+    Returns
+    -------
+    ThermalFit
+
+    Raises
+    ------
+    InputError
+        ``parameter="fsr_hz"`` when the best delay lies outside the bracket searched.
+    """
+    reference = layout.reference_k
+    offset = temperature_k - reference
+    detuning = 2.0 * np.pi * (frequency_hz - center_hz)
+    # 1. grid over (tau0, alpha) at beta = 0 on evenly spaced readings
+    rows = np.unique(np.linspace(0, powers.shape[0] - 1, GRID_READINGS).astype(int))
+    relative = bracket_grid(fsr_hz, fsr_tolerance, float(np.ptp(frequency_hz)))
+    temperature_range = max(float(np.ptp(temperature_k)), np.finfo(float).tiny)
+    points = int(
+        min(
+            MAX_RATE_POINTS,
+            np.ceil(2 * layout.searched_rad_per_k * temperature_range / RATE_GRID_STEP_RAD) + 1,
+        )
+    )
+    rates = np.linspace(-layout.searched_rad_per_k, layout.searched_rad_per_k, points)
+    grid_scale = None if scale is None else scale[rows]
+    best = (np.inf, 0.0, 0.0)
+    for u in relative:
+        phases = (detuning[rows] * (u / fsr_hz))[None, :] + rates[:, None] * offset[rows][None, :]
+        costs = _grid_costs(powers[rows], phases, grid_scale, affine)
+        index = int(np.argmin(costs))
+        if costs[index] < best[0]:
+            best = (float(costs[index]), u / fsr_hz, float(rates[index]))
+
+    # 2. Levenberg-Marquardt on every reading over (tau0, alpha, beta)
+    units = np.array([1.0 / fsr_hz, 1.0, 1e-5])
+
+    def solve(theta):
+        phase = thermal_phase_rad(frequency_hz, temperature_k, center_hz, reference, *theta)
+        derivatives = _phase_derivatives(frequency_hz, temperature_k, center_hz, reference, theta)
+        objects, moved = thermal_objects(phase, scale, affine, derivatives)
+        basis, triangle = linalg.qr(objects, mode="economic", check_finite=False)
+        matrix = linalg.solve_triangular(triangle, basis.T @ powers, check_finite=False).T
+        return phase, objects, moved, basis, matrix
+
+    def residual(scaled):
+        _, objects, _, _, matrix = solve(scaled * units)
+        return (powers - objects @ matrix.T).ravel()
+
+    def jacobian(scaled):
+        _, _, moved, basis, matrix = solve(scaled * units)
+        columns = []
+        for derivative, unit in zip(moved, units, strict=True):
+            image = derivative @ matrix.T
+            columns.append(-(image - basis @ (basis.T @ image)).ravel() * unit)
+        return np.column_stack(columns)
+
+    start = np.array([best[1], best[2], 0.0]) / units
+    result = optimize.least_squares(residual, start, jac=jacobian, method="lm", xtol=1e-12)
+    theta = result.x * units
+    low, high = fsr_hz * (1.0 - fsr_tolerance), fsr_hz * (1.0 + fsr_tolerance)
+    if not low <= 1.0 / theta[0] <= high:
+        raise InputError(
+            f"the best thermal fit has an FSR of {frequency_text(1.0 / theta[0])}, outside the "
+            f"bracket searched ({frequency_text(low)} to {frequency_text(high)}): set fsr_hz "
+            "closer to the chip's FSR or widen fsr_tolerance",
+            parameter="fsr_hz",
+        )
+    phase, objects, _, _, matrix = solve(theta)
+    error = powers - objects @ matrix.T
+    return ThermalFit(
+        theta=theta,
+        map_=matrix,
+        cost=float(np.einsum("ij,ij->", error, error) / powers.shape[0]),
+        phase_rad=phase,
+    )
+
+
+# ---------------------------------------------------------------------- the calibrator
+class ThermalCalibrator(Calibrator):
+    """Learned calibration that follows the chip temperature (module docstring).
+
+    Parameters
+    ----------
+    fsr_hz : float
+        Design free spectral range (Hz) at the calibration temperatures.
+    fsr_tolerance : float
+        Relative half width of the FSR bracket searched, in (0, 1).
+    retrieval : {"pinv", "ml"}
+        Phase retrieval, as for :class:`~wavemeter.calibration.learned.Calibrator`.
+    temperature_std_k : float
+        Standard deviation of the chip temperature sensor (K), default 1 mK: it separates
+        temperature clusters, sets the smallest spread the fit accepts and adds
+        ``temperature_std_k |df / dT|`` to every reading's uncertainty.
+
+    Attributes
+    ----------
+    thermal_phase_rad_per_k_ : float
+        Bias phase rate ``alpha`` (rad/K) at ``center_hz_``; fringes move by
+        ``alpha fsr_hz_ / (2 pi)`` Hz per kelvin, to lower frequency when positive.
+    thermal_delay_per_k_ : float
+        Relative delay rate ``beta`` (1/K).
+    reference_temperature_k_ : float
+        ``T0`` (K): the mean calibration temperature; ``delay_s_`` and ``fsr_hz_`` hold there.
+    temperature_range_k_ : (float, float)
+        Lowest and highest calibration temperature (K).
+    parameter_covariance_ : ndarray, shape (n k + 3, n k + 3)
+        Covariance of the map (row-major, ``k`` = 3 or 4 with offsets), ``delay_s_``,
+        ``thermal_phase_rad_per_k_`` and ``thermal_delay_per_k_``.
+    diagnostics_ : dict
+        As the learned calibrator's, plus ``"thermal"``: the rates with their standard
+        errors, the fringe shift (Hz/K), the temperature clusters, the smallest step, the
+        unambiguous and searched bias-rate ranges and the effective spread.
+
+    The other attributes are those of :class:`~wavemeter.calibration.learned.Calibrator`.
+    """
+
+    method = "thermal"
+    requires = frozenset({"temperature_k"})
+    nonlinear_parameters: ClassVar[int] = 3
+
+    def __init__(
+        self,
+        fsr_hz: float = 50e9,
+        fsr_tolerance: float = 0.2,
+        retrieval: str = "pinv",
+        temperature_std_k: float = 1e-3,
+    ):
+        self.fsr_hz = fsr_hz
+        self.fsr_tolerance = fsr_tolerance
+        self.retrieval = retrieval
+        self.temperature_std_k = temperature_std_k
+
+    def _check_params(self) -> None:
+        BaseCalibrator._check_params(self)
+        check_positive("fsr_tolerance", self.fsr_tolerance, upper=1.0)
+        check_choice("retrieval", self.retrieval, RETRIEVALS)
+        check_positive("temperature_std_k", self.temperature_std_k)
+
+    def _requirement_reason(self) -> str:
+        return "its fringes move with the chip temperature"
+
+    # ------------------------------------------------------------------ fitting
+    def _check_sweep(self, powers, frequency_hz, scale, temperature_k):
+        """The temperatures first (:func:`temperature_layout`), then the design FSR on the
+        readings of the largest temperature cluster (whose fringes do not move)."""
+        self._layout = temperature_layout(
+            frequency_hz,
+            temperature_k,
+            sensor_std_k=float(self.temperature_std_k),
+            fsr_hz=float(self.fsr_hz),
+        )
+        rows = self._layout.largest_cluster
+        if len(self._layout.clusters_k) == 1:
+            rows = np.ones_like(rows)
+        return check_design_fsr(
+            powers[rows],
+            frequency_hz[rows],
+            fsr_hz=float(self.fsr_hz),
+            fsr_tolerance=self.fsr_tolerance,
+            scale=None if scale is None else scale[rows],
+        )
+
+    def _port_health(self, powers, frequency_hz, center_hz, delay_s, names, scale):
+        """Fit the thermal model (the ports' fringes are only seen through it), then every
+        port's fringe at the fitted phases."""
+        affine = (
+            scale is not None and self.dark_w_ is None and np.std(scale) >= AFFINE_MIN_POWER_SPREAD
+        )
+        self._thermal_fit = fit_thermal_map(
+            powers,
+            frequency_hz,
+            self._sweep_temperature_k,
+            center_hz,
+            self._layout,
+            fsr_hz=float(self.fsr_hz),
+            fsr_tolerance=self.fsr_tolerance,
+            scale=scale,
+            affine=affine,
+        )
+        return port_health(
+            powers,
+            frequency_hz,
+            center_hz,
+            delay_s,
+            names,
+            scale,
+            phase_rad=self._thermal_fit.phase_rad,
+        )
+
+    def _fit(self, powers, frequency_hz, monitor):
+        fit = self._thermal_fit
+        layout = self._layout
+        del self._thermal_fit
+        scale = None if monitor is None else monitor / monitor.mean()
+        affine = fit.map_.shape[1] == 4
+        delay, phase_rate, delay_rate = (float(value) for value in fit.theta)
+        self.delay_s_ = delay
+        self.fsr_hz_ = 1.0 / delay
+        self.thermal_phase_rad_per_k_ = phase_rate
+        self.thermal_delay_per_k_ = delay_rate
+        self.reference_temperature_k_ = layout.reference_k
+        self.temperature_range_k_ = layout.range_k
+        self.cost_ = fit.cost
+        ports = powers.shape[1]
+        residual = powers - self._sweep_objects_at(frequency_hz, scale, affine)[0] @ fit.map_.T
+        noise, self.noise_dof_ = port_noise_std_w(
+            residual, fit.map_.shape[1], shared=self.nonlinear_parameters
+        )
+        self._sweep = (frequency_hz, scale, affine)
+        self._set_map(fit.map_[:, :3])
+        noise = self._detector_noise_w(noise)
+        self.port_noise_std_w_ = np.maximum(noise, np.finfo(float).eps * np.abs(powers).max())
+        pooled_dof = max(powers.size - fit.map_.size - 3, 1)
+        self.noise_std_w_ = float(np.sqrt(fit.cost * powers.shape[0] / pooled_dof))
+        self.residual_rms_ = float(np.sqrt(fit.cost / ports))
+        self.offset_w_ = fit.map_[:, 3].copy() if affine else np.zeros(ports)
+        self._set_covariance()
+        self.delay_std_s_ = float(np.sqrt(self.parameter_covariance_[-3, -3]))
+        self._check_rate_precision(powers, layout)
+
+    def _check_rate_precision(self, powers, layout: TemperatureLayout) -> None:
+        """Refuse a bias rate too uncertain: ``RATE_BUDGET_K`` from ``T0`` its error may
+        cost one reading's phase noise (the median over the sweep)."""
+        rate_std = float(np.sqrt(self.parameter_covariance_[-2, -2]))
+        reading_std = self._frequency_std_checked(
+            powers - self.offset_w_,
+            include_calibration=False,
+            temperature_k=np.full(powers.shape[0], layout.reference_k),
+        )
+        phase_std = float(np.median(reading_std)) / self._hz_per_rad()
+        if rate_std * RATE_BUDGET_K > phase_std:
+            needed = layout.effective_spread_k * rate_std * RATE_BUDGET_K / phase_std
+            raise _spread_error(
+                layout.spread_k,
+                layout.effective_spread_k,
+                needed,
+                f"the bias rate would be known to +-{rate_std:.3g} rad/K: "
+                f"{RATE_BUDGET_K:g} K from the reference temperature that costs more than a "
+                f"reading's noise ({phase_std:.3g} rad)",
+            )
+
+    def _sensor_variance_w2(self) -> np.ndarray:
+        """Variance (W^2, per port) the temperature sensor's noise adds to the calibration
+        readings: ``s_T^2 mean_k (m_k (A u'(t_k))_j dt_k/dT)^2``."""
+        frequency_hz, scale, _ = self._sweep
+        temperature = self._sweep_temperature_k
+        phase = self._sweep_model_phase_rad()
+        offset = temperature - self.reference_temperature_k_
+        rate = self.thermal_phase_rad_per_k_ + (
+            2.0
+            * np.pi
+            * (frequency_hz - self.center_hz_)
+            * self.delay_s_
+            * self.thermal_delay_per_k_
+        )
+        tangent = np.stack([-np.sin(phase), np.cos(phase), np.zeros_like(offset)], axis=1)
+        power = 1.0 if scale is None else scale[:, None]
+        image = tangent @ self.map_.T * power * rate[:, None]
+        return self.temperature_std_k**2 * np.mean(image**2, axis=0)
+
+    def _detector_noise_w(self, noise_w: np.ndarray) -> np.ndarray:
+        """Per-port noise (W) of the detectors: a residual noise estimate less what the
+        temperature sensor adds (:meth:`_sensor_variance_w2`), at least a tenth of it."""
+        detector = np.square(noise_w) - self._sensor_variance_w2()
+        return np.sqrt(np.maximum(detector, 0.01 * np.square(noise_w)))
+
+    def _misfit_report(self, powers, frequency_hz, scale, sweep_delay_s):
+        """The learned calibrator's report, with the sensor's share taken out of the
+        model-free noise; where that share is large its warning replaces those it explains
+        (``other_misfit``, ``unequal_noise``, and ``phase_drift`` when the phase error is
+        not smooth in time: the sensor scatters the phase from reading to reading)."""
+        report = super()._misfit_report(powers, frequency_hz, scale, sweep_delay_s)
+        noise = np.asarray(report.noise_std_w, dtype=float)
+        share = self._sensor_variance_w2() / np.maximum(np.square(noise), np.finfo(float).tiny)
+        report = dataclasses.replace(report, noise_std_w=self._detector_noise_w(noise))
+        if share.max() < SENSOR_SHARE_NOTED:
+            return report
+        explained = {"other_misfit", "unequal_noise"}
+        if report.p_values.get("phase", 1.0) >= TEST_P_VALUE:
+            # no smooth phase error: a phase drift found is the sensor's reading-to-reading
+            # phase scatter
+            explained.add("phase_drift")
+        kept = [note for note in report.warnings if note.cause not in explained]
+        return dataclasses.replace(report, warnings=(*kept, self._sensor_note(share)))
+
+    def _sensor_note(self, share: np.ndarray) -> CalibrationWarning:
+        port = int(np.argmax(share))
+        remedy = (
+            "average the temperature readings (a quieter sensor, or a slower one if the "
+            "chip's temperature changes slowly), or give temperature_std_k the sensor's "
+            "true noise"
+        )
+        return CalibrationWarning(
+            f"the temperature sensor's noise ({self.temperature_std_k:g} K x the bias rate "
+            f"{abs(self.thermal_phase_rad_per_k_):.3g} rad/K) scatters the phase of the "
+            f"calibration readings: {100 * share[port]:.3g} % of the residual power of port "
+            f"{self.port_names_[port]}; the detector noise is estimated without it, but the "
+            f"map and rates are learned with it; {remedy}",
+            cause="temperature_noise",
+            remedy=remedy,
+        )
+
+    def _sweep_objects_at(self, frequency_hz, scale, affine):
+        """Object vectors (N, k) and their derivatives (3, N, k) at the fitted parameters."""
+        temperature = self._sweep_temperature_k
+        theta = self._theta()
+        phase = thermal_phase_rad(
+            frequency_hz, temperature, self.center_hz_, self.reference_temperature_k_, *theta
+        )
+        derivatives = _phase_derivatives(
+            frequency_hz, temperature, self.center_hz_, self.reference_temperature_k_, theta
+        )
+        return thermal_objects(phase, scale, affine, derivatives)
+
+    def _sweep_objects(self):
+        frequency_hz, scale, affine = self._sweep
+        return self._sweep_objects_at(frequency_hz, scale, affine)
+
+    def _sweep_model_phase_rad(self) -> np.ndarray:
+        frequency_hz = self._sweep[0]
+        return thermal_phase_rad(
+            frequency_hz,
+            self._sweep_temperature_k,
+            self.center_hz_,
+            self.reference_temperature_k_,
+            *self._theta(),
+        )
+
+    def _theta(self) -> tuple[float, float, float]:
+        return (self.delay_s_, self.thermal_phase_rad_per_k_, self.thermal_delay_per_k_)
+
+    def _fit_notes(self) -> list:
+        layout = self._layout
+        if layout.unambiguous_rad_per_k is None:
+            return []
+        if layout.unambiguous_rad_per_k >= layout.plausible_rad_per_k:
+            return []
+        shift = layout.unambiguous_rad_per_k * self.fsr_hz_ / (2.0 * np.pi)
+        needed = np.pi / layout.plausible_rad_per_k
+        remedy = (
+            f"add a sweep at a temperature within {needed:.3g} K of another, so that fringe "
+            f"shifts up to {frequency_text(PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K)}/K are resolved"
+        )
+        return [
+            CalibrationWarning(
+                f"the calibration temperatures are at least {layout.smallest_step_k:.3g} K "
+                "apart: the bias rate is resolved only within "
+                f"+-{layout.unambiguous_rad_per_k:.3g} rad/K (fringe shifts up to "
+                f"{frequency_text(shift)}/K), less than a chip's "
+                f"fringes may move (up to {frequency_text(PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K)}/K); "
+                f"the fitted {self.thermal_phase_rad_per_k_:.4g} rad/K may be an alias; {remedy}",
+                cause="thermal_ambiguity",
+                remedy=remedy,
+            )
+        ]
+
+    def _method_diagnostics(self) -> dict:
+        layout = self._layout
+        del self._layout
+        std = np.sqrt(np.diag(self.parameter_covariance_)[-3:])
+        per_rad = self.fsr_hz_ / (2.0 * np.pi)
+        return {
+            "thermal": {
+                "thermal_phase_rad_per_k": self.thermal_phase_rad_per_k_,
+                "thermal_phase_std_rad_per_k": float(std[1]),
+                "thermal_delay_per_k": self.thermal_delay_per_k_,
+                "thermal_delay_std_per_k": float(std[2]),
+                "fringe_shift_hz_per_k": self.thermal_phase_rad_per_k_ * per_rad,
+                "fringe_shift_std_hz_per_k": float(std[1]) * per_rad,
+                **layout.record(),
+            }
+        }
+
+    # ------------------------------------------------------------------ retrieval
+    def fsr_hz_at(self, temperature_k) -> np.ndarray:
+        """The calibrated FSR ``1 / (tau0 (1 + beta (T - T0)))`` (Hz) at temperatures (K)."""
+        check_fitted(self)
+        return 2.0 * np.pi * self._hz_per_rad(np.asarray(temperature_k, dtype=float))
+
+    def _temperature_offset_k(self, temperature_k) -> np.ndarray:
+        return np.asarray(temperature_k, dtype=float) - self.reference_temperature_k_
+
+    def _hz_per_rad(self, temperature_k=None):
+        """``df / dt = 1 / (2 pi tau(T))`` (Hz/rad); at ``T0`` without temperatures."""
+        if temperature_k is None:
+            return self.fsr_hz_ / (2.0 * np.pi)
+        stretch = 1.0 + self.thermal_delay_per_k_ * self._temperature_offset_k(temperature_k)
+        return 1.0 / (2.0 * np.pi * self.delay_s_ * stretch)
+
+    def _phase_at(self, powers, temperature_k):
+        offset = self._temperature_offset_k(temperature_k)
+        return wrap_phase_rad(self._phase(powers) - self.thermal_phase_rad_per_k_ * offset)
+
+    def _predict_checked(self, powers, temperature_k=None):
+        phase = self._phase_at(powers, temperature_k)
+        return self.center_hz_ + phase * self._hz_per_rad(temperature_k)
+
+    def _parameter_frequency_gradient_hz(self, phase_rad, temperature_k=None) -> np.ndarray:
+        """``df / d(tau0, alpha, beta)`` (N, 3) with ``f - f0 = s / (2 pi tau0 (1 + beta dT))``,
+        ``s = wrap(t - alpha dT)``."""
+        offset = self._temperature_offset_k(temperature_k)
+        phase = wrap_phase_rad(phase_rad - self.thermal_phase_rad_per_k_ * offset)
+        per_rad = self._hz_per_rad(temperature_k)
+        stretch = 1.0 + self.thermal_delay_per_k_ * offset
+        return np.column_stack(
+            [
+                -phase * per_rad / self.delay_s_,
+                -offset * per_rad,
+                -phase * per_rad * offset / stretch,
+            ]
+        )
+
+    def _sensor_variance_hz2(self, phase_rad, temperature_k=None):
+        """``(temperature_std_k df/dT)^2``, ``df/dT = -(alpha + s beta / (1 + beta dT)) / (2 pi
+        tau(T))``."""
+        offset = self._temperature_offset_k(temperature_k)
+        phase = wrap_phase_rad(phase_rad - self.thermal_phase_rad_per_k_ * offset)
+        stretch = 1.0 + self.thermal_delay_per_k_ * offset
+        rate = self.thermal_phase_rad_per_k_ + phase * self.thermal_delay_per_k_ / stretch
+        return (self.temperature_std_k * rate * self._hz_per_rad(temperature_k)) ** 2
+
+    def _model_flags(self, readings, coarse_hz, temperature_k) -> np.ndarray:
+        flags = super()._model_flags(readings, coarse_hz, temperature_k)
+        return flags | temperature_flags(
+            temperature_k, self.temperature_range_k_, float(self.temperature_std_k)
+        )
+
+    def reanchor(self, powers, frequency_hz, *, temperature_k=None) -> ThermalCalibrator:
+        """A copy re-anchored to readings of reference lines at known chip temperatures.
+
+        The lines' phases are corrected to the reference temperature by the fitted rates
+        and then treated as :meth:`Calibrator.reanchor` does: the bias phase moves (the
+        map rotates) at every temperature; a delay change measured at the lines' mean
+        temperature ``T`` becomes ``d tau0 = d tau(T) / (1 + beta (T - T0))``. The rates
+        are kept. This calibrator is untouched.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Readings of one or more reference lines (W, the unit of the calibration).
+        frequency_hz : float or array_like, shape (N,)
+            Known frequency of each reading (Hz).
+        temperature_k : float or array_like, shape (N,)
+            Chip temperature of each reading (K); required.
+
+        Returns
+        -------
+        ThermalCalibrator
+            With ``diagnostics_["reanchor"]`` as :meth:`Calibrator.reanchor` records it,
+            plus ``temperature_k`` (the lines' mean temperature).
+        """
+        check_fitted(self)
+        raw, frequency, temperature = check_reference_readings(
+            powers, frequency_hz, self.n_ports_, temperature_k
+        )
+        if temperature is None:
+            raise InputError(
+                "ThermalCalibrator.reanchor needs temperature_k (K) of the reference readings",
+                parameter="temperature_k",
+            )
+        readings = raw - self._reading_offset_w()
+        phase = self._phase_at(readings, temperature)
+        per_rad = self._hz_per_rad(temperature)
+        reading_std = self._frequency_std_checked(
+            readings, include_calibration=False, temperature_k=temperature
+        )
+        mean_temperature = float(temperature.mean())
+        stretch = 1.0 + self.thermal_delay_per_k_ * (
+            mean_temperature - self.reference_temperature_k_
+        )
+        fit = fit_reanchor(
+            phase,
+            frequency,
+            self.center_hz_,
+            self.delay_s_ * stretch,
+            delay_std_s=self.delay_std_s_ * stretch,
+            reading_phase_std_rad=reading_std / per_rad,
+        )
+        if fit.delay_change_s is not None:
+            fit = dataclasses.replace(
+                fit,
+                delay_change_s=fit.delay_change_s / stretch,
+                delay_change_std_s=fit.delay_change_std_s / stretch,
+                covariance=fit.covariance * np.outer([1.0, 1.0 / stretch], [1.0, 1.0 / stretch]),
+            )
+        return reanchored_copy(self, fit, {**fit.record(), "temperature_k": mean_temperature})
+
+    # ------------------------------------------------------------------ reporting and files
+    def _summary_values(self) -> dict:
+        std = np.sqrt(np.diag(self.parameter_covariance_)[-3:])
+        per_rad = self.fsr_hz_ / (2.0 * np.pi)
+        return {
+            **super()._summary_values(),
+            "thermal_phase_rad_per_k": FitValue(self.thermal_phase_rad_per_k_, std[1], "rad/K"),
+            "fringe_shift_hz_per_k": FitValue(
+                self.thermal_phase_rad_per_k_ * per_rad, std[1] * per_rad, "Hz/K"
+            ),
+            "thermal_delay_per_k": FitValue(self.thermal_delay_per_k_, std[2], "1/K"),
+            "reference_temperature_k": FitValue(self.reference_temperature_k_, None, "K"),
+        }
+
+    def _state(self) -> dict:
+        return {
+            **super()._state(),
+            "thermal_phase_rad_per_k": self.thermal_phase_rad_per_k_,
+            "thermal_delay_per_k": self.thermal_delay_per_k_,
+            "reference_temperature_k": self.reference_temperature_k_,
+            "temperature_range_k": list(self.temperature_range_k_),
+        }
+
+    def _set_state(self, state: dict) -> None:
+        if "parameter_covariance" not in state:
+            raise InputError("a thermal calibration file must hold 'parameter_covariance'")
+        super()._set_state(state)
+        self.thermal_phase_rad_per_k_ = state_float(state, "thermal_phase_rad_per_k")
+        self.thermal_delay_per_k_ = state_float(state, "thermal_delay_per_k")
+        self.reference_temperature_k_ = state_float(
+            state, "reference_temperature_k", minimum=0.0, open_minimum=True
+        )
+        low, high = state_array(state, "temperature_range_k", (2,))
+        if not 0 < low <= high:
+            raise InputError(
+                f"field 'temperature_range_k' must be 0 < low <= high (K), got {[low, high]}"
+            )
+        self.temperature_range_k_ = (float(low), float(high))
