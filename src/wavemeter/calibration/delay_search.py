@@ -176,9 +176,11 @@ def check_fringes_explained(
     )
     if noise_cost is None:
         raise EdgeMinimumError(
-            f"{fit} of the fringe power, a side minimum: the true FSR is outside the bracket "
-            "(or the readings carry no fringes above the noise); widen fsr_tolerance or "
-            "correct fsr_hz"
+            f"{fit} of the fringe power, a side minimum: the true FSR is outside the bracket, "
+            "or the readings carry no fringes above the noise, or the fringes moved during "
+            "the sweep (a chip temperature that changed); widen fsr_tolerance or correct "
+            "fsr_hz, or log the chip temperature and calibrate with ThermalCalibrator "
+            "(--method thermal)"
         )
     ratio = unfitted_cost / noise_cost
     if ratio < NO_FRINGE_RATIO:

@@ -269,11 +269,15 @@ def read(
     drop_invalid: bool,
     quiet: bool,
     light: bool = True,
+    temperature: bool | None = None,
 ):
     """Read a data file (``-``: stdin); with ``drop_invalid`` skip bad rows and say how many.
 
     Files with known frequencies (``need_x``: sweeps, test files) also get their power
-    monitor and temperature columns; readings to measure need neither. Dark readings
+    monitor and temperature columns; readings to measure need neither. ``temperature``
+    (default ``need_x``) says whether to look for a temperature column by name: readings
+    for a calibration that needs the chip temperature get it, a sweep whose temperature is
+    given another way does not. Dark readings
     (``light=False``, the source off) may sum to zero or less: only NaN, sentinels and
     implausible values make their rows invalid. The table's ``source`` is the name the
     user gave (``<stdin>`` for ``-``)."""
@@ -285,6 +289,7 @@ def read(
             need_x=need_x,
             find_extras=need_x,
             allow_invalid=drop_invalid or not light,
+            find_temperature=temperature,
         )
     if is_stdio(path):
         table = dataclasses.replace(table, source=Path(STDIN_LABEL))

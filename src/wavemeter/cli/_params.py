@@ -1,13 +1,15 @@
 """What options accept: physical quantities with units, and old option names kept hidden.
 
 Every physical quantity on the command line is a number with a unit (``50GHz``, ``1 mW``,
-``-30dBm``, ``1550nm``); a bare number is in SI units (Hz, W). A bare frequency below
-1 MHz is refused as a probable missing unit before any work starts.
+``-30dBm``, ``1550nm``, ``20C``); a bare number is in SI units (Hz, W, K). A bare frequency
+below 1 MHz is refused as a probable missing unit before any work starts.
 """
 
 from __future__ import annotations
 
 import contextlib
+import math
+import re
 
 import click
 
@@ -15,10 +17,12 @@ from ..exceptions import InputError
 from ..units import (
     OPTICAL_BAND_HZ,
     SPEED_OF_LIGHT_M_S,
+    canonical_unit,
     parse_frequency_hz,
     parse_optical_frequency_hz,
     parse_power_w,
     parse_quantity,
+    temperature_to_k,
 )
 
 __all__ = [
@@ -27,6 +31,7 @@ __all__ = [
     "OpticalFrequencyParam",
     "PowerParam",
     "PowerListParam",
+    "TemperatureParam",
     "FREQUENCY",
     "FSR",
     "OPTICAL_FREQUENCY",
@@ -34,6 +39,7 @@ __all__ = [
     "NOISE_POWER",
     "OFFSETS",
     "NOISE_POWERS",
+    "TEMPERATURE",
     "BARE_FREQUENCY_LIMIT_HZ",
 ]
 
@@ -208,6 +214,39 @@ class PowerListParam(click.ParamType):
         return tuple(powers_w)
 
 
+_TEMPERATURE_TEXT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S.*?)?\s*$")
+
+
+class TemperatureParam(click.ParamType):
+    """A chip temperature: ``293.15``, ``293.15K``, ``20C``, ``20 degC``; a bare number is in K.
+
+    Converts to float (K); the result must be a finite temperature above 0 K.
+    """
+
+    name = "TEMPERATURE"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float):
+            return value
+        found = _TEMPERATURE_TEXT.match(str(value))
+        if found is None:
+            self.fail(
+                f"{value!r} is not a temperature: give a number in K (293.15), or with its "
+                "unit K or C (293.15K, 20C)",
+                param,
+                ctx,
+            )
+        number, unit = found.groups()
+        try:
+            unit = canonical_unit(unit or "K", "temperature", str(value).strip())
+        except InputError as exc:
+            self.fail(str(exc), param, ctx)
+        temperature_k = float(temperature_to_k(float(number), unit))
+        if not (math.isfinite(temperature_k) and temperature_k > 0):
+            self.fail(f"{value}: a temperature must be a finite number above 0 K", param, ctx)
+        return temperature_k
+
+
 #: any frequency; a bare number is in Hz
 FREQUENCY = FrequencyParam()
 #: a free spectral range: refuses a bare number below 1 MHz (``--fsr 50`` meant 50GHz)
@@ -222,3 +261,5 @@ NOISE_POWER = PowerParam(allow_zero=True)
 OFFSETS = PowerListParam(signed=True)
 #: per-port noise standard deviations (>= 0), W
 NOISE_POWERS = PowerListParam(signed=False)
+#: a chip temperature (K) given as K or C; a bare number is in K
+TEMPERATURE = TemperatureParam()

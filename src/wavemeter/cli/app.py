@@ -98,6 +98,7 @@ OPTION_OF_PARAMETER = {
     "allow_invalid": "--drop-invalid",
     "monitor": "--monitor",
     "temperature": "--temperature",
+    "temperature_std_k": "--temperature-std-k",
     "coarse": "--coarse",
     "coarse_hz": "--coarse-frequency",
     "keep": "--keep",
@@ -194,6 +195,8 @@ OPTIONS_OF_CAUSE = {
     "dispersion": "--per-fsr",
     "unequal_noise": "--retrieval ml",
     "ill_conditioned": "--retrieval ml",
+    "phase_drift": "--method thermal with a temperature column",
+    "temperature_noise": "--temperature-std-k",
 }
 
 

@@ -1,19 +1,29 @@
-"""`wavemeter calibrate`: learn a calibration from a sweep file.
+"""`wavemeter calibrate`: learn a calibration from a sweep file (several for a thermal one).
 
 Dark readings (``--dark FILE`` averaged per port, or ``--dark-w``) are subtracted from the
 sweep and kept in the calibration. With ``--strict`` a :class:`CalibrationWarning` of the
 fit is an error: nothing is written and the exit code is 3.
+
+A method that needs the chip temperature of each reading (``"temperature_k"`` in its
+calibrator's ``requires``: ``--method thermal``) is fitted on one or more sweep files,
+concatenated in the order given (each file's rows in their own order), with the
+temperature from each file's temperature column or ``--temperature-k`` once per file. The
+files must have the same ports and all or none a power monitor. The other methods take one
+sweep file: they model one chip state, and several files would be one sweep only if they
+were recorded as one.
 """
 
 from __future__ import annotations
 
 import contextlib
+from dataclasses import dataclass
 
 import click
 import numpy as np
+from click.core import ParameterSource
 
 from ..exceptions import InputError, recorded_calibration_warnings
-from ..io import port_key
+from ..io import ColumnRequest, port_key
 from ..progress import busy
 from ._common import (
     FORCE,
@@ -33,7 +43,16 @@ from ._common import (
 )
 from ._params import OFFSETS
 from ._streams import STDIN_LABEL, is_stdio, output_path
+from ._temperature import (
+    check_temperature_options,
+    missing_temperature,
+    needs_temperature,
+    temperature_k_option,
+)
 from .app import WarningsRefused
+
+#: sensor noise of the chip temperature a thermal calibration assumes by default (K)
+DEFAULT_TEMPERATURE_STD_K = 1e-3
 
 
 @contextlib.contextmanager
@@ -70,9 +89,10 @@ def _dark_w(options: dict, request, sweep_table) -> np.ndarray | None:
         return np.array(values)
     if path is None:
         return None
+    ports_only = ColumnRequest(ports=request.ports, power_unit=request.power_unit)
     dark = read(
         path,
-        request,
+        ports_only,
         need_x=False,
         drop_invalid=options["drop_invalid"],
         quiet=options["quiet"],
@@ -91,58 +111,269 @@ def _dark_w(options: dict, request, sweep_table) -> np.ndarray | None:
     return dark.powers_w.mean(axis=0)
 
 
-def _fit(options: dict, table, phases, dark_w):
+def _calibrator(options: dict, phases):
+    """The unfitted calibrator the options ask for (a calibration set with ``--per-fsr``)."""
     from ..calibration.baselines import ConventionalCalibrator
     from ..calibration.learned import Calibrator
     from ..calibration.set import CalibrationSet
 
     fsr, tolerance, method = options["fsr"], options["fsr_tolerance"], options["method"]
     retrieval = options["retrieval"]
-    if method != "learned" and retrieval != "pinv":
-        raise InputError(f"--retrieval {retrieval} needs --method learned, got --method {method}")
+    if method == "conventional" and retrieval != "pinv":
+        raise InputError(
+            f"--retrieval {retrieval} needs --method learned or thermal, got --method {method}"
+        )
     if method == "learned":
         calibrator = Calibrator(fsr_hz=fsr, fsr_tolerance=tolerance, retrieval=retrieval)
+    elif method == "thermal":
+        from ..calibration.thermal import ThermalCalibrator
+
+        calibrator = ThermalCalibrator(
+            fsr_hz=fsr,
+            fsr_tolerance=tolerance,
+            retrieval=retrieval,
+            temperature_std_k=options["temperature_std_k"],
+        )
     else:
         calibrator = ConventionalCalibrator(fsr_hz=fsr, port_phases_rad=phases)
+    if method != "thermal" and _given("temperature_std_k"):
+        raise InputError(
+            f"--temperature-std-k is the temperature sensor noise of a thermal calibration "
+            f"(--method thermal); --method {method} does not use it"
+        )
     if options["per_fsr"]:
+        if calibrator.requires:
+            raise InputError(
+                f"--per-fsr calibrates each FSR with a method that needs nothing but the "
+                f"readings; --method {method} also needs {', '.join(sorted(calibrator.requires))}"
+                ": calibrate one FSR, or leave out --per-fsr"
+            )
         calibrator = CalibrationSet(fsr, tolerance, window=calibrator)
-    description = printable(f"calibrating on {table.source}")
-    with busy(description, quiet=options["quiet"]), about(table.source):
-        with _refused_if(options["strict"]):
-            return calibrator.fit(
-                table.powers_w,
-                table.x_hz,
-                table.monitor_w,
-                list(table.port_names),
-                dark_w=dark_w,
+    return calibrator
+
+
+def _given(name: str) -> bool:
+    """Whether the option ``name`` was given on the command line (not its default)."""
+    source = click.get_current_context().get_parameter_source(name)
+    return source not in (None, ParameterSource.DEFAULT)
+
+
+@dataclass(frozen=True)
+class _Sweeps:
+    """The sweep files of one calibration, concatenated in the order given.
+
+    Attributes
+    ----------
+    tables : tuple of Table
+        One per file, valid rows only, rows in file order.
+    temperature_k : ndarray, shape (N,), or None
+        Chip temperature (K) of every row, for a calibrator that needs it.
+    given_k : tuple of float
+        ``--temperature-k`` of each file (K); empty when the temperature came from columns.
+    """
+
+    tables: tuple
+    temperature_k: np.ndarray | None
+    given_k: tuple
+
+    @property
+    def first(self):
+        return self.tables[0]
+
+    @property
+    def label(self) -> str:
+        """The files, as messages name them."""
+        return ", ".join(str(table.source) for table in self.tables)
+
+    @property
+    def n_rows(self) -> int:
+        return sum(table.n_rows for table in self.tables)
+
+    @property
+    def powers_w(self) -> np.ndarray:
+        return np.concatenate([table.powers_w for table in self.tables])
+
+    @property
+    def x_hz(self) -> np.ndarray:
+        return np.concatenate([table.x_hz for table in self.tables])
+
+    @property
+    def monitor_w(self) -> np.ndarray | None:
+        if self.first.monitor_w is None:
+            return None
+        return np.concatenate([table.monitor_w for table in self.tables])
+
+    @property
+    def measured_temperature_k(self) -> np.ndarray | None:
+        """The temperature columns of the files (K), when every file has one."""
+        columns = [table.temperature_k for table in self.tables]
+        return None if any(values is None for values in columns) else np.concatenate(columns)
+
+
+def _check_sweep_count(calibrator, sweeps: tuple, options: dict) -> None:
+    """Before any work: several files only for a calibrator that needs the temperature,
+    stdin at most once, ``--temperature-k`` once per file."""
+    method = options["method"]
+    check_temperature_options(
+        calibrator,
+        f"--method {method}",
+        column=options["temperature_column"],
+        given=options["temperature_k"],
+    )
+    if len(sweeps) > 1 and not needs_temperature(calibrator):
+        raise InputError(
+            f"--method {method} takes one sweep file, got {len(sweeps)}: only a thermal "
+            "calibration (--method thermal) is fitted on several sweeps (one per "
+            "temperature); merge the files into one if they are one sweep"
+        )
+    if sum(is_stdio(path) for path in sweeps) > 1:
+        raise InputError("only one sweep can be read from stdin ('-')")
+    given = options["temperature_k"]
+    if given and len(given) != len(sweeps):
+        raise InputError(
+            f"--temperature-k is given {len(given)} time(s) for {len(sweeps)} sweep file(s); "
+            "give it once per file, in file order, or leave it out to read each file's "
+            "temperature column"
+        )
+
+
+def _check_same_layout(tables, explicit_ports: bool) -> None:
+    """Every sweep file has the first one's ports (names unless --ports) and monitor."""
+    first = tables[0]
+    names = [port_key(name) for name in first.port_names]
+    for table in tables[1:]:
+        if len(table.port_names) != len(names) or (
+            not explicit_ports and [port_key(name) for name in table.port_names] != names
+        ):
+            raise InputError(
+                f"{table.source} has ports {_port_list(table)} but {first.source} has "
+                f"{_port_list(first)}; the sweeps of one calibration need the same ports: "
+                "pass --ports with the columns of every file in order"
+            )
+        if (table.monitor_w is None) != (first.monitor_w is None):
+            having, lacking = (table, first) if first.monitor_w is None else (first, table)
+            raise InputError(
+                f"{having.source} has a power monitor ({having.monitor_column}) and "
+                f"{lacking.source} has none; the sweeps of one calibration need a monitor in "
+                "every file or in none"
             )
 
 
-def _metadata(table, dark_file) -> dict:
+def _read_sweeps(calibrator, sweeps: tuple, request, options: dict) -> _Sweeps:
+    """Read every sweep file, check they agree, and find each row's temperature."""
+    given = tuple(options["temperature_k"])
+    thermal = needs_temperature(calibrator)
+    tables = tuple(
+        read(
+            path,
+            request,
+            need_x=True,
+            drop_invalid=options["drop_invalid"],
+            quiet=options["quiet"],
+            temperature=None if not thermal else not given,
+        ).valid_only()
+        for path in sweeps
+    )
+    _check_same_layout(tables, request.ports is not None)
+    temperature = None
+    if thermal and given:
+        temperature = np.concatenate(
+            [np.full(table.n_rows, value) for table, value in zip(tables, given, strict=True)]
+        )
+    elif thermal:
+        for table in tables:
+            if table.temperature_k is None:
+                raise missing_temperature(
+                    f"--method {options['method']}",
+                    table.source,
+                    "pass --temperature COL, or --temperature-k T once per sweep file, in "
+                    "file order",
+                )
+        temperature = np.concatenate([table.temperature_k for table in tables])
+    return _Sweeps(tables, temperature, given)
+
+
+def _fit(options: dict, calibrator, sweeps: _Sweeps, dark_w):
+    extra = {} if sweeps.temperature_k is None else {"temperature_k": sweeps.temperature_k}
+    description = printable(f"calibrating on {sweeps.label}")
+    with busy(description, quiet=options["quiet"]), about(sweeps.label):
+        with _refused_if(options["strict"]):
+            return calibrator.fit(
+                sweeps.powers_w,
+                sweeps.x_hz,
+                sweeps.monitor_w,
+                list(sweeps.first.port_names),
+                dark_w=dark_w,
+                **extra,
+            )
+
+
+def _one_or_list(values: list):
+    """The value every file shares, or the list of each file's (metadata)."""
+    return values[0] if all(value == values[0] for value in values) else values
+
+
+def _metadata(sweeps: _Sweeps, dark_file) -> dict:
     """What the calibration was read from, kept in the calibration file (the dark readings'
-    file only when there was one)."""
-    temperature = table.temperature_k
+    file only when there was one). One sweep file: its name and columns; several: the list
+    of names, and each column entry a list where the files differ."""
+    tables = sweeps.tables
+    several = len(tables) > 1
+    temperature = sweeps.temperature_k
+    if temperature is None:
+        temperature = sweeps.measured_temperature_k
     metadata = {
-        "sweep_file": str(table.source),
-        "x_column": table.x_column,
-        "x_unit": table.x_unit,
-        "port_columns": list(table.port_names),
-        "port_units": list(table.port_units),
-        "monitor_column": table.monitor_column,
-        "temperature_column": table.temperature_column,
+        "sweep_file": [str(t.source) for t in tables] if several else str(sweeps.first.source),
+        "x_column": _one_or_list([t.x_column for t in tables]),
+        "x_unit": _one_or_list([t.x_unit for t in tables]),
+        "port_columns": _one_or_list([list(t.port_names) for t in tables]),
+        "port_units": _one_or_list([list(t.port_units) for t in tables]),
+        "monitor_column": _one_or_list([t.monitor_column for t in tables]),
+        "temperature_column": None
+        if sweeps.given_k
+        else _one_or_list([t.temperature_column for t in tables]),
         "temperature_k_range": None
         if temperature is None
         else [float(temperature.min()), float(temperature.max())],
-        "rows": table.n_rows,
-        "dropped_rows": table.dropped_rows,
+        "rows": sweeps.n_rows,
+        "dropped_rows": sum(t.dropped_rows for t in tables),
     }
+    if several:
+        metadata["rows_per_file"] = [t.n_rows for t in tables]
+    if sweeps.given_k:
+        metadata["temperature_k_given"] = [float(value) for value in sweeps.given_k]
     if dark_file is not None:
         metadata["dark_file"] = STDIN_LABEL if is_stdio(dark_file) else str(dark_file)
     return metadata
 
 
+def _read_line(sweeps: _Sweeps) -> str:
+    """What was read: files, rows, axis, ports, monitor and temperature."""
+    first = sweeps.first
+    rows = f"{sweeps.n_rows} rows"
+    if len(sweeps.tables) > 1:
+        rows += f" ({' + '.join(str(table.n_rows) for table in sweeps.tables)})"
+    text = (
+        f"calibrated {sweeps.label}: {rows}, axis {first.x_column} ({first.x_unit}), "
+        f"ports {_port_list(first)}"
+    )
+    if first.monitor_column:
+        text += f", monitor {first.monitor_column}"
+    if sweeps.temperature_k is not None:
+        low, high = sweeps.temperature_k.min(), sweeps.temperature_k.max()
+        source = (
+            "--temperature-k"
+            if sweeps.given_k
+            else f"column {', '.join(dict.fromkeys(t.temperature_column for t in sweeps.tables))}"
+        )
+        text += f", temperature {low:.6g} to {high:.6g} K ({source})"
+    return text
+
+
 @click.command()
-@click.argument("sweep", type=click.Path(dir_okay=False))
+@click.argument(
+    "sweeps", metavar="SWEEP [SWEEP ...]", nargs=-1, required=True, type=click.Path(dir_okay=False)
+)
 @out_option("Calibration file to write: JSON, e.g. chip.wmcal.json ('-' for stdout).")
 @setting("--fsr", "50GHz", FSR, "Design FSR: 50GHz, '49.69 GHz'; a bare number is in Hz (5e10).")
 @setting(
@@ -153,18 +384,34 @@ def _metadata(table, dark_file) -> dict:
 )
 @click.option(
     "--method",
-    type=click.Choice(("learned", "conventional")),
+    type=click.Choice(("learned", "conventional", "thermal")),
     default="learned",
     show_default=True,
-    help="Learned linear map (paper) or the conventional ideal-map method.",
+    help="Learned linear map (paper), the conventional ideal-map method, or the learned map "
+    "with the chip temperature's effect on bias phase and delay (sweeps at several "
+    "temperatures).",
 )
 @click.option(
     "--retrieval",
     type=click.Choice(("pinv", "ml")),
     default="pinv",
     show_default=True,
-    help="Phase retrieval of the learned method: pseudo-inverse (paper) or cone-constrained "
-    "maximum likelihood (reaches the Cramer-Rao bound also for ill-conditioned maps).",
+    help="Phase retrieval of the learned and thermal methods: pseudo-inverse (paper) or "
+    "cone-constrained maximum likelihood (reaches the Cramer-Rao bound also for "
+    "ill-conditioned maps).",
+)
+@temperature_k_option(
+    "Chip temperature of every reading of a sweep file (thermal method), once per file in "
+    "file order: 293.15 (K), 293.15K, 20C. Default: each file's temperature column.",
+    multiple=True,
+)
+@setting(
+    "--temperature-std-k",
+    DEFAULT_TEMPERATURE_STD_K,
+    click.FloatRange(0, min_open=True),
+    "Noise of the temperature readings in use (K, thermal method): adds the fitted rate "
+    "times it to each reading's frequency uncertainty.",
+    metavar="K",
 )
 @PORT_PHASES
 @click.option(
@@ -195,7 +442,7 @@ def _metadata(table, dark_file) -> dict:
 @column_options()
 @FORCE
 @QUIET
-def calibrate(sweep, out_path, port_phases_deg, force, **options):
+def calibrate(sweeps, out_path, port_phases_deg, force, **options):
     """Learn a calibration from a sweep of known frequencies.
 
     SWEEP is a CSV/TSV, HDF5, MAT, NPZ or Parquet file ('-' for stdin) with a frequency
@@ -204,12 +451,21 @@ def calibrate(sweep, out_path, port_phases_deg, force, **options):
     Calibration warnings print as 'warning: [cause] ...' lines on stderr (also with
     --quiet); with --strict they are errors (exit code 3) and nothing is written.
 
+    --method thermal takes one or more sweeps (at two or more temperatures, or one
+    recording while the temperature changes), concatenated in the order given, with the
+    chip temperature of every reading from a temperature column (found by name with its
+    unit, e.g. temperature_K or 'Temp (C)', or --temperature COL) or --temperature-k once
+    per file. The other methods take one sweep.
+
     \b
     Example:
       wavemeter calibrate sweep.csv -o chip.wmcal.json --fsr 50GHz
       wavemeter calibrate sweep.csv -o chip.wmcal.json --dark dark.csv --strict
       wavemeter calibrate lab.csv -o chip.wmcal.json --fsr '49.69 GHz' \\
           --x 'Wavelength (nm)' --ports 'Port 1 [dBm]','Port 2 [dBm]','Port 3 [dBm]'
+      wavemeter calibrate --method thermal cold.csv mid.csv warm.csv -o chip.wmcal.json
+      wavemeter calibrate --method thermal a.csv b.csv --temperature-k 20C \\
+          --temperature-k 21.5C -o chip.wmcal.json
     """
     from ..calibration.files import save_calibration
 
@@ -218,26 +474,20 @@ def calibrate(sweep, out_path, port_phases_deg, force, **options):
         raise InputError(
             "--dark and --dark-w both give the dark readings; give a file or values, not both"
         )
-    if dark_file is not None and is_stdio(dark_file) and is_stdio(sweep):
+    if dark_file is not None and is_stdio(dark_file) and any(map(is_stdio, sweeps)):
         raise InputError("the sweep and --dark cannot both be read from stdin ('-')")
-    check_calibration_output(out_path, (sweep, *([dark_file] if dark_file else [])), force)
+    calibrator = _calibrator(options, port_phases_rad(port_phases_deg))
+    _check_sweep_count(calibrator, sweeps, options)
+    check_calibration_output(out_path, (*sweeps, *([dark_file] if dark_file else [])), force)
     request = column_request(options)
     quiet = options["quiet"]
-    table = read(
-        sweep, request, need_x=True, drop_invalid=options["drop_invalid"], quiet=quiet
-    ).valid_only()
-    dark_w = _dark_w(options, request, table)
-    calibration = _fit(options, table, port_phases_rad(port_phases_deg), dark_w)
+    read_sweeps = _read_sweeps(calibrator, sweeps, request, options)
+    dark_w = _dark_w(options, request, read_sweeps.first)
+    calibration = _fit(options, calibrator, read_sweeps, dark_w)
     with output_path(out_path) as target:
-        save_calibration(calibration, target, _metadata(table, dark_file))
+        save_calibration(calibration, target, _metadata(read_sweeps, dark_file))
     to_stderr = is_stdio(out_path)
-    say(
-        quiet,
-        f"calibrated {table.source}: {table.n_rows} rows, axis {table.x_column} "
-        f"({table.x_unit}), ports {', '.join(table.port_names)}"
-        + (f", monitor {table.monitor_column}" if table.monitor_column else ""),
-        err=to_stderr,
-    )
+    say(quiet, _read_line(read_sweeps), err=to_stderr)
     say(quiet, calibration.summary().text, err=to_stderr)
     say(quiet, f"wrote {'the calibration to stdout' if to_stderr else out_path}", err=to_stderr)
 

@@ -22,6 +22,7 @@ from ._common import (
     read,
     say,
 )
+from ._temperature import needs_temperature
 
 
 def _other_method(calibration, sweep, options, phases):
@@ -198,6 +199,19 @@ def _print_adjacent(adjacent: dict) -> None:
     say(False, "\n".join(_table(labels, header, rows)))
 
 
+def _refuse_temperature(calibration, cal_path) -> None:
+    """The evaluation (:func:`wavemeter.analysis.evaluation.evaluate_calibrations`) passes
+    no chip temperature: refuse a calibration that needs one, naming what does."""
+    if needs_temperature(calibration):
+        raise InputError(
+            f"{cal_path} is a {calibration.method_label} calibration: it needs the chip "
+            "temperature of each reading, which evaluate does not pass yet; write a report "
+            "(wavemeter report CAL SWEEP TEST: errors against the bound and against "
+            "temperature) or measure the test file (wavemeter measure reads its temperature "
+            "column)"
+        )
+
+
 @click.command()
 @click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
 @click.argument("test", type=click.Path(dir_okay=False))
@@ -269,8 +283,10 @@ def evaluate(
     explicit = request.ports is not None
     check_ports(calibration, calibration_file, table, explicit)
     calibrations = {calibration.method_label: calibration}
+    _refuse_temperature(calibration, calibration_file)
     for path in compare_files:
         other = load(path)
+        _refuse_temperature(other, path)
         check_ports(other, path, table, explicit)
         calibrations.setdefault(f"{other.method_label} ({Path(path).name})", other)
     if sweep is not None:

@@ -1,7 +1,10 @@
 """`wavemeter info`: what a calibration file holds.
 
 Everything printed comes from the file, so it passes through :func:`printable` first: a
-crafted port name or metadata value cannot send escape sequences to the terminal.
+crafted port name or metadata value cannot send escape sequences to the terminal. The
+fit report (``summary().text``) holds a thermal calibration's rates with their standard
+errors, its reference temperature, calibrated range and unambiguous bias-rate range; the
+metadata says where each sweep file's temperature came from.
 """
 
 from __future__ import annotations
@@ -25,9 +28,15 @@ LABEL_WIDTH = 17
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
 _DELIMITERS = re.compile(r"[,;\t]")
 #: metadata entries of the sweep line (shown there when the file names its sweep)
-_SWEEP = {"sweep_file", "rows", "x_column", "x_unit", "port_units"}
+_SWEEP = {"sweep_file", "rows", "rows_per_file", "x_column", "x_unit", "port_units"}
 #: metadata entries with lines of their own (the rest follow, one per line)
-_OWN_LINES = {"port_columns", "monitor_column", "temperature_column", "temperature_k_range"}
+_OWN_LINES = {
+    "port_columns",
+    "monitor_column",
+    "temperature_column",
+    "temperature_k_range",
+    "temperature_k_given",
+}
 
 
 def _line(label: str, text: str) -> str:
@@ -73,6 +82,18 @@ def _is_number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+def _temperatures_text(values) -> str:
+    if isinstance(values, list) and values and all(map(_is_number, values)):
+        return ", ".join(f"{value:.6g}" for value in values) + " K"
+    return "?"
+
+
+def _sweep_files(value) -> str:
+    if isinstance(value, list):
+        return ", ".join(map(str, value))
+    return str(value)
+
+
 def metadata_lines(metadata: dict) -> list[str]:
     """Every entry of a calibration file's metadata: where the sweep came from and how
     its columns were read, then any other notes."""
@@ -81,30 +102,40 @@ def metadata_lines(metadata: dict) -> list[str]:
     if metadata.get("sweep_file") is not None:
         shown |= _SWEEP
         units = metadata.get("port_units")
+        if isinstance(units, list) and units and all(isinstance(u, list) for u in units):
+            units = [unit for file_units in units for unit in file_units]  # one list per file
         unit_text = (
             ", ".join(sorted({str(unit or "relative") for unit in units}))
             if isinstance(units, list)
             else "?"
         )
+        per_file = metadata.get("rows_per_file")
+        rows = str(metadata.get("rows"))
+        if isinstance(per_file, list):
+            rows += f" = {' + '.join(map(str, per_file))}"
         lines.append(
             _line(
                 "sweep",
-                f"{metadata['sweep_file']} ({metadata.get('rows')} rows, axis "
-                f"{metadata.get('x_column')} in {metadata.get('x_unit')}, ports in {unit_text})",
+                f"{_sweep_files(metadata['sweep_file'])} ({rows} rows, axis "
+                f"{_sweep_files(metadata.get('x_column'))} in "
+                f"{_sweep_files(metadata.get('x_unit'))}, ports in {unit_text})",
             )
         )
     columns = metadata.get("port_columns")
-    if isinstance(columns, list):
+    if isinstance(columns, list) and columns and all(isinstance(c, list) for c in columns):
+        lines.append(_line("port columns", "; ".join(", ".join(map(str, c)) for c in columns)))
+    elif isinstance(columns, list):
         lines.append(_line("port columns", ", ".join(map(str, columns))))
-    lines.append(_line("monitor column", metadata.get("monitor_column") or "none"))
+    lines.append(_line("monitor column", _sweep_files(metadata.get("monitor_column") or "none")))
     span = metadata.get("temperature_k_range")
+    given = metadata.get("temperature_k_given")
     if isinstance(span, list) and len(span) == 2 and all(map(_is_number, span)):
-        lines.append(
-            _line(
-                "temperature",
-                f"{span[0]:.6g} to {span[1]:.6g} K (column {metadata.get('temperature_column')})",
-            )
+        source = (
+            f"given per file: {_temperatures_text(given)}"
+            if isinstance(given, list)
+            else f"column {_sweep_files(metadata.get('temperature_column'))}"
         )
+        lines.append(_line("temperature", f"{span[0]:.6g} to {span[1]:.6g} K ({source})"))
     else:
         lines.append(_line("temperature", "not recorded"))
     for key, value in metadata.items():

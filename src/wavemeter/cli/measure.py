@@ -2,7 +2,10 @@
 
 Every output row carries ``flags``, the calibration's quality bits for that reading
 (:class:`wavemeter.calibration.flags.ReadingFlag`; a row skipped as invalid gets
-``INVALID``), and ``frequency_std_hz`` where the calibration gives it.
+``INVALID``), and ``frequency_std_hz`` where the calibration gives it. A calibration that
+needs the chip temperature (``"temperature_k"`` in its ``requires``: a thermal one) gets it
+from the readings' temperature column or ``--temperature-k`` for the whole file, and the
+output has a ``temperature_k`` column: the temperature (K) each reading was retrieved at.
 """
 
 from __future__ import annotations
@@ -33,6 +36,12 @@ from ._common import (
 )
 from ._params import OPTICAL_FREQUENCY, AliasedOption
 from ._streams import is_stdio
+from ._temperature import (
+    check_temperature_options,
+    needs_temperature,
+    reading_temperature_k,
+    temperature_k_option,
+)
 
 
 def _coarse(calibration, cal_path, table, coarse_hz):
@@ -85,6 +94,17 @@ def flag_summary(flags: np.ndarray) -> str:
     "(calibration sets).",
 )
 @click.option(
+    "--temperature",
+    "temperature_column",
+    metavar="COL",
+    help="Temperature column in K or C, for a thermal calibration (default: found by name, "
+    "e.g. temp_C).",
+)
+@temperature_k_option(
+    "Chip temperature of every reading, for a thermal calibration, instead of a column: "
+    "293.15 (K), 293.15K, 20C."
+)
+@click.option(
     "--uncertainty/--no-uncertainty",
     default=None,
     help="Write frequency_std_hz, each reading's standard deviation with the calibration's own "
@@ -101,6 +121,7 @@ def measure(
     file_format,
     coarse_column,
     coarse_hz,
+    temperature_k,
     uncertainty,
     force,
     **options,
@@ -110,14 +131,20 @@ def measure(
     Writes one row per input row, in order: frequency_hz, wavelength_nm (vacuum) and
     phase_rad at full float64 precision, frequency_std_hz (unless --no-uncertainty or
     the calibration gives none), flags (quality bits: 1 OFF_MODEL, 2 OUTSIDE_SPAN,
-    4 POWER_RANGE, 8 INVALID; 0 when nothing is wrong), then the --keep columns. Rows
-    skipped with --drop-invalid are written as NaN with the INVALID flag. DATA '-' is
-    read from stdin; with -o - the table goes to stdout (CSV unless --format) and
-    messages to stderr. An existing output is replaced only with --force.
+    4 POWER_RANGE, 8 INVALID, 16 TEMPERATURE_RANGE; 0 when nothing is wrong), for a
+    thermal calibration temperature_k (the chip temperature used, K), then the --keep
+    columns. Rows skipped with --drop-invalid are written as NaN with the INVALID flag.
+    DATA '-' is read from stdin; with -o - the table goes to stdout (CSV unless --format)
+    and messages to stderr. An existing output is replaced only with --force.
+
+    A thermal calibration needs the chip temperature of each reading: from a temperature
+    column (found by name with its unit, e.g. temperature_K or 'Temp (C)', or
+    --temperature COL) or --temperature-k for the whole file.
 
     \b
     Example:
       wavemeter measure chip.wmcal.json readings.csv -o frequencies.csv --keep time_s
+      wavemeter measure thermal.wmcal.json readings.csv -o f.csv --temperature 'Temp (C)'
     """
     quiet = options["quiet"]
     file_format = output_format(
@@ -131,9 +158,27 @@ def measure(
             f"FSR), not a {calibration.method_label} calibration"
         )
     uncertainty = offered if uncertainty is None else uncertainty
+    thermal = needs_temperature(calibration)
+    column = options["temperature_column"]
+    check_temperature_options(calibration, calibration_file, column=column, given=temperature_k)
+    if column is not None and not thermal:
+        raise InputError(
+            f"--temperature names the chip temperature column for a calibration that needs "
+            f"it (a thermal calibration); {calibration_file} is a "
+            f"{calibration.method_label} calibration, which does not use it: leave "
+            "--temperature out"
+        )
     request = column_request(options, coarse=coarse_column, keep=names(keep) or ())
-    table = read(data, request, need_x=False, drop_invalid=options["drop_invalid"], quiet=quiet)
+    table = read(
+        data,
+        request,
+        need_x=False,
+        drop_invalid=options["drop_invalid"],
+        quiet=quiet,
+        temperature=thermal and temperature_k is None,
+    )
     check_ports(calibration, calibration_file, table, explicit=request.ports is not None)
+    temperature = reading_temperature_k(calibration, calibration_file, table, temperature_k)
     valid = table.valid_only()
     coarse = _coarse(calibration, calibration_file, valid, coarse_hz)
     frequency = np.full(table.n_rows, np.nan)
@@ -144,6 +189,8 @@ def measure(
     description = printable(f"measuring {table.source}")
     for block in chunked(valid.n_rows, description, quiet=quiet):
         extra = {} if coarse is None else {"coarse_hz": coarse[block]}
+        if temperature is not None:
+            extra["temperature_k"] = temperature[rows[block]]
         with about(table.source):
             frequency[rows[block]] = calibration.predict(valid.powers_w[block], **extra)
             phase[rows[block]] = calibration.phase(valid.powers_w[block], **extra)
@@ -156,6 +203,7 @@ def measure(
         "phase_rad": phase,
         **({"frequency_std_hz": std} if uncertainty else {}),
         "flags": flags,
+        **({} if temperature is None else {"temperature_k": temperature}),
     }
     for name, values in table.kept.items():
         columns.setdefault(name, values)

@@ -1,9 +1,11 @@
 """`wavemeter reanchor`: correct a calibration's bias phase (and delay) from reference lines.
 
 Readings of one or more lines of known frequency (a reference laser, a gas-cell line)
-re-anchor a learned calibration, single or per FSR, as
+re-anchor a learned calibration, single or per FSR, or a thermal one, as
 :mod:`wavemeter.calibration.reanchor` describes; the result is a new calibration file with
-the original's metadata and ``reanchor_file``, the readings' file.
+the original's metadata and ``reanchor_file``, the readings' file. A calibration that needs
+the chip temperature (``"temperature_k"`` in its ``requires``) gets it from the readings'
+temperature column or ``--temperature-k``.
 """
 
 from __future__ import annotations
@@ -29,6 +31,15 @@ from ._common import (
 )
 from ._params import OPTICAL_FREQUENCY
 from ._streams import is_stdio, output_path
+from ._temperature import (
+    check_temperature_options,
+    needs_temperature,
+    reading_temperature_k,
+    temperature_k_option,
+)
+
+#: reference lines listed by frequency in the summary, at most
+LINES_SHOWN = 8
 
 
 def _check_frequency_options(frequency_hz, x_column, x_unit) -> None:
@@ -62,8 +73,14 @@ def summary_lines(calibration) -> list[str]:
     """What re-anchoring changed, from ``diagnostics_["reanchor"]`` of the result: lines and
     readings, then the phase shift and delay (per window for a calibration set)."""
     record = calibration.diagnostics_["reanchor"]
-    lines_thz = ", ".join(f"{line_hz / 1e12:.6f}" for line_hz in record["lines_hz"])
+    shown = record["lines_hz"][:LINES_SHOWN]
+    lines_thz = ", ".join(f"{line_hz / 1e12:.6f}" for line_hz in shown)
+    more = len(record["lines_hz"]) - len(shown)
+    if more:
+        lines_thz += f", ... ({more} more)"
     lines = [f"{record['readings']} readings of {len(record['lines_hz'])} line(s): {lines_thz} THz"]
+    if record.get("temperature_k") is not None:
+        lines.append(f"at a mean chip temperature of {record['temperature_k']:.6g} K")
     windows = record.get("windows")
     if windows is None:
         lines += _change_lines(record)
@@ -88,17 +105,23 @@ def summary_lines(calibration) -> list[str]:
     help="Known frequency of every reading (one line), 193.4THz or 1550nm; a bare number is "
     "in Hz. Or --x COL.",
 )
+@temperature_k_option(
+    "Chip temperature of every reading, for a thermal calibration, instead of a column: "
+    "293.15 (K), 293.15K, 20C."
+)
 @column_options()
 @FORCE
 @QUIET
-def reanchor(calibration_file, readings, out_path, frequency_hz, force, **options):
+def reanchor(calibration_file, readings, out_path, frequency_hz, temperature_k, force, **options):
     """Re-anchor a calibration to readings of reference lines of known frequency.
 
     The chip's bias phase moves with temperature and age; readings of one or more lines
     of known frequency measure the change, and of lines spread over the FSR also a delay
     change. Give the frequency with --frequency (one line for the file) or --x COL (per
     row, unit from the name or --x-unit). Needs a learned calibration, single or per FSR
-    (a window without lines gets its shift interpolated). The new file keeps the
+    (a window without lines gets its shift interpolated), or a thermal one, which also
+    needs the chip temperature of each reading: a temperature column (found by name with
+    its unit, or --temperature COL) or --temperature-k for the file. The new file keeps the
     original's metadata; it must not exist unless --force is given, and is never CAL or
     READINGS.
 
@@ -106,6 +129,8 @@ def reanchor(calibration_file, readings, out_path, frequency_hz, force, **option
     Example:
       wavemeter reanchor chip.wmcal.json hcn.csv --frequency 193.4THz -o chip-today.wmcal.json
       wavemeter reanchor chip.wmcal.json lines.csv --x wavelength_nm -o chip-today.wmcal.json
+      wavemeter reanchor thermal.wmcal.json hcn.csv --frequency 193.4THz --temperature-k 25C \\
+          -o thermal-today.wmcal.json
     """
     from ..calibration.files import save_calibration
 
@@ -118,8 +143,13 @@ def reanchor(calibration_file, readings, out_path, frequency_hz, force, **option
     if not callable(getattr(calibration, "reanchor", None)):
         raise InputError(
             f"{calibration_file}: a {calibration.method_label} calibration cannot be "
-            "re-anchored; re-anchoring needs a learned calibration (single or per FSR)"
+            "re-anchored; re-anchoring needs a learned calibration (single or per FSR) or a "
+            "thermal one"
         )
+    check_temperature_options(
+        calibration, calibration_file, column=options["temperature_column"], given=temperature_k
+    )
+    thermal = needs_temperature(calibration)
     request = column_request(options)
     table = read(
         readings,
@@ -127,12 +157,16 @@ def reanchor(calibration_file, readings, out_path, frequency_hz, force, **option
         need_x=x_column is not None,
         drop_invalid=options["drop_invalid"],
         quiet=quiet,
+        temperature=(x_column is not None) if not thermal else temperature_k is None,
     ).valid_only()
     check_ports(calibration, calibration_file, table, explicit=request.ports is not None)
     known_hz = table.x_hz if frequency_hz is None else frequency_hz
+    temperature = reading_temperature_k(calibration, calibration_file, table, temperature_k)
+    if temperature is None:
+        temperature = table.temperature_k
     description = printable(f"re-anchoring on {table.source}")
     with busy(description, quiet=quiet), about(table.source):
-        anchored = calibration.reanchor(table.powers_w, known_hz, temperature_k=table.temperature_k)
+        anchored = calibration.reanchor(table.powers_w, known_hz, temperature_k=temperature)
     metadata = {**content.metadata, "reanchor_file": str(table.source)}
     with output_path(out_path) as target:
         save_calibration(anchored, target, metadata)

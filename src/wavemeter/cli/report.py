@@ -1,4 +1,8 @@
-"""`wavemeter report`: an HTML report of a calibration on its sweep."""
+"""`wavemeter report`: an HTML report of a calibration on its sweep.
+
+A calibration that needs the chip temperature (a thermal one) reads it from the sweep's
+and the test file's temperature columns; its report adds the error against temperature.
+"""
 
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ from ._common import (
     read,
     say,
 )
+from ._temperature import missing_temperature, needs_temperature
 
 
 @click.command()
@@ -37,9 +42,16 @@ def report(calibration_file, sweep, test, out_path, force, port_phases_deg, **op
     paper's figures. Existing outputs (the page or its PNGs) are replaced only with
     --force.
 
+    A thermal calibration is compared with the plain learned calibration fitted on the
+    same sweep, and the page adds its thermal rates and the frequency error against the
+    chip temperature: SWEEP and TEST need a temperature column (found by name with its
+    unit, or --temperature COL). Give a TEST file recorded at several temperatures to see
+    the error over them.
+
     \b
     Example:
       wavemeter report chip.wmcal.json sweep.csv sweep-test.csv -o report.html
+      wavemeter report thermal.wmcal.json s293.csv readings.csv -o report.html
     """
     from ..report.html import write_report
 
@@ -54,6 +66,13 @@ def report(calibration_file, sweep, test, out_path, force, port_phases_deg, **op
             path, request, need_x=True, drop_invalid=options["drop_invalid"], quiet=options["quiet"]
         ).valid_only()
         check_ports(calibration, calibration_file, table, request.ports is not None)
+        if needs_temperature(calibration) and table.temperature_k is None:
+            raise missing_temperature(
+                f"{calibration_file} is a {calibration.method_label} calibration: its report",
+                table.source,
+                "add a temperature column with its unit (temperature_K, 'Temp (C)') or "
+                "name it with --temperature COL",
+            )
         tables.append(table)
     with busy(f"writing {out_path}", quiet=options["quiet"]):
         written = write_report(

@@ -3,6 +3,13 @@
 Hardware faults can be added: detector dark offsets, unequal detector noise and group-delay
 dispersion are properties of the device and reach every file; a source-power drift and a
 thermal drift happen during the calibration sweep only.
+
+A thermal device (``--platform sin|soi``: the fringe shift and delay rate of silicon nitride
+or silicon on insulator) is recorded at a chip temperature (``--temperature-k``, default
+the device's reference 293.15 K) or during a linear ramp (``--ramp-k A:B`` over the whole
+recording, with ``--repeat`` sweeps in a row), and the files get a ``temperature_k``
+column. Runs at different temperatures simulate the same device (same ``--seed``) with
+noise of their own: the noise is drawn from a stream of the seed and the temperatures.
 """
 
 from __future__ import annotations
@@ -34,7 +41,7 @@ from ._common import (
     say,
     setting,
 )
-from ._params import NOISE_POWER, NOISE_POWERS, OFFSETS, POWER
+from ._params import NOISE_POWER, NOISE_POWERS, OFFSETS, POWER, TEMPERATURE
 from ._streams import is_stdio
 
 #: bias phase change per kelvin of ``--thermal-drift`` for a device without a thermal
@@ -43,6 +50,11 @@ DEFAULT_THERMAL_RAD_PER_K = 1.0
 #: the power drift is drawn from its own stream of the seed, so that adding it leaves the
 #: noise of the readings as it was
 _DRIFT_STREAM = 1
+#: a recording at a given temperature (or ramp) draws its noise from this stream of the seed
+#: and the temperatures in mK, so that runs at different temperatures have their own noise
+_TEMPERATURE_STREAM = 2
+#: thermal platforms of ``--platform``: the keys of wavemeter.THERMAL_PRESETS
+PLATFORMS = ("sin", "soi")
 
 
 class FiniteFloat(click.types.FloatParamType):
@@ -69,6 +81,21 @@ class FiniteFloat(click.types.FloatParamType):
         return number
 
 
+class RampParam(click.ParamType):
+    """A temperature ramp ``A:B``: start and end temperature, each in K or with its unit
+    (``290:300``, ``20C:30C``). Converts to a tuple of two floats (K)."""
+
+    name = "A:B"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        parts = str(value).split(":")
+        if len(parts) != 2:
+            self.fail(f"{value!r} is not a ramp: give start and end as A:B (290:300)", param, ctx)
+        return tuple(TEMPERATURE.convert(part, param, ctx) for part in parts)
+
+
 def _suffix(unit: str) -> str:
     """Unit suffix of a column name: ``frequency_hz``, ``p1_w``, ``freq_THz``, ``p1_dBm``."""
     return unit.lower() if unit in ("Hz", "W") else unit
@@ -88,12 +115,21 @@ def _power_columns(powers_w: np.ndarray, unit: str) -> dict[str, np.ndarray]:
 
 
 def _readings(
-    device, frequency_hz, options, rng, description, power_factor=None, bias_drift_rad=None
+    device,
+    frequency_hz,
+    options,
+    rng,
+    description,
+    power_factor=None,
+    bias_drift_rad=None,
+    temperature_k=None,
 ) -> dict[str, np.ndarray]:
-    """Port columns (and, if ``options["monitor"]``, a monitor) for frequencies (Hz).
+    """Port columns (and, if ``options["monitor"]``, a monitor; with ``temperature_k`` a
+    ``temperature_k`` column) for frequencies (Hz).
 
     ``power_factor`` multiplies the source power and ``bias_drift_rad`` adds to the bias
-    phase of each reading (shape (N,) each; None: no drift).
+    phase of each reading; ``temperature_k`` is the chip temperature of each (K) (shape
+    (N,) each; None: no drift, the device's reference temperature).
     """
     samples = frequency_hz.size
     power = np.full(samples, options["power_w"])
@@ -104,13 +140,21 @@ def _readings(
     powers = np.empty((samples, device.ports))
     for rows in chunked(samples, description, quiet=options["quiet"]):
         drift = None if bias_drift_rad is None else bias_drift_rad[rows]
+        temperature = None if temperature_k is None else temperature_k[rows]
         powers[rows] = device.powers(
-            frequency_hz[rows], power[rows], options["noise_w"], rng, bias_drift_rad=drift
+            frequency_hz[rows],
+            power[rows],
+            options["noise_w"],
+            rng,
+            temperature_k=temperature,
+            bias_drift_rad=drift,
         )
     columns = _power_columns(powers, options["power_unit"])
     if options["monitor"]:
         unit = options["power_unit"]
         columns[f"monitor_{_suffix(unit)}"] = w_to_power(device.monitor(power), unit)
+    if temperature_k is not None:
+        columns["temperature_k"] = temperature_k
     return columns
 
 
@@ -155,6 +199,58 @@ def _sweep_drift(device, samples: int, options) -> tuple[np.ndarray | None, np.n
         rad_per_k = device.thermal_phase_rad_per_k or DEFAULT_THERMAL_RAD_PER_K
         bias_drift_rad = thermal_ramp_rad(samples, options["thermal_drift_k"], rad_per_k)
     return power_factor, bias_drift_rad
+
+
+def _thermal(device, options):
+    """The device with the thermal coefficients of ``--platform``; refuses a temperature
+    for a device without them."""
+    platform = options["platform"]
+    if platform is None:
+        for name in ("temperature_k", "ramp_k"):
+            if options[name] is not None:
+                option = "--" + name.replace("_", "-")
+                raise InputError(
+                    f"{option} needs a thermal device: add --platform sin or soi (a Table 1 "
+                    "device has no thermal coefficients)"
+                )
+        return device
+    if options["temperature_k"] is not None and options["ramp_k"] is not None:
+        raise InputError(
+            "--temperature-k (one temperature) and --ramp-k (a ramp) both set the chip "
+            "temperature; give one of them"
+        )
+    return device.with_thermal(platform)
+
+
+def _temperatures_k(device, options, sweep_samples: int, test_samples: int, rng):
+    """Chip temperature (K) of the sweep's readings and of the test readings: constant,
+    a linear ramp over the sweep (the test readings uniform over it), or None without
+    ``--platform``."""
+    if options["platform"] is None:
+        return None, None
+    if options["ramp_k"] is not None:
+        start, end = options["ramp_k"]
+        sweep = np.linspace(start, end, sweep_samples)
+        return sweep, rng.uniform(min(start, end), max(start, end), test_samples)
+    temperature = options["temperature_k"]
+    if temperature is None:
+        temperature = device.reference_temperature_k
+    return np.full(sweep_samples, temperature), np.full(test_samples, temperature)
+
+
+def _noise_rng(options) -> np.random.Generator:
+    """The generator of the noise: the seed's (as the demo) at the reference temperature, else
+    a stream of the seed and the temperatures given (mK)."""
+    given = options["ramp_k"] or (options["temperature_k"],)
+    if given == (None,):
+        return np.random.default_rng(options["seed"])
+    millikelvin = [round(value * 1e3) for value in given]
+    return np.random.default_rng([options["seed"], _TEMPERATURE_STREAM, *millikelvin])
+
+
+def _temperature_text(temperature_k: np.ndarray) -> str:
+    start, end = temperature_k[0], temperature_k[-1]
+    return f"{start:.6g} K" if start == end else f"{start:.6g} to {end:.6g} K"
 
 
 def _targets(out_path: str, test_samples: int, test_out: str | None) -> list[str]:
@@ -283,6 +379,33 @@ def _targets(out_path: str, test_samples: int, test_out: str | None) -> list[str
     metavar="K",
 )
 @click.option(
+    "--platform",
+    type=click.Choice(PLATFORMS),
+    help="Make the device thermal: the fringe shift and delay rate of silicon nitride (sin, "
+    "2.6 GHz/K) or silicon on insulator (soi, 10 GHz/K); the files get a temperature_k column.",
+)
+@click.option(
+    "--temperature-k",
+    type=TEMPERATURE,
+    metavar="T",
+    help="Chip temperature of the whole recording (--platform): 293.15 (K), 293.15K, 20C. "
+    "Default: the device's reference temperature, 293.15 K.",
+)
+@click.option(
+    "--ramp-k",
+    type=RampParam(),
+    metavar="A:B",
+    help="Chip temperature ramping linearly from A to B over the recording (--platform), "
+    "e.g. 290:300; the test readings at temperatures uniform over the ramp.",
+)
+@setting(
+    "--repeat",
+    1,
+    click.IntRange(1),
+    "Record the sweep this many times in a row (a recording of --repeat x --samples rows; "
+    "with --ramp-k the sweeps see different temperatures).",
+)
+@click.option(
     "--no-monitor",
     is_flag=True,
     help="Write no monitor column even when the source power varies (to see a drift "
@@ -306,11 +429,18 @@ def simulate(out_path, test_samples, test_out, force, **options):
     (--power-fluctuation or --power-drift) and records the true source power, in both
     files unless --no-monitor.
 
+    A thermal device (--platform) is recorded at --temperature-k, or during --ramp-k
+    (with --repeat sweeps in a row, so that temperature and frequency do not change
+    together); both files get a temperature_k column. Runs at several temperatures with
+    one --seed simulate one device, each with noise of its own.
+
     \b
     Example:
       wavemeter simulate -o sweep.csv --ports 3 --seed 1 --test 20000
       wavemeter simulate -o lab.csv --write-axis-unit nm --write-power-unit dBm --noise 20nW
       wavemeter simulate -o faulty.csv --dark-offset 2uW --power-drift 0.05 --test 2000
+      wavemeter simulate -o s290.csv --platform sin --temperature-k 290
+      wavemeter simulate -o ramp.csv --platform sin --ramp-k 290:300 --repeat 5
     """
     from ..simulation.interferometer import Interferometer
 
@@ -324,23 +454,34 @@ def simulate(out_path, test_samples, test_out, force, **options):
     formats = [output_format(path, options["file_format"], force=force) for path in targets]
     messages_to_stderr = any(is_stdio(path) for path in targets)
     device = Interferometer.table1(options["ports"], seed=options["seed"], fsr_hz=options["fsr"])
-    device = _faulty(device, options)
+    device = _thermal(_faulty(device, options), options)
     options["noise_w"] = _noise_w(options, device.ports)
     varies = options["power_fluctuation"] > 0 or options["power_drift"] > 0
     options["monitor"] = varies and not options["no_monitor"]
-    rng = np.random.default_rng(options["seed"])  # as the demo: the same seed, the same data
-    sweep_hz = device.sweep_hz(options["samples"], options["span_fsr"])
+    rng = _noise_rng(options)
+    sweep_hz = np.tile(device.sweep_hz(options["samples"], options["span_fsr"]), options["repeat"])
     frequencies = [(_axis_column(x_unit), sweep_hz)]
     if test_samples:
-        low, high = sweep_hz[0], sweep_hz[-1]
+        low, high = sweep_hz.min(), sweep_hz.max()
         frequencies.append((_axis_column(x_unit, "true_"), rng.uniform(low, high, test_samples)))
+    temperatures = _temperatures_k(device, options, sweep_hz.size, test_samples, rng)
     drifts = [_sweep_drift(device, sweep_hz.size, options)] + [(None, None)] * bool(test_samples)
     tables = [  # everything is simulated before anything is written
         {
             axis: hz_to_axis(frequency, x_unit),
-            **_readings(device, frequency, options, rng, printable(f"simulating {path}"), *drift),
+            **_readings(
+                device,
+                frequency,
+                options,
+                rng,
+                printable(f"simulating {path}"),
+                *drift,
+                temperature_k=temperature,
+            ),
         }
-        for path, (axis, frequency), drift in zip(targets, frequencies, drifts, strict=True)
+        for path, (axis, frequency), drift, temperature in zip(
+            targets, frequencies, drifts, temperatures, strict=False
+        )
     ]
     for path, file_format, columns in zip(targets, formats, tables, strict=True):
         with busy(printable(f"writing {path}"), quiet=quiet):
@@ -362,6 +503,15 @@ def simulate(out_path, test_samples, test_out, force, **options):
         f"{fsr_text(device.true_fsr_hz)}, centre {optical_text(device.center_hz)}",
         err=messages_to_stderr,
     )
+    if options["platform"] is not None:
+        shift_hz = device.thermal_phase_rad_per_k * device.true_fsr_hz / (2 * np.pi)
+        say(
+            quiet,
+            f"thermal: {options['platform']}, fringes move {shift_hz / 1e9:.4g} GHz/K, delay "
+            f"{device.thermal_delay_per_k:.4g} /K about {device.reference_temperature_k:g} K; "
+            f"sweep at {_temperature_text(tables[0]['temperature_k'])}",
+            err=messages_to_stderr,
+        )
 
 
 command = simulate

@@ -240,6 +240,7 @@ def find_roles(
     *,
     need_x: bool,
     find_extras: bool,
+    find_temperature: bool | None = None,
 ) -> Roles:
     """Resolve every role to columns: the request first, else by name.
 
@@ -256,6 +257,8 @@ def find_roles(
         Whether a frequency or wavelength column must exist.
     find_extras : bool
         Whether to look for a monitor and a temperature column by name.
+    find_temperature : bool, optional
+        Whether to look for a temperature column by name; default ``find_extras``.
 
     Raises
     ------
@@ -293,7 +296,7 @@ def find_roles(
         monitor = dataclasses.replace(monitor, unit=request.power_unit)
     if request.temperature is not None:
         temperature = _explicit_role(request.temperature, "temperature", None)
-    elif find_extras:
+    elif find_extras if find_temperature is None else find_temperature:
         found = _single(one_dimensional(_TEMPERATURE_ROLE), "temperature", "temperature")
         has_unit = found is not None and (found.unit or unit_attributes.get(found.name))
         temperature = found if has_unit else None

@@ -47,6 +47,7 @@ def read_table(
     find_extras: bool = True,
     allow_invalid: bool = False,
     max_bytes: int = MAX_BYTES,
+    find_temperature: bool | None = None,
 ) -> Table:
     """Read readings from a data file, find the columns by name and convert to SI.
 
@@ -68,6 +69,9 @@ def read_table(
         The most bytes the values read from the file may take (float64), the largest text
         file and the most read from a pipe; checked against what the file declares before
         anything is read. Default :data:`~wavemeter.io.MAX_BYTES` (2 GiB).
+    find_temperature : bool, optional
+        Look for a temperature column by name (readings for a calibration that needs the
+        chip temperature); default ``find_extras``.
 
     Returns
     -------
@@ -86,7 +90,8 @@ def read_table(
     path = Path(path)
     request = request or ColumnRequest()
     try:
-        return _read(path, request, need_x, find_extras, allow_invalid, max_bytes)
+        extras = (find_extras, find_extras if find_temperature is None else find_temperature)
+        return _read(path, request, need_x, extras, allow_invalid, max_bytes)
     except InputError as exc:
         if str(exc).startswith(f"{path}: "):
             raise
@@ -101,17 +106,19 @@ def _read(
     path: Path,
     request: ColumnRequest,
     need_x: bool,
-    find_extras: bool,
+    extras: tuple[bool, bool],
     allow_invalid: bool,
     max_bytes: int,
 ) -> Table:
     source = open_source(path, max_bytes)
+    find_extras, find_temperature = extras
     roles = find_roles(
         source.shapes,
         source.unit_attributes,
         request,
         need_x=need_x,
         find_extras=find_extras,
+        find_temperature=find_temperature,
     )
     singles = roles.singles()
     wanted = [role.name for role in singles.values()]

@@ -6,10 +6,20 @@ none): fringes, fitted model and residuals (paper Fig. 4b / 7a; every window of 
 object space (Fig. 4a), retrieved frequency and error (Figs. 4c,d / 7b,c), error histogram
 against the Cramer-Rao bound, and for calibration sets the error across the whole span
 (Fig. 8) and the adjacent-window evaluation (Fig. 9). Nothing here writes a file.
+
+The comparison's calibration warnings are listed in the page and emitted again. A
+calibration that needs the chip temperature (``"temperature_k"`` in its ``requires``: a
+thermal one) takes it from the tables' ``temperature_k``; it is compared with the plain
+learned calibration fitted on the same sweep without the temperature, whose warnings (a
+phase drift, expected for a sweep over several temperatures) are listed in the page only,
+and the report adds the frequency error against the chip temperature. Its fringes are
+drawn at the frequency that has the same model phase at the reference temperature, so that
+readings at every temperature lie on one fringe.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,9 +31,9 @@ from ..calibration.base import BaseCalibrator
 from ..calibration.baselines import ConventionalCalibrator
 from ..calibration.learned import Calibrator
 from ..calibration.set import CalibrationSet
-from ..exceptions import InputError
-from ..model.cone import SQRT2, cone_vectors, delay_phase_rad
-from ..validation import check_fitted, check_frequency, check_powers
+from ..exceptions import InputError, recorded_calibration_warnings
+from ..model.cone import SQRT2, cone_vectors, delay_phase_rad, wrap_phase_rad
+from ..validation import check_fitted, check_frequency, check_per_reading, check_powers
 from .fringes import FringePanel
 
 __all__ = [
@@ -43,10 +53,21 @@ class _Readings:
     frequency_hz: np.ndarray
     powers_w: np.ndarray
     monitor_w: np.ndarray | None
+    temperature_k: np.ndarray | None = None
 
 
-def _readings(table, role: str, ports: int) -> _Readings:
-    """Validated arrays of a table: ``frequency_hz`` or ``x_hz`` (N,), ``powers_w`` (N, n)."""
+def _needs_temperature(calibration: BaseCalibrator) -> bool:
+    return "temperature_k" in calibration.requires
+
+
+def _temperature_inputs(calibration: BaseCalibrator, temperature_k) -> dict:
+    """``{"temperature_k": ...}`` for a calibration that needs it, else nothing."""
+    return {"temperature_k": temperature_k} if _needs_temperature(calibration) else {}
+
+
+def _readings(table, role: str, ports: int, temperature: bool = False) -> _Readings:
+    """Validated arrays of a table: ``frequency_hz`` or ``x_hz`` (N,), ``powers_w`` (N, n);
+    with ``temperature`` also ``temperature_k`` (N,), K, which must be there."""
     frequency = getattr(table, "frequency_hz", None)
     if frequency is None:
         frequency = getattr(table, "x_hz", None)
@@ -62,7 +83,24 @@ def _readings(table, role: str, ports: int) -> _Readings:
     except InputError as exc:
         raise InputError(f"{role}: {exc}", parameter=role) from exc
     monitor = getattr(table, "monitor_w", None)
-    return _Readings(frequency, powers, None if monitor is None else np.asarray(monitor, float))
+    temperature_k = getattr(table, "temperature_k", None)
+    if temperature and temperature_k is None:
+        raise InputError(
+            f"{role}: the calibration needs the chip temperature of each reading; give a "
+            "table with temperature_k (N,), K (a file with a temperature column)",
+            parameter=role,
+        )
+    if temperature:
+        try:
+            temperature_k = check_per_reading("temperature_k", temperature_k, powers.shape[0])
+        except InputError as exc:
+            raise InputError(f"{role}: {exc}", parameter=role) from exc
+    return _Readings(
+        frequency,
+        powers,
+        None if monitor is None else np.asarray(monitor, float),
+        temperature_k if temperature else None,
+    )
 
 
 def _check_inside(calibration: CalibrationSet, frequency_hz: np.ndarray, role: str) -> None:
@@ -129,12 +167,21 @@ def comparison_calibration(
     Returns
     -------
     BaseCalibrator
-        Fitted with the design FSR of ``calibration``.
+        Fitted with the design FSR of ``calibration``; for a calibration that needs the
+        chip temperature, the plain learned calibration with its FSR settings and
+        retrieval, fitted without the temperature (what the temperature buys).
     """
     design = calibration.fsr_hz
     own = _central(calibration)
     phases = own.get_params().get("port_phases_rad") if port_phases_rad is None else port_phases_rad
-    if _is_learned(calibration):
+    if _needs_temperature(calibration):
+        settings = calibration.get_params()
+        fitted = Calibrator(
+            fsr_hz=design,
+            fsr_tolerance=settings["fsr_tolerance"],
+            retrieval=settings["retrieval"],
+        )
+    elif _is_learned(calibration):
         fitted = ConventionalCalibrator(fsr_hz=design, port_phases_rad=phases)
     else:
         fitted = Calibrator(fsr_hz=design)
@@ -143,16 +190,47 @@ def comparison_calibration(
     return fitted.fit(powers_w, frequency_hz, power_monitor_w, calibration.port_names_)
 
 
-def retrieved_frequency_hz(calibration: BaseCalibrator, powers_w, frequency_hz) -> np.ndarray:
+def retrieved_frequency_hz(
+    calibration: BaseCalibrator, powers_w, frequency_hz, temperature_k=None
+) -> np.ndarray:
     """Frequency (Hz) each reading is retrieved at, the alias nearest its true frequency.
 
-    A calibration set is given the true frequency as the coarse value.
+    A calibration set is given the true frequency as the coarse value; a calibration that
+    needs the chip temperature gets ``temperature_k`` (K, scalar or (N,)).
     """
     truth = np.asarray(frequency_hz, dtype=float)
     if isinstance(calibration, CalibrationSet):
         return calibration.predict(powers_w, coarse_hz=truth)
-    predicted = calibration.predict(powers_w)
+    predicted = calibration.predict(powers_w, **_temperature_inputs(calibration, temperature_k))
     return truth + frequency_error_hz(predicted, truth, calibration.fsr_hz_)
+
+
+def _model_phase_rad(model: Calibrator, frequency_hz, temperature_k=None) -> np.ndarray:
+    """The phase a learned model gives readings of frequency ``frequency_hz`` (Hz): at their
+    chip temperature ``temperature_k`` (K) for a model that needs it."""
+    if not _needs_temperature(model):
+        return delay_phase_rad(frequency_hz, model.center_hz_, model.delay_s_)
+    from ..calibration.thermal import thermal_phase_rad
+
+    return thermal_phase_rad(
+        frequency_hz,
+        temperature_k,
+        model.center_hz_,
+        model.reference_temperature_k_,
+        model.delay_s_,
+        model.thermal_phase_rad_per_k_,
+        model.thermal_delay_per_k_,
+    )
+
+
+def _crlb_hz(learned: BaseCalibrator, readings: _Readings) -> np.ndarray:
+    """Per-reading Cramer-Rao standard deviation (Hz) at the true frequency, under the
+    learned calibration's own model (:func:`crlb_per_reading_hz`; at each reading's chip
+    temperature for a calibration that needs it)."""
+    if not _needs_temperature(learned):
+        return crlb_per_reading_hz(learned, readings.powers_w, readings.frequency_hz)
+    phase = wrap_phase_rad(_model_phase_rad(learned, readings.frequency_hz, readings.temperature_k))
+    return learned.crlb_hz(readings.powers_w, temperature_k=readings.temperature_k, phase_rad=phase)
 
 
 def _window_rows(calibration: BaseCalibrator, frequency_hz: np.ndarray):
@@ -165,10 +243,17 @@ def _window_rows(calibration: BaseCalibrator, frequency_hz: np.ndarray):
 
 # ---------------------------------------------------------------------------- figure data
 def _fringe_panel(model: Calibrator, sweep: _Readings, rows: np.ndarray, title: str = ""):
-    """Readings of ``rows``, the learned model's fringes and its fit at each reading."""
+    """Readings of ``rows``, the learned model's fringes and its fit at each reading.
+
+    A model that needs the chip temperature places each reading at the frequency whose
+    phase at the reference temperature is the reading's model phase, so that the
+    readings of every temperature lie on the fringes drawn (those at the reference)."""
     frequency, powers = sweep.frequency_hz[rows], sweep.powers_w[rows]
-    fitted = cone_vectors(delay_phase_rad(frequency, model.center_hz_, model.delay_s_))
-    fitted = fitted @ model.map_.T
+    temperature = None if sweep.temperature_k is None else sweep.temperature_k[rows]
+    phase = _model_phase_rad(model, frequency, temperature)
+    if _needs_temperature(model):
+        frequency = model.center_hz_ + phase / (2.0 * np.pi * model.delay_s_)
+    fitted = cone_vectors(phase) @ model.map_.T
     if sweep.monitor_w is not None:  # the map is per unit of the mean monitor reading
         monitor = sweep.monitor_w[rows]
         fitted = fitted * (monitor / monitor.mean())[:, None]
@@ -203,14 +288,22 @@ def _fringe_figure(learned: BaseCalibrator, learned_name: str, sweep: _Readings,
     near = (
         np.abs(sweep.frequency_hz - learned.center_hz_) <= FRINGE_HALF_WIDTH_FSR * learned.fsr_hz_
     )
-    return plot_fringes(_fringe_panel(learned, sweep, near), ports, model_label=learned_name)
+    title = ""
+    if _needs_temperature(learned):
+        title = (
+            "readings at the frequency with their model phase at the reference temperature "
+            f"{learned.reference_temperature_k_:.6g} K"
+        )
+    return plot_fringes(_fringe_panel(learned, sweep, near, title), ports, model_label=learned_name)
 
 
-def _unit_power_samples(calibrator: BaseCalibrator, powers: np.ndarray) -> np.ndarray:
+def _unit_power_samples(
+    calibrator: BaseCalibrator, powers: np.ndarray, temperature_k=None
+) -> np.ndarray:
     """Retrieved object samples ``r [cos t, sin t]``, ``r = |x_12| sqrt 2 / x_3`` (N, 2)."""
     objects = powers @ linalg.pinv(calibrator.map_).T
     radius = np.hypot(objects[:, 0], objects[:, 1]) * SQRT2 / objects[:, 2]
-    phase = calibrator.phase(powers)
+    phase = calibrator.phase(powers, **_temperature_inputs(calibrator, temperature_k))
     return radius[:, None] * np.column_stack([np.cos(phase), np.sin(phase)])
 
 
@@ -222,7 +315,8 @@ def _object_samples(calibration: BaseCalibrator, evaluation: _Readings) -> np.nd
         near = np.abs(truth - calibration.center_hz_) <= (
             FRINGE_HALF_WIDTH_FSR * calibration.fsr_hz_
         )
-        return _unit_power_samples(calibration, powers[near])
+        temperature = None if evaluation.temperature_k is None else evaluation.temperature_k[near]
+        return _unit_power_samples(calibration, powers[near], temperature)
     parts = [
         _unit_power_samples(window, powers[rows])
         for window, rows in _window_rows(calibration, truth)
@@ -244,34 +338,45 @@ def report_content(
     -------
     figures : dict of str to matplotlib.figure.Figure
         Keys ``fringes`` (a set: one panel pair per window), ``object_space``,
-        ``retrieved``, ``residual``, ``histogram``.
+        ``retrieved``, ``residual``, ``histogram``, and ``temperature`` for a calibration
+        that needs the chip temperature.
     summary : dict
         JSON-ready numbers shown in the page: ``methods`` (error summaries, Hz),
         ``crlb_rms_hz``, ``noise_std_w`` and ``noise_from`` (the learned method whose
-        residual gave it), ``evaluated_on``, ``samples``, and ``adjacent`` for sets.
+        residual gave it), ``evaluated_on``, ``samples``, ``comparison_warnings`` (the
+        ``[cause] message`` of each calibration warning the comparison's fit gave), and
+        ``adjacent`` for sets.
     """
     from . import figures as plotting
 
     check_fitted(calibration)
     ports = calibration.n_ports_
-    calibration_readings = _readings(sweep, "sweep", ports)
-    evaluation = calibration_readings if test is None else _readings(test, "test", ports)
+    thermal = _needs_temperature(calibration)
+    calibration_readings = _readings(sweep, "sweep", ports, thermal)
+    evaluation = calibration_readings if test is None else _readings(test, "test", ports, thermal)
     if isinstance(calibration, CalibrationSet):
         _check_inside(calibration, evaluation.frequency_hz, "sweep" if test is None else "test")
-    other = comparison_calibration(
-        calibration,
-        calibration_readings.powers_w,
-        calibration_readings.frequency_hz,
-        calibration_readings.monitor_w,
-        port_phases_rad,
-    )
+    with recorded_calibration_warnings() as comparison_warnings:
+        other = comparison_calibration(
+            calibration,
+            calibration_readings.powers_w,
+            calibration_readings.frequency_hz,
+            calibration_readings.monitor_w,
+            port_phases_rad,
+        )
+    if not thermal:  # a plain comparison of a thermal sweep is expected to misfit: page only
+        for warning in comparison_warnings:
+            warnings.warn(warning, stacklevel=2)
     methods = {calibration.method_label: calibration, other.method_label: other}
     learned_name = next(name for name, cal in methods.items() if _is_learned(cal))
     learned = methods[learned_name]
     truth, powers = evaluation.frequency_hz, evaluation.powers_w
-    retrieved = {name: retrieved_frequency_hz(cal, powers, truth) for name, cal in methods.items()}
+    retrieved = {
+        name: retrieved_frequency_hz(cal, powers, truth, evaluation.temperature_k)
+        for name, cal in methods.items()
+    }
     errors = {name: values - truth for name, values in retrieved.items()}
-    bound = crlb_per_reading_hz(learned, powers, truth)
+    bound = _crlb_hz(learned, evaluation)
     crlb_rms = float(np.sqrt(np.mean(bound**2)))
     center = calibration.center_hz_
     samples = {
@@ -293,6 +398,14 @@ def report_content(
             errors[learned_name], crlb_rms, label=learned_name
         ),
     }
+    if thermal:
+        figures["temperature"] = plotting.plot_error_against_temperature(
+            evaluation.temperature_k,
+            errors,
+            calibration.method_label,
+            calibration.temperature_range_k_,
+            crlb_std_hz=bound,
+        )
     summary = {
         "evaluated_on": "calibration sweep" if test is None else "test readings",
         "samples": int(truth.size),
@@ -300,6 +413,11 @@ def report_content(
         "noise_std_w": learned_noise_std_w(learned),
         "noise_from": learned_name,
         "methods": {name: error_summary_hz(error) for name, error in errors.items()},
+        "comparison": other.method_label,
+        "comparison_warnings": [
+            f"[{getattr(warning, 'cause', 'other_misfit')}] {warning}"
+            for warning in comparison_warnings
+        ],
     }
     if isinstance(calibration, CalibrationSet):
         summary["adjacent"] = _adjacent_or_reason(calibration, powers, truth)

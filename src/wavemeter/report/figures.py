@@ -33,6 +33,7 @@ __all__ = [
     "plot_retrieved_frequency",
     "plot_residuals",
     "plot_error_histogram",
+    "plot_error_against_temperature",
     "CIRCLE_POINTS",
 ]
 
@@ -275,4 +276,75 @@ def plot_error_histogram(error_hz, crlb_rms_hz: float | None, label: str = "lear
     axes.set_ylabel(f"probability density (1/{unit})")
     axes.set_title(title)
     legend_outside(axes)
+    return figure
+
+
+def plot_error_against_temperature(
+    temperature_k,
+    error_hz: Mapping[str, np.ndarray],
+    reference: str,
+    calibrated_range_k,
+    crlb_std_hz=None,
+):
+    """Frequency error against the chip temperature of each reading.
+
+    Top: every method. Bottom: ``reference`` alone at its own scale, with the Cramer-Rao
+    ``+-1 sigma`` (RMS over the readings) as a band when given. Both shade the calibrated
+    temperature range.
+
+    Parameters
+    ----------
+    temperature_k : array_like, shape (N,)
+        Chip temperature of each reading (K).
+    error_hz : mapping of str to array_like, shape (N,)
+        Retrieved minus true frequency per method (Hz).
+    reference : str
+        Key of ``error_hz`` shown alone in the bottom panel (the thermal calibration).
+    calibrated_range_k : (float, float)
+        Lowest and highest calibration temperature (K).
+    crlb_std_hz : None or array_like, shape (N,)
+        Per-reading Cramer-Rao standard deviation (Hz).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    temperature = np.asarray(temperature_k, dtype=float)
+    figure, (top, bottom) = new_figure(rows=2, height_in=FIGURE_HEIGHT_IN * 1.6)
+    step = thin(temperature.size)
+    scale, unit = frequency_error_unit(np.concatenate([np.ravel(e) for e in error_hz.values()]))
+    for number, (name, error) in enumerate(error_hz.items()):
+        values = np.asarray(error, dtype=float)[step] / scale
+        _markers(top, temperature[step], values, method_color(name, number), name)
+    reference_error = np.asarray(error_hz[reference], dtype=float)
+    fine_scale, fine_unit = frequency_error_unit(reference_error)
+    color = method_color(reference, list(error_hz).index(reference))
+    _markers(bottom, temperature[step], reference_error[step] / fine_scale, color, reference)
+    if crlb_std_hz is not None:
+        sigma = float(np.sqrt(np.mean(np.asarray(crlb_std_hz, dtype=float) ** 2))) / fine_scale
+        bottom.axhspan(
+            -sigma,
+            sigma,
+            color="0.35",
+            alpha=REFERENCE_ALPHA,
+            linewidth=0,
+            zorder=REFERENCE_ZORDER,
+            label="CRLB ±1σ (RMS)",
+        )
+    low, high = (float(value) for value in calibrated_range_k)
+    for axes, axes_unit in ((top, unit), (bottom, fine_unit)):
+        axes.axvspan(
+            low,
+            high,
+            color="tab:olive",
+            alpha=0.12,
+            linewidth=0,
+            zorder=1,
+            label="calibrated temperatures",
+        )
+        axes.axhline(0.0, color="black", linewidth=0.6, zorder=1)
+        axes.set_ylabel(f"frequency error ({axes_unit})")
+        legend_outside(axes)
+    top.set_title("Frequency error against chip temperature")
+    bottom.set_xlabel("chip temperature (K)")
     return figure

@@ -163,6 +163,8 @@ def plot_fringes(panel: FringePanel, port_names: Sequence[str], model_label: str
     title = "Port fringes, fitted model and residual"
     if panel.noise_std_w is not None:
         title += f" (noise {scientific(panel.noise_std_w)} W)"
+    if panel.title:  # what the panel's frequencies are (a thermal model's), on a line below
+        title += f"\n{panel.title}"
     top.set_title(title)
     legend_outside(top, *_legend_entries(port_names, model_label, panel.noise_std_w is not None))
     return figure

@@ -16,17 +16,20 @@ from ..atomic import STDOUT, atomic_path, check_output
 from ..calibration.base import BaseCalibrator
 from ..exceptions import InputError
 from .content import report_content
-from .page import FIGURE_CAPTIONS, INPUT_ROLES, render_page
+from .page import INPUT_ROLES, figure_names, render_page
 
 __all__ = ["write_report", "report_paths", "DEFAULT_DPI"]
 
 DEFAULT_DPI = 100
 
 
-def report_paths(out_html) -> list[Path]:
-    """The files a report writes: the page, then ``<stem>-<figure>.png`` beside it."""
+def report_paths(out_html, calibration: BaseCalibrator | None = None) -> list[Path]:
+    """The files a report writes: the page, then ``<stem>-<figure>.png`` beside it, one per
+    figure of ``calibration``'s report (default: the figures every report has)."""
     target = Path(out_html)
-    return [target] + [target.with_name(f"{target.stem}-{name}.png") for name in FIGURE_CAPTIONS]
+    return [target] + [
+        target.with_name(f"{target.stem}-{name}.png") for name in figure_names(calibration)
+    ]
 
 
 def _input_files(sweep, test, input_files: Mapping | None) -> dict[str, object]:
@@ -70,7 +73,9 @@ def write_report(
     sweep : object
         The calibration sweep: any object with ``powers_w`` (N, n) in W and ``frequency_hz``
         or ``x_hz`` (N,) in Hz; ``monitor_w`` (N,) is used when present, ``source`` (its
-        file) is named in the page.
+        file) is named in the page. For a calibration that needs the chip temperature
+        (thermal), also ``temperature_k`` (N,) in K: the report then adds the figure of
+        the error against temperature and compares with the plain learned calibration.
     test : object, optional
         Test readings with known frequencies, same attributes. Default: evaluate on the
         sweep.
@@ -108,11 +113,11 @@ def write_report(
             parameter="out_html",
         )
     files = _input_files(sweep, test, input_files)
-    outputs = report_paths(out_html)
+    outputs = report_paths(out_html, calibration)
     for path in outputs:
         check_output(path, inputs=list(files.values()), force=force)
     figures, summary = report_content(calibration, sweep, test, port_phases_rad)
-    images = {name: _png(figures[name], dpi) for name in FIGURE_CAPTIONS}
+    images = {name: _png(figures[name], dpi) for name in figure_names(calibration)}
     page = render_page(calibration, summary, images, files)
     for path, png in zip(outputs[1:], images.values(), strict=True):
         with atomic_path(path) as temporary:

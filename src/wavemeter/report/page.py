@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import base64
 import html
+import math
 from collections.abc import Mapping
 from datetime import UTC, datetime
 
@@ -16,7 +17,14 @@ from ..calibration.base import BaseCalibrator
 from ..units import SPEED_OF_LIGHT_M_S
 from .formatting import port_label, scientific, significant
 
-__all__ = ["render_page", "PAPER_CITATION", "FIGURE_CAPTIONS", "RETRIEVAL_NAMES"]
+__all__ = [
+    "render_page",
+    "figure_names",
+    "PAPER_CITATION",
+    "FIGURE_CAPTIONS",
+    "THERMAL_FIGURES",
+    "RETRIEVAL_NAMES",
+]
 
 #: the paper the method and the figures follow, as its text states it (no venue, year or
 #: DOI appear in it)
@@ -38,7 +46,12 @@ FIGURE_CAPTIONS = {
     "its Cramer-Rao ±1σ band ([1], Fig. 4d and 7c; Fig. 8 across the span of a set).",
     "histogram": "Distribution of the learned method's frequency error and the Cramer-Rao "
     "bound, with the noise estimated from the calibration residual.",
+    "temperature": "Frequency error against the chip temperature of each reading, the "
+    "calibrated temperatures shaded; bottom: the thermal calibration alone with its "
+    "Cramer-Rao ±1σ (RMS over the readings).",
 }
+#: figures only a calibration that needs the chip temperature has
+THERMAL_FIGURES = ("temperature",)
 #: phase retrieval of a calibration, by its ``retrieval`` setting (None: no such setting)
 RETRIEVAL_NAMES = {
     "pinv": "pinv: x = A⁺ p, t = atan2(x₂, x₁) ([1], Eq. 24-25)",
@@ -59,6 +72,13 @@ figure { margin: 1.5em 0; } img { max-width: 100%; height: auto; }
 figcaption { font-size: 0.9em; color: #444; }
 footer, .note { font-size: 0.85em; color: #555; }
 """
+
+
+def figure_names(calibration: BaseCalibrator | None = None) -> list[str]:
+    """The figures of a calibration's report, in page order (default: those of every
+    calibration; a calibration that needs the chip temperature adds ``THERMAL_FIGURES``)."""
+    thermal = calibration is not None and "temperature_k" in calibration.requires
+    return [name for name in FIGURE_CAPTIONS if thermal or name not in THERMAL_FIGURES]
 
 
 def _table(header: list[str] | None, rows: list[list[str]]) -> str:
@@ -118,14 +138,75 @@ def _calibration_rows(calibration: BaseCalibrator, summary: dict) -> list[list[s
         rows.append(["detector noise estimate (W)", f"{scientific(noise)} ({source})"])
     if hasattr(calibration, "windows_"):
         rows.append(["windows (one FSR each)", str(len(calibration.windows_))])
-    return rows
+    return rows + _thermal_rows(calibration)
+
+
+def _with_error(value, error, scale: float = 1.0) -> str:
+    """``value ± error`` (both divided by ``scale``) with three significant digits in the
+    error and the value to the same decimal place."""
+    if error is None or not error > 0:
+        return significant(value / scale, 6)
+    digits = max(0, 2 - math.floor(math.log10(error / scale)))
+    return f"{value / scale:.{digits}f} ± {error / scale:.{digits}f}"
+
+
+def _thermal_rows(calibration: BaseCalibrator) -> list[list[str]]:
+    """The thermal rates with their standard errors, the reference temperature, the
+    calibrated temperatures and the bias rates they resolve (``diagnostics_["thermal"]``);
+    none for a calibration without that record."""
+    thermal = (getattr(calibration, "diagnostics_", None) or {}).get("thermal")
+    if not isinstance(thermal, Mapping):
+        return []
+    low, high = thermal["temperature_range_k"]
+    clusters = ", ".join(f"{value:.6g}" for value in thermal.get("temperatures_k") or [])
+    unambiguous = thermal.get("unambiguous_phase_rate_rad_per_k")
+    return [
+        [
+            "bias phase rate (rad/K)",
+            _with_error(thermal["thermal_phase_rad_per_k"], thermal["thermal_phase_std_rad_per_k"]),
+        ],
+        [
+            "fringe shift (GHz/K, to lower frequency on heating)",
+            _with_error(
+                thermal["fringe_shift_hz_per_k"], thermal["fringe_shift_std_hz_per_k"], 1e9
+            ),
+        ],
+        [
+            "delay rate (1/K)",
+            f"{scientific(thermal['thermal_delay_per_k'])} ± "
+            f"{scientific(thermal['thermal_delay_std_per_k'])}",
+        ],
+        ["reference temperature (K)", f"{thermal['reference_temperature_k']:.6g}"],
+        [
+            "calibrated temperatures (K)",
+            f"{low:.6g} to {high:.6g}" + (f" (clusters at {clusters})" if clusters else ""),
+        ],
+        [
+            "bias rate unambiguous within (rad/K)",
+            "any rate (the temperature changed continuously)"
+            if unambiguous is None
+            else f"±{significant(unambiguous)}",
+        ],
+    ]
 
 
 #: SI suffix of a diagnostics key -> (unit shown, SI value per unit, exponent notation)
-_KEY_UNITS = {"_w": ("W", 1.0, True), "_hz": ("GHz", 1e9, False), "_s": ("s", 1.0, True)}
+#: temperatures (``_k``, not rates ``_per_k``) with the digits a temperature needs
+_KEY_UNITS = {
+    "_w": ("W", 1.0, True),
+    "_hz": ("GHz", 1e9, False),
+    "_s": ("s", 1.0, True),
+    "_k": ("K", 1.0, None),
+}
+#: digits of a temperature in K (mK resolution near room temperature)
+TEMPERATURE_DIGITS = 6
+#: diagnostics shown in a table of their own rather than among the diagnostics
+_SHOWN_ELSEWHERE = {"thermal"}
 
 
 def _key_unit(key: str):
+    if key.endswith("_per_k"):
+        return None
     return next(((s, *unit) for s, unit in _KEY_UNITS.items() if key.endswith(s)), None)
 
 
@@ -147,6 +228,8 @@ def _value_text(value, key: str = "") -> str:
         if unit is None:
             return significant(value)
         _, _, scale, exponent = unit
+        if exponent is None:
+            return f"{value / scale:.{TEMPERATURE_DIGITS}g}"
         return scientific(value / scale) if exponent else significant(value / scale)
     if isinstance(value, Mapping):
         return "; ".join(f"{_key_title(k)}: {_value_text(item, k)}" for k, item in value.items())
@@ -172,7 +255,8 @@ def _warning_row(note) -> list[str]:
 
 def _diagnostics_html(calibration: BaseCalibrator) -> str:
     """The calibration's ``diagnostics_`` when it has any: scalar items as rows, lists of
-    records (ports) as tables, warnings with their cause, message and remedy."""
+    records (ports) as tables, warnings with their cause, message and remedy (the thermal
+    record is in the calibration's table)."""
     diagnostics = getattr(calibration, "diagnostics_", None)
     if not diagnostics:
         return ""
@@ -180,6 +264,8 @@ def _diagnostics_html(calibration: BaseCalibrator) -> str:
         diagnostics = {"diagnostics": diagnostics}
     rows, tables = [], []
     for key, value in diagnostics.items():
+        if key in _SHOWN_ELSEWHERE:
+            continue
         is_records = (
             isinstance(value, list) and value and all(isinstance(v, Mapping) for v in value)
         )
@@ -257,6 +343,19 @@ def _adjacent_html(adjacent: dict | str) -> str:
     )
 
 
+def _comparison_note(summary: dict) -> str:
+    """The calibration warnings of the comparison method's fit, which the page reports
+    instead of the command line (they are about the comparison, not the calibration)."""
+    notes = summary.get("comparison_warnings") or []
+    if not notes:
+        return ""
+    items = "".join(f"<li>{html.escape(note)}</li>" for note in notes)
+    return (
+        f'<p class="note">The comparison ({html.escape(str(summary.get("comparison")))}, '
+        f'fitted on the same sweep) warned:</p><ul class="note">{items}</ul>'
+    )
+
+
 def _figures_html(images: Mapping[str, bytes]) -> str:
     return "".join(
         f'<figure id="figure-{html.escape(name)}"><img alt="{html.escape(name)} figure" '
@@ -312,6 +411,7 @@ def render_page(
         + _table(errors_header, _error_rows(summary))
         + '<p class="note">RMS / CRLB near 1.00: limited by detector noise. The bound uses the '
         "noise estimated from the calibration residual and the learned map as the true one.</p>"
+        + _comparison_note(summary)
         + adjacent
         + _figures_html(images)
         + "<h2>Reference</h2>"
