@@ -158,6 +158,23 @@ def _crlb_band(axes, offset, band) -> None:
         axes.plot(offset, sign * band, "-", color="black", linewidth=0.7, zorder=REFERENCE_ZORDER)
 
 
+def _error_panels(x, error_hz: Mapping[str, np.ndarray], reference: str):
+    """Two panels of frequency error against ``x`` (N,): every method on top, ``reference``
+    alone at its own scale below. Returns the figure, the two axes and ``(top unit,
+    bottom scale, bottom unit)``."""
+    figure, (top, bottom) = new_figure(rows=2, height_in=FIGURE_HEIGHT_IN * 1.6)
+    step = thin(x.size)
+    scale, unit = frequency_error_unit(np.concatenate([np.ravel(e) for e in error_hz.values()]))
+    for number, (name, error) in enumerate(error_hz.items()):
+        values = np.asarray(error, dtype=float)[step] / scale
+        _markers(top, x[step], values, method_color(name, number), name)
+    reference_error = np.asarray(error_hz[reference], dtype=float)
+    fine_scale, fine_unit = frequency_error_unit(reference_error)
+    color = method_color(reference, list(error_hz).index(reference))
+    _markers(bottom, x[step], reference_error[step] / fine_scale, color, reference)
+    return figure, (top, bottom), (unit, fine_scale, fine_unit)
+
+
 def plot_residuals(
     true_hz,
     error_hz: Mapping[str, np.ndarray],
@@ -193,16 +210,9 @@ def plot_residuals(
     truth = np.asarray(true_hz, dtype=float)
     offset = (truth - center_hz) / 1e9
     order = np.argsort(truth)
-    figure, (top, bottom) = new_figure(rows=2, height_in=FIGURE_HEIGHT_IN * 1.6)
-    step = thin(truth.size)
-    scale, unit = frequency_error_unit(np.concatenate([np.ravel(e) for e in error_hz.values()]))
-    for number, (name, error) in enumerate(error_hz.items()):
-        values = np.asarray(error, dtype=float)[step] / scale
-        _markers(top, offset[step], values, method_color(name, number), name)
-    reference_error = np.asarray(error_hz[reference], dtype=float)
-    fine_scale, fine_unit = frequency_error_unit(reference_error)
-    color = method_color(reference, list(error_hz).index(reference))
-    _markers(bottom, offset[step], reference_error[step] / fine_scale, color, reference)
+    figure, (top, bottom), (unit, fine_scale, fine_unit) = _error_panels(
+        offset, error_hz, reference
+    )
     if crlb_std_hz is not None:
         _crlb_band(bottom, offset[order], np.asarray(crlb_std_hz, dtype=float)[order] / fine_scale)
     for axes, axes_unit in ((top, unit), (bottom, fine_unit)):
@@ -310,16 +320,9 @@ def plot_error_against_temperature(
     matplotlib.figure.Figure
     """
     temperature = np.asarray(temperature_k, dtype=float)
-    figure, (top, bottom) = new_figure(rows=2, height_in=FIGURE_HEIGHT_IN * 1.6)
-    step = thin(temperature.size)
-    scale, unit = frequency_error_unit(np.concatenate([np.ravel(e) for e in error_hz.values()]))
-    for number, (name, error) in enumerate(error_hz.items()):
-        values = np.asarray(error, dtype=float)[step] / scale
-        _markers(top, temperature[step], values, method_color(name, number), name)
-    reference_error = np.asarray(error_hz[reference], dtype=float)
-    fine_scale, fine_unit = frequency_error_unit(reference_error)
-    color = method_color(reference, list(error_hz).index(reference))
-    _markers(bottom, temperature[step], reference_error[step] / fine_scale, color, reference)
+    figure, (top, bottom), (unit, fine_scale, fine_unit) = _error_panels(
+        temperature, error_hz, reference
+    )
     if crlb_std_hz is not None:
         sigma = float(np.sqrt(np.mean(np.asarray(crlb_std_hz, dtype=float) ** 2))) / fine_scale
         bottom.axhspan(
