@@ -368,7 +368,12 @@ class Calibrator(BaseCalibrator):
         objects, derivatives = self._sweep_objects()
         # the paper's fit is unweighted: the sandwich covariance holds for unequal noise
         self.parameter_covariance_ = fit_parameter_covariance(
-            objects, derivatives, matrix, self.port_noise_std_w_, weighted=False
+            objects,
+            derivatives,
+            matrix,
+            self.port_noise_std_w_,
+            weighted=False,
+            noise_directions_w=self._sweep_noise_directions_w(),
         )
 
     def _sweep_objects(self) -> tuple[np.ndarray, np.ndarray]:
@@ -396,11 +401,22 @@ class Calibrator(BaseCalibrator):
             dark_given=self.dark_w_ is not None,
             weighted_retrieval=self.retrieval == "ml",
             phase_rad=self._sweep_model_phase_rad(),
+            phase_noise_std_rad=self._sweep_phase_noise_rad(),
         )
 
     def _sweep_model_phase_rad(self) -> np.ndarray | None:
         """The model phase of each sweep reading when it is not ``2 pi (f - f0) tau``
         (None: it is)."""
+        return None
+
+    def _sweep_phase_noise_rad(self) -> np.ndarray | None:
+        """Phase scatter (rad) the model expects of each sweep reading besides the
+        detector noise (None: none)."""
+        return None
+
+    def _sweep_noise_directions_w(self) -> np.ndarray | None:
+        """That scatter as noise of each sweep reading along one direction (N, n), W
+        (None: none); see :func:`~wavemeter.model.uncertainty.fit_parameter_covariance`."""
         return None
 
     def _use_misfit_report(self, report: MisfitReport) -> None:

@@ -160,6 +160,8 @@ from .residual_tests import (
 
 __all__ = [
     "CAUSES",
+    "detector_noise_w",
+    "phase_noise_variance_w2",
     "DISPERSION_MIN_SPAN_FSR",
     "EXPLAINED_FRACTION",
     "MAX_COUPLED_ORDER",
@@ -438,10 +440,11 @@ class _Scatter:
         return min(self.power_p, self.phase_p) < TEST_P_VALUE
 
 
-def _scatter(residual, image, tangent, dof: float, pooled: bool) -> _Scatter:
+def _scatter(residual, image, tangent, dof: float, pooled: bool, phase_noise_rad) -> _Scatter:
     """Tests 6 and 7 (module docstring) on the residual (N, n) and the directions
     ``a_P`` (``image``) and ``a_t`` (``tangent``) of every reading (N, n); ``pooled``: one
-    noise level for every port."""
+    noise level for every port; ``phase_noise_rad`` (N,) the phase scatter the model
+    expects besides the detector noise (zeros for none)."""
     ports = residual.shape[1]
     level = np.einsum("ij,ij->j", residual, residual) / dof
     level = np.sqrt(np.full(ports, level.mean()) if pooled else level)
@@ -459,9 +462,10 @@ def _scatter(residual, image, tangent, dof: float, pooled: bool) -> _Scatter:
     rest_dof = dof * (ports - 2)
     unit = max(rest / rest_dof, np.finfo(float).tiny)  # whitened variance per direction
 
-    def test(component, norm):
-        statistic = float(component @ component) / unit
-        excess_variance = np.mean((component**2 - unit) / norm**2)
+    def test(component, norm, expected_rad=0.0):
+        variance = unit + (norm * expected_rad) ** 2
+        statistic = float(np.sum(component**2 / variance))
+        excess_variance = np.mean((component**2 - variance) / norm**2)
         return (
             float(stats.f.sf(statistic / dof, dof, rest_dof)),
             statistic - dof,
@@ -469,7 +473,7 @@ def _scatter(residual, image, tangent, dof: float, pooled: bool) -> _Scatter:
         )
 
     power_p, power_excess, power_rms = test(power, along_norm)
-    phase_p, phase_excess, phase_rms = test(phase, across_norm)
+    phase_p, phase_excess, phase_rms = test(phase, across_norm, phase_noise_rad)
     return _Scatter(power_p, phase_p, power_excess, phase_excess, power_rms, phase_rms)
 
 
@@ -699,6 +703,19 @@ def _unequal_noise(noise, dof, names):
     )
 
 
+def phase_noise_variance_w2(tangent_w, phase_noise_std_rad) -> np.ndarray:
+    """Mean variance (W^2, per port) a phase scatter ``s_k`` (rad) adds to readings whose
+    fringe tangent is ``P A u'(t_k)`` (``tangent_w``, (N, n), W/rad)."""
+    return np.mean((tangent_w * np.asarray(phase_noise_std_rad)[..., None]) ** 2, axis=0)
+
+
+def detector_noise_w(noise_w, extra_variance_w2) -> np.ndarray:
+    """Detector noise (W, per port): a noise estimate less an expected extra variance,
+    kept at least a tenth of the estimate."""
+    noise = np.asarray(noise_w, dtype=float)
+    return np.sqrt(np.maximum(noise**2 - extra_variance_w2, 0.01 * noise**2))
+
+
 # ---------------------------------------------------------------------- the report
 def misfit_report(
     powers,
@@ -713,6 +730,7 @@ def misfit_report(
     dark_given: bool = False,
     weighted_retrieval: bool = False,
     phase_rad=None,
+    phase_noise_std_rad=None,
 ) -> MisfitReport:
     """Test a fitted calibration sweep against the model and name what departs from it.
 
@@ -742,6 +760,11 @@ def misfit_report(
         The model phase of each reading (rad) when it is not ``2 pi (f - f0) tau`` (the
         thermal model's, which moves with temperature); the delay's direction stays
         ``2 pi (f - f0)`` along the fringe.
+    phase_noise_std_rad : None or array_like, shape (N,)
+        Phase scatter (rad) the model expects of each reading besides the detector noise
+        (a chip temperature known to ``s_T``: ``s_T`` times the thermal rate). The phase
+        scatter test looks for scatter beyond it, and the noise reported (and tested for
+        unequal ports) is the detector's: the model-free estimate less its share.
 
     Returns
     -------
@@ -786,7 +809,16 @@ def misfit_report(
     tangent = power[:, None] * (
         np.stack([-np.sin(phase), np.cos(phase), np.zeros(samples)], axis=1) @ matrix.T
     )
-    noise_note, unequal_p = _unequal_noise(noise, noise_dof, names)
+    expected = (
+        np.zeros(samples)
+        if phase_noise_std_rad is None
+        else np.abs(_vector("phase_noise_std_rad", phase_noise_std_rad, samples))
+    )
+    detector = detector_noise_w(noise, phase_noise_variance_w2(tangent, expected))
+    # a variance less a known share keeps the estimate's absolute error: its degrees of
+    # freedom shrink by the square of the share left (Satterthwaite)
+    detector_dof = noise_dof * float(np.min(detector / noise)) ** 4
+    noise_note, unequal_p = _unequal_noise(detector, detector_dof, names)
     # whitening weights: one noise for all ports unless theirs differ (module docstring)
     pooled = unequal_p >= POOLED_NOISE_P_VALUE
     weight = np.full(ports, np.sqrt(np.mean(noise**2))) if pooled else noise
@@ -799,7 +831,7 @@ def misfit_report(
     harmonic_test, harmonic_scores = tests.per_port(tests.columns(harmonics), (harmonics.shape[1],))
     # relative to each port's own noise
     harmonic_power = harmonic_scores * (weight / noise) ** 2 / max(harmonic_test.dof // ports, 1)
-    scatter = _scatter(residual, image, tangent, residual_dof, pooled)
+    scatter = _scatter(residual, image, tangent, residual_dof, pooled, expected)
     structure = _structure(
         tests, harmonic_test, image / weight, tangent / weight, frequency, center, span, scatter
     )
@@ -835,7 +867,7 @@ def misfit_report(
         )
     return MisfitReport(
         residual_rms_w=residual_rms,
-        noise_std_w=noise,
+        noise_std_w=detector,
         noise_dof=float(noise_dof),
         noise_method="second_difference" if model_free else "residual",
         noise_ratio=ratio,

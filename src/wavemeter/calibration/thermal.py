@@ -21,7 +21,8 @@ least squares (as in the paper); ``theta`` is found by variable projection:
    Jacobian of the projected residual (Kaufman's approximation).
 
 **What the temperatures can tell.** Readings at a few discrete temperatures ("clusters",
-separated by more than ``CLUSTER_GAP_STD`` sensor standard deviations) give the bias change
+separated by more than ``CLUSTER_GAP_STD`` sensor standard deviations and
+``CLUSTER_GAP_FRACTION`` of the temperature range) give the bias change
 between clusters only modulo ``2 pi``: ``alpha`` is resolved within ``+-pi / step``, ``step``
 the smallest temperature step between clusters. The fit searches that range (at most
 ``RATE_SEARCH_FACTOR`` times the plausible one), states it in ``diagnostics_["thermal"]``
@@ -61,11 +62,12 @@ from .files import state_array, state_float
 from .flags import temperature_flags
 from .fsr_guard import check_design_fsr
 from .learned import AFFINE_MIN_POWER_SPREAD, RETRIEVALS, Calibrator, port_noise_std_w
-from .misfit import TEST_P_VALUE
+from .misfit import detector_noise_w, phase_noise_variance_w2
 from .reanchor import check_reference_readings, fit_reanchor, reanchored_copy
 from .summary import FitValue
 
 __all__ = [
+    "CLUSTER_GAP_FRACTION",
     "CLUSTER_GAP_STD",
     "MIN_SPREAD_STD",
     "PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K",
@@ -83,8 +85,12 @@ __all__ = [
 PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K = 15e9
 #: the bias rates searched reach this multiple of the plausible one (when resolvable)
 RATE_SEARCH_FACTOR = 2.0
-#: a gap between calibration temperatures larger than this many sensor std separates clusters
+#: a gap between calibration temperatures larger than this many sensor std ...
 CLUSTER_GAP_STD = 10.0
+#: ... and than this fraction of their range separates clusters
+CLUSTER_GAP_FRACTION = 0.02
+#: readings a temperature cluster needs for the check of the design FSR on it alone
+MIN_CLUSTER_READINGS = 16
 #: the effective temperature spread (std, K) must reach this many sensor std
 MIN_SPREAD_STD = 10.0
 #: kelvin from the reference at which the bias rate's error may cost one reading's noise
@@ -264,7 +270,8 @@ def temperature_layout(
     """
     order = np.argsort(temperature_k, kind="stable")
     ordered = temperature_k[order]
-    gaps = np.flatnonzero(np.diff(ordered) > CLUSTER_GAP_STD * sensor_std_k)
+    smallest_gap = max(CLUSTER_GAP_STD * sensor_std_k, CLUSTER_GAP_FRACTION * np.ptp(ordered))
+    gaps = np.flatnonzero(np.diff(ordered) > smallest_gap)
     members = np.split(order, gaps + 1)
     centres = np.array([temperature_k[group].mean() for group in members])
     largest = np.zeros(temperature_k.size, dtype=bool)
@@ -528,7 +535,7 @@ class ThermalCalibrator(Calibrator):
             fsr_hz=float(self.fsr_hz),
         )
         rows = self._layout.largest_cluster
-        if len(self._layout.clusters_k) == 1:
+        if np.count_nonzero(rows) < MIN_CLUSTER_READINGS:
             rows = np.ones_like(rows)
         return check_design_fsr(
             powers[rows],
@@ -586,7 +593,7 @@ class ThermalCalibrator(Calibrator):
         )
         self._sweep = (frequency_hz, scale, affine)
         self._set_map(fit.map_[:, :3])
-        noise = self._detector_noise_w(noise)
+        noise = detector_noise_w(noise, self._sensor_variance_w2())
         self.port_noise_std_w_ = np.maximum(noise, np.finfo(float).eps * np.abs(powers).max())
         pooled_dof = max(powers.size - fit.map_.size - 3, 1)
         self.noise_std_w_ = float(np.sqrt(fit.cost * powers.shape[0] / pooled_dof))
@@ -617,13 +624,10 @@ class ThermalCalibrator(Calibrator):
                 f"reading's noise ({phase_std:.3g} rad)",
             )
 
-    def _sensor_variance_w2(self) -> np.ndarray:
-        """Variance (W^2, per port) the temperature sensor's noise adds to the calibration
-        readings: ``s_T^2 mean_k (m_k (A u'(t_k))_j dt_k/dT)^2``."""
-        frequency_hz, scale, _ = self._sweep
-        temperature = self._sweep_temperature_k
-        phase = self._sweep_model_phase_rad()
-        offset = temperature - self.reference_temperature_k_
+    def _sweep_phase_noise_rad(self) -> np.ndarray:
+        """Phase scatter (rad) the sensor noise gives each sweep reading:
+        ``temperature_std_k |dt/dT|``, ``dt/dT = alpha + 2 pi (f - f0) tau0 beta``."""
+        frequency_hz = self._sweep[0]
         rate = self.thermal_phase_rad_per_k_ + (
             2.0
             * np.pi
@@ -631,49 +635,58 @@ class ThermalCalibrator(Calibrator):
             * self.delay_s_
             * self.thermal_delay_per_k_
         )
-        tangent = np.stack([-np.sin(phase), np.cos(phase), np.zeros_like(offset)], axis=1)
-        power = 1.0 if scale is None else scale[:, None]
-        image = tangent @ self.map_.T * power * rate[:, None]
-        return self.temperature_std_k**2 * np.mean(image**2, axis=0)
+        return self.temperature_std_k * np.abs(rate)
 
-    def _detector_noise_w(self, noise_w: np.ndarray) -> np.ndarray:
-        """Per-port noise (W) of the detectors: a residual noise estimate less what the
-        temperature sensor adds (:meth:`_sensor_variance_w2`), at least a tenth of it."""
-        detector = np.square(noise_w) - self._sensor_variance_w2()
-        return np.sqrt(np.maximum(detector, 0.01 * np.square(noise_w)))
+    def _sweep_noise_directions_w(self) -> np.ndarray:
+        """The sensor's noise on each sweep reading (N, n), W: its phase scatter times the
+        fringe tangent ``m_k A u'(t_k)``."""
+        _, scale, _ = self._sweep
+        phase = self._sweep_model_phase_rad()
+        tangent = np.stack([-np.sin(phase), np.cos(phase), np.zeros_like(phase)], axis=1)
+        power = 1.0 if scale is None else scale[:, None]
+        return tangent @ self.map_.T * power * self._sweep_phase_noise_rad()[:, None]
+
+    def _sensor_variance_w2(self) -> np.ndarray:
+        """Mean variance (W^2, per port) the sensor noise adds to the sweep readings."""
+        return phase_noise_variance_w2(self._sweep_noise_directions_w(), 1.0)
 
     def _misfit_report(self, powers, frequency_hz, scale, sweep_delay_s):
-        """The learned calibrator's report, with the sensor's share taken out of the
-        model-free noise; where that share is large its warning replaces those it explains
-        (``other_misfit``, ``unequal_noise``, and ``phase_drift`` when the phase error is
-        not smooth in time: the sensor scatters the phase from reading to reading)."""
+        """The learned calibrator's report (which expects the sensor's phase scatter), and a
+        ``temperature_noise`` warning when the sensor's expected share of a port's residual
+        power is ``SENSOR_SHARE_NOTED`` or more (above 1: declared noisier than it is)."""
         report = super()._misfit_report(powers, frequency_hz, scale, sweep_delay_s)
-        noise = np.asarray(report.noise_std_w, dtype=float)
-        share = self._sensor_variance_w2() / np.maximum(np.square(noise), np.finfo(float).tiny)
-        report = dataclasses.replace(report, noise_std_w=self._detector_noise_w(noise))
+        residual = np.square(np.asarray(report.residual_rms_w, dtype=float))
+        share = self._sensor_variance_w2() / np.maximum(residual, np.finfo(float).tiny)
         if share.max() < SENSOR_SHARE_NOTED:
             return report
-        explained = {"other_misfit", "unequal_noise"}
-        if report.p_values.get("phase", 1.0) >= TEST_P_VALUE:
-            # no smooth phase error: a phase drift found is the sensor's reading-to-reading
-            # phase scatter
-            explained.add("phase_drift")
-        kept = [note for note in report.warnings if note.cause not in explained]
-        return dataclasses.replace(report, warnings=(*kept, self._sensor_note(share)))
+        return dataclasses.replace(report, warnings=(*report.warnings, self._sensor_note(share)))
 
     def _sensor_note(self, share: np.ndarray) -> CalibrationWarning:
         port = int(np.argmax(share))
+        rate = (
+            f"{self.temperature_std_k:g} K x the bias rate "
+            f"{abs(self.thermal_phase_rad_per_k_):.3g} rad/K"
+        )
+        if share[port] >= 1.0:
+            remedy = "give temperature_std_k the sensor's true noise (K)"
+            return CalibrationWarning(
+                f"the declared temperature sensor noise ({rate}) would scatter the phase of the "
+                f"calibration readings more than the residual of port {self.port_names_[port]} "
+                f"shows: the sensor is quieter than temperature_std_k says, and the stated "
+                f"uncertainties are too large; {remedy}",
+                cause="temperature_noise",
+                remedy=remedy,
+            )
         remedy = (
             "average the temperature readings (a quieter sensor, or a slower one if the "
             "chip's temperature changes slowly), or give temperature_std_k the sensor's "
             "true noise"
         )
         return CalibrationWarning(
-            f"the temperature sensor's noise ({self.temperature_std_k:g} K x the bias rate "
-            f"{abs(self.thermal_phase_rad_per_k_):.3g} rad/K) scatters the phase of the "
-            f"calibration readings: {100 * share[port]:.3g} % of the residual power of port "
-            f"{self.port_names_[port]}; the detector noise is estimated without it, but the "
-            f"map and rates are learned with it; {remedy}",
+            f"the temperature sensor's noise ({rate}) scatters the phase of the calibration "
+            f"readings: {100 * share[port]:.3g} % of the residual power of port "
+            f"{self.port_names_[port]}; the detector noise is estimated without it and the "
+            f"uncertainties include it, but it costs the calibration precision; {remedy}",
             cause="temperature_noise",
             remedy=remedy,
         )

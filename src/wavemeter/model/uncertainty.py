@@ -189,8 +189,24 @@ def _inverse(fisher: np.ndarray) -> np.ndarray:
     return 0.5 * (inverse + inverse.T)
 
 
+def _score_of_directions(x, d, matrix, weight, directions) -> np.ndarray:
+    """``J_k' W c_k`` (N, n k + q) of every reading: the parameters' gradient of the
+    weighted residual energy along the reading's extra noise direction ``c_k`` (W)."""
+    weighted = directions * weight
+    samples = x.shape[0]
+    along_map = -(weighted[:, :, None] * x[:, None, :]).reshape(samples, -1)
+    along_theta = [-np.einsum("ij,ij->i", d_q @ matrix.T, weighted) for d_q in d]
+    return np.column_stack([along_map, *along_theta])
+
+
 def fit_parameter_covariance(
-    objects, objects_delay_derivative, map_, noise_std_w, *, weighted: bool = True
+    objects,
+    objects_delay_derivative,
+    map_,
+    noise_std_w,
+    *,
+    weighted: bool = True,
+    noise_directions_w=None,
 ) -> np.ndarray:
     """Covariance of the least-squares calibration ``[vec(map_) row-major, theta]``.
 
@@ -215,6 +231,12 @@ def fit_parameter_covariance(
         Detector noise per port (W).
     weighted : bool
         Covariance of the noise-weighted fit (default) or of the unweighted one.
+    noise_directions_w : None or array_like, shape (N, n)
+        Noise of each reading along one direction besides the white detector noise: its
+        covariance is ``c_k c_k'`` (W^2), e.g. a phase scatter ``s_k`` (rad) times the
+        fringe tangent ``P A u'(t_k)`` for a chip temperature known to ``s_k / rate``. It
+        adds ``B^-1 (sum_k J_k' W c_k c_k' W J_k) B^-1`` (``B`` the information matrix of
+        the fit: the sandwich).
 
     Returns
     -------
@@ -229,9 +251,16 @@ def fit_parameter_covariance(
     matrix = _matrix("map_", map_, (None, x.shape[1]))
     weight = _inverse_variance(noise_std_w, matrix.shape[0])
     if weighted:
-        return _inverse(_fisher(x, d, matrix, weight))
-    bread = _inverse(_fisher(x, d, matrix, np.ones_like(weight)))
-    covariance = bread @ _fisher(x, d, matrix, 1.0 / weight) @ bread
+        bread = _inverse(_fisher(x, d, matrix, weight))
+        covariance, fit_weight = bread, weight
+    else:
+        fit_weight = np.ones_like(weight)
+        bread = _inverse(_fisher(x, d, matrix, fit_weight))
+        covariance = bread @ _fisher(x, d, matrix, 1.0 / weight) @ bread
+    if noise_directions_w is not None:
+        directions = _matrix("noise_directions_w", noise_directions_w, (x.shape[0], weight.size))
+        score = _score_of_directions(x, d, matrix, fit_weight, directions) @ bread
+        covariance = covariance + score.T @ score
     return 0.5 * (covariance + covariance.T)
 
 
