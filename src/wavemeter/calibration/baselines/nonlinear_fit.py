@@ -66,6 +66,9 @@ class NonlinearFitWarning(RuntimeWarning):
     """The nonlinear least-squares fit stopped without meeting its tolerances."""
 
 
+#: largest scattering magnitude a calibration file may hold: products of two stay finite
+MAX_MAGNITUDE = 1e150
+
 def design_parameters(ports: int, fsr_hz: float = 50e9, inputs=(0, 2)) -> np.ndarray:
     """Design starting point ``[m_a (n), m_b (n), phi (n), delay_s]`` of the fit.
 
@@ -301,8 +304,11 @@ class NonlinearFitCalibrator(BaseCalibrator):
     def _set_state(self, state: dict) -> None:
         n = self.n_ports_
         magnitudes = state_array(state, "magnitudes", (n, 2))
-        if np.any(magnitudes < 0):
-            raise InputError(f"field 'magnitudes' must be >= 0, got {magnitudes.tolist()}")
+        if np.any(magnitudes < 0) or np.any(magnitudes > MAX_MAGNITUDE):
+            raise InputError(
+                f"field 'magnitudes' must lie in [0, {MAX_MAGNITUDE:g}] (their products are the "
+                f"port powers, finite in float64), got {magnitudes.tolist()}"
+            )
         phases = state_array(state, "port_phases_rad", (n,))
         delay = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
         converged, message = state.get("converged"), state.get("fit_message")
