@@ -749,18 +749,27 @@ class ThermalCalibrator(Calibrator):
         layout = self._layout
         del self._layout
         std = np.sqrt(np.diag(self.parameter_covariance_)[-3:])
-        per_rad = self.fsr_hz_ / (2.0 * np.pi)
+        shift = self._fringe_shift()
         return {
             "thermal": {
                 "thermal_phase_rad_per_k": self.thermal_phase_rad_per_k_,
                 "thermal_phase_std_rad_per_k": float(std[1]),
                 "thermal_delay_per_k": self.thermal_delay_per_k_,
                 "thermal_delay_std_per_k": float(std[2]),
-                "fringe_shift_hz_per_k": self.thermal_phase_rad_per_k_ * per_rad,
-                "fringe_shift_std_hz_per_k": float(std[1]) * per_rad,
+                "fringe_shift_hz_per_k": shift.value,
+                "fringe_shift_std_hz_per_k": shift.stderr,
                 **layout.record(),
             }
         }
+
+    def _fringe_shift(self) -> FitValue:
+        """The fringe shift ``alpha / (2 pi tau0)`` (Hz/K) with its standard error from the
+        covariance of ``tau0`` and ``alpha``."""
+        per_rad = self.fsr_hz_ / (2.0 * np.pi)
+        shift = self.thermal_phase_rad_per_k_ * per_rad
+        gradient = np.array([-shift / self.delay_s_, per_rad])
+        block = self.parameter_covariance_[-3:-1, -3:-1]
+        return FitValue(shift, float(np.sqrt(gradient @ block @ gradient)), "Hz/K")
 
     # ------------------------------------------------------------------ retrieval
     def fsr_hz_at(self, temperature_k) -> np.ndarray:
@@ -879,13 +888,10 @@ class ThermalCalibrator(Calibrator):
     # ------------------------------------------------------------------ reporting and files
     def _summary_values(self) -> dict:
         std = np.sqrt(np.diag(self.parameter_covariance_)[-3:])
-        per_rad = self.fsr_hz_ / (2.0 * np.pi)
         return {
             **super()._summary_values(),
             "thermal_phase_rad_per_k": FitValue(self.thermal_phase_rad_per_k_, std[1], "rad/K"),
-            "fringe_shift_hz_per_k": FitValue(
-                self.thermal_phase_rad_per_k_ * per_rad, std[1] * per_rad, "Hz/K"
-            ),
+            "fringe_shift_hz_per_k": self._fringe_shift(),
             "thermal_delay_per_k": FitValue(self.thermal_delay_per_k_, std[2], "1/K"),
             "reference_temperature_k": FitValue(self.reference_temperature_k_, None, "K"),
         }
