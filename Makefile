@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench trust peers fuzz clean
+.PHONY: demo test lint bench trust thermal peers fuzz clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -37,6 +37,11 @@ bench: $(BIN)/wavemeter
 # the fault catalogue of issue 9: every fault at three severities, warnings, flags, remedies
 trust: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/trust.py
+
+# the thermally compensated calibration of issue 10: ThermalCalibrator against its bound, plain
+# and re-anchored plain calibrations; writes docs/figures/thermal_error_vs_temperature.png
+thermal: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/thermal.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'
