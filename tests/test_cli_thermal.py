@@ -77,12 +77,10 @@ def write_readings(path: Path, device, frequency_hz, temperature_k, seed: int, *
     return path
 
 
-def test_frequencies(device, samples: int, rng) -> np.ndarray:
+def random_frequencies(device, samples: int, rng) -> np.ndarray:
+    """Test frequencies (Hz) uniform over the central part of the FSR."""
     half = HALF_SPAN_FSR * device.true_fsr_hz
     return device.center_hz + rng.uniform(-half, half, samples)
-
-
-test_frequencies.__test__ = False  # a helper, not a test
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +102,7 @@ def files(tmp_path_factory, device) -> dict[str, Path]:
     command = f"calibrate --method thermal {' '.join(map(str, sweeps))} -o {cal} --quiet"
     assert main(shlex.split(command)) == 0
     rng = np.random.default_rng(7)
-    truth = test_frequencies(device, TEST_READINGS, rng)
+    truth = random_frequencies(device, TEST_READINGS, rng)
     low, high = SWEEP_TEMPERATURES_K[0], SWEEP_TEMPERATURES_K[-1]
     temperature = rng.uniform(low, high, TEST_READINGS)
     test = write_readings(
@@ -179,7 +177,7 @@ def test_readings_far_outside_the_calibrated_temperatures_are_flagged(
     files, device, tmp_path, capsys
 ):
     rng = np.random.default_rng(11)
-    truth = test_frequencies(device, 20, rng)
+    truth = random_frequencies(device, 20, rng)
     temperature = np.r_[np.full(10, 299.0), np.full(10, 293.0)]
     readings = write_readings(tmp_path / "r.csv", device, truth, temperature, 12)
     out_path = tmp_path / "f.csv"
@@ -191,7 +189,7 @@ def test_readings_far_outside_the_calibrated_temperatures_are_flagged(
 
 def test_one_temperature_for_the_whole_file(files, device, tmp_path, capsys):
     rng = np.random.default_rng(13)
-    truth = test_frequencies(device, TEST_READINGS, rng)
+    truth = random_frequencies(device, TEST_READINGS, rng)
     powers = device.powers(truth, POWER_W, NOISE_W, rng, temperature_k=294.0)
     readings = tmp_path / "r.csv"
     write_table(readings, {f"p{k + 1}_w": powers[:, k] for k in range(3)})
@@ -247,7 +245,7 @@ def test_reanchor_on_one_line_brings_a_shifted_chip_back(files, device, tmp_path
     )
     assert abs(abs(shift) - BIAS_SHIFT_RAD) < MAX_Z * shift_std
     rng = np.random.default_rng(22)
-    truth = test_frequencies(device, TEST_READINGS, rng)
+    truth = random_frequencies(device, TEST_READINGS, rng)
     temperature = rng.uniform(SWEEP_TEMPERATURES_K[0], SWEEP_TEMPERATURES_K[-1], TEST_READINGS)
     readings = write_readings(tmp_path / "r.csv", shifted, truth, temperature, 23)
     for cal, anchored in ((files["cal"], False), (new, True)):
