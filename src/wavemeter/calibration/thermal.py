@@ -97,6 +97,10 @@ MIN_SPREAD_STD = 10.0
 RATE_BUDGET_K = 1.0
 #: readings the grid stage of the fit uses, at most (evenly spaced in acquisition order)
 GRID_READINGS = 4000
+#: ... fewer when the bias-rate grid is long: at most this many trial phases per delay ...
+GRID_CELLS = 2_000_000
+#: ... but never fewer readings than this
+MIN_GRID_READINGS = 500
 #: bias-rate grid step times the temperature range (rad): a phase error of 1/4 rad
 RATE_GRID_STEP_RAD = 0.25
 #: bias-rate grid points, at most
@@ -397,7 +401,6 @@ def fit_thermal_map(
     offset = temperature_k - reference
     detuning = 2.0 * np.pi * (frequency_hz - center_hz)
     # 1. grid over (tau0, alpha) at beta = 0 on evenly spaced readings
-    rows = np.unique(np.linspace(0, powers.shape[0] - 1, GRID_READINGS).astype(int))
     relative = bracket_grid(fsr_hz, fsr_tolerance, float(np.ptp(frequency_hz)))
     temperature_range = max(float(np.ptp(temperature_k)), np.finfo(float).tiny)
     points = int(
@@ -406,6 +409,9 @@ def fit_thermal_map(
             np.ceil(2 * layout.searched_rad_per_k * temperature_range / RATE_GRID_STEP_RAD) + 1,
         )
     )
+    # at most GRID_CELLS trial phases per trial delay bound the memory
+    readings = max(min(GRID_READINGS, GRID_CELLS // points), MIN_GRID_READINGS)
+    rows = np.unique(np.linspace(0, powers.shape[0] - 1, readings).astype(int))
     rates = np.linspace(-layout.searched_rad_per_k, layout.searched_rad_per_k, points)
     grid_scale = None if scale is None else scale[rows]
     best = (np.inf, 0.0, 0.0)
