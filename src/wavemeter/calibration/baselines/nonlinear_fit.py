@@ -69,6 +69,7 @@ class NonlinearFitWarning(RuntimeWarning):
 #: largest scattering magnitude a calibration file may hold: products of two stay finite
 MAX_MAGNITUDE = 1e150
 
+
 def design_parameters(ports: int, fsr_hz: float = 50e9, inputs=(0, 2)) -> np.ndarray:
     """Design starting point ``[m_a (n), m_b (n), phi (n), delay_s]`` of the fit.
 
