@@ -151,6 +151,7 @@ from ..model.cone import cone_vectors, delay_phase_rad
 from ..model.limits import crlb_frequency_std
 from ..model.uncertainty import phase_std_rad, pinv_phase_gradient
 from .residual_tests import (
+    RANK_TOLERANCE,
     TEST_P_VALUE,
     Projector,
     ResidualTest,
@@ -169,6 +170,7 @@ __all__ = [
     "MIN_MODEL_FREE_READINGS",
     "MIN_OFFSET_Z",
     "MIN_READINGS_PER_FSR",
+    "NOISY_BASIS_TOLERANCE",
     "MisfitReport",
     "POOLED_NOISE_P_VALUE",
     "SMOOTH_ORDERS",
@@ -193,6 +195,9 @@ CAUSES = (
 )
 #: numbers of discrete cosines of the row index tested as "smooth in time"
 SMOOTH_ORDERS = (3, 6, 12, 24, 48, 96, 192)
+#: with phase noise in the model, a test column is left out when less than this fraction
+#: of its norm lies outside the fitted columns (which then carry that noise)
+NOISY_BASIS_TOLERANCE = 0.9
 #: the largest of them for a drift of power or phase (their columns couple the ports)
 MAX_COUPLED_ORDER = 96
 #: fewest readings, and fewest readings per fringe period, for the model-free noise
@@ -824,7 +829,10 @@ def misfit_report(
     weight = np.full(ports, np.sqrt(np.mean(noise**2))) if pooled else noise
     delay_column = (2.0 * np.pi * (frequency - center))[:, None] * tangent
     projector = Projector(basis, delay_column / weight)
-    tests = ResidualTests(residual / weight, projector, residual_dof)
+    # the fitted columns carry the model's phase noise, which the residual carries too: a
+    # test column partly inside their span is left with that noise in its direction
+    tolerance = NOISY_BASIS_TOLERANCE if np.any(expected > 0) else RANK_TOLERANCE
+    tests = ResidualTests(residual / weight, projector, residual_dof, tolerance)
     harmonics = np.column_stack(
         [power * trig(order * phase) for order in HARMONICS for trig in (np.cos, np.sin)]
     )

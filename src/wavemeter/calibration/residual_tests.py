@@ -205,10 +205,12 @@ class CosineColumns(Columns):
         return self._span(coordinates[:orders, None])[:, :, 0] + outside.reshape(self.shape)
 
 
-def projected_components(columns: np.ndarray, norms: np.ndarray, target: np.ndarray):
+def projected_components(
+    columns: np.ndarray, norms: np.ndarray, target: np.ndarray, tolerance: float = RANK_TOLERANCE
+):
     """Nested projections of ``target`` (M, t) on ``columns`` (M, K) taken in order.
 
-    Returns the mask of the columns kept (those not absorbed, to ``RANK_TOLERANCE`` of their
+    Returns the mask of the columns kept (those not absorbed, to ``tolerance`` of their
     ``norms``, by the fitted directions and the columns kept before them), an orthonormal
     basis (M, kept) of the kept columns' nested spans (QR) and the components (K, t) of
     ``target`` on it, 0 for the columns not kept.
@@ -218,7 +220,7 @@ def projected_components(columns: np.ndarray, norms: np.ndarray, target: np.ndar
         frame, triangle = linalg.qr(columns[:, kept], mode="economic", check_finite=False)
         size = np.zeros(np.count_nonzero(kept))
         size[: min(triangle.shape)] = np.abs(np.diag(triangle))
-        absorbed = size <= RANK_TOLERANCE * np.maximum(norms[kept], np.finfo(float).tiny)
+        absorbed = size <= tolerance * np.maximum(norms[kept], np.finfo(float).tiny)
         if not absorbed.any():
             break
         # drop the first absorbed column only: those after it are judged without it
@@ -247,7 +249,8 @@ class ResidualTest:
 class ResidualTests:
     """The score tests of the module docstring on one whitened residual (N, n)."""
 
-    def __init__(self, residual, projector, residual_dof: float):
+    def __init__(self, residual, projector, residual_dof: float, rank_tolerance=RANK_TOLERANCE):
+        self.rank_tolerance = rank_tolerance
         self.residual = projector(residual)
         self.projector = projector
         self.ports = residual.shape[1]
@@ -295,7 +298,9 @@ class ResidualTests:
         columns explain at the best order (what the fit did not absorb of the drift, in the
         unit of the direction's coefficient)."""
         target = columns.coordinates(self.residual[..., None])
-        kept, frame, components = projected_components(columns.matrix, columns.norms, target)
+        kept, frame, components = projected_components(
+            columns.matrix, columns.norms, target, self.rank_tolerance
+        )
         best = self._best(components[:, 0] ** 2, kept, orders)
         # the projection on the kept columns of the best order
         used = np.count_nonzero(kept[: best.orders])
@@ -308,7 +313,9 @@ class ResidualTests:
         """Columns ``basis_m(k)`` (:meth:`columns` without a direction) on every port
         separately, nested at ``orders``; also each port's statistic at the largest order."""
         target = columns.coordinates(self.residual[:, None, :])
-        kept, _, components = projected_components(columns.matrix, columns.norms, target)
+        kept, _, components = projected_components(
+            columns.matrix, columns.norms, target, self.rank_tolerance
+        )
         scores = components**2
         return self._best(scores.sum(axis=1), kept, orders, self.ports), scores.sum(axis=0)
 
