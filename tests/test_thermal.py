@@ -325,3 +325,18 @@ def test_the_file_keeps_the_rates(calibrated, tmp_path):
         assert getattr(loaded, name) == getattr(calibrated, name)
     np.testing.assert_array_equal(loaded.parameter_covariance_, calibrated.parameter_covariance_)
     assert loaded.diagnostics_["thermal"] == calibrated.diagnostics_["thermal"]
+
+
+def test_a_drift_the_temperature_does_not_explain_is_still_named(sin_device):
+    """With the 1 mK sensor's phase scatter expected by the diagnostics, a slow extra bias
+    drift (0.02 rad, 1.5x the reading phase noise over ~2000 readings) is still found."""
+    temperatures = np.repeat(THERMAL_SWEEP_TEMPERATURES_K, 2000)
+    frequency = np.tile(sin_device.sweep_hz(2000), 4)
+    drift = 0.02 * np.sin(np.linspace(0, 3 * np.pi, frequency.size))
+    powers = sin_device.powers(
+        frequency, POWER_W, NOISE_W, rng=14, temperature_k=temperatures, bias_drift_rad=drift
+    )
+    measured = temperatures + np.random.default_rng(15).normal(0, SENSOR_STD_K, frequency.size)
+    with pytest.warns(wm.CalibrationWarning) as caught:
+        wm.ThermalCalibrator().fit(powers, frequency, temperature_k=measured)
+    assert "phase_drift" in [note.message.cause for note in caught]

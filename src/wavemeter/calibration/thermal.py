@@ -107,6 +107,8 @@ RATE_GRID_STEP_RAD = 0.25
 MAX_RATE_POINTS = 4096
 #: share of the calibration residual power the temperature sensor's noise may hold unnoted
 SENSOR_SHARE_NOTED = 0.2
+#: causes found by tests built on the model phase, not trusted when the sensor dominates
+PHASE_TESTED_CAUSES = frozenset({"phase_drift", "dispersion", "other_misfit", "unequal_noise"})
 #: the three nonlinear parameters, in the order of ``parameter_covariance_``
 PARAMETERS = ("delay_s", "thermal_phase_rad_per_k", "thermal_delay_per_k")
 
@@ -659,13 +661,20 @@ class ThermalCalibrator(Calibrator):
     def _misfit_report(self, powers, frequency_hz, scale, sweep_delay_s):
         """The learned calibrator's report (which expects the sensor's phase scatter), and a
         ``temperature_noise`` warning when the sensor's expected share of a port's residual
-        power is ``SENSOR_SHARE_NOTED`` or more (above 1: declared noisier than it is)."""
+        power is ``SENSOR_SHARE_NOTED`` or more (above 1: declared noisier than it is).
+
+        At such a share the tests of the fringe phase are not to be trusted: they are built
+        on the model phase, which carries the sensor noise the residual carries too (errors
+        in variables). Their warnings (``PHASE_TESTED_CAUSES``) give way to this one, which
+        says so; their p-values stay in the report.
+        """
         report = super()._misfit_report(powers, frequency_hz, scale, sweep_delay_s)
         residual = np.square(np.asarray(report.residual_rms_w, dtype=float))
         share = self._sensor_variance_w2() / np.maximum(residual, np.finfo(float).tiny)
         if share.max() < SENSOR_SHARE_NOTED:
             return report
-        return dataclasses.replace(report, warnings=(*report.warnings, self._sensor_note(share)))
+        kept = [note for note in report.warnings if note.cause not in PHASE_TESTED_CAUSES]
+        return dataclasses.replace(report, warnings=(*kept, self._sensor_note(share)))
 
     def _sensor_note(self, share: np.ndarray) -> CalibrationWarning:
         port = int(np.argmax(share))
@@ -692,7 +701,9 @@ class ThermalCalibrator(Calibrator):
             f"the temperature sensor's noise ({rate}) scatters the phase of the calibration "
             f"readings: {100 * share[port]:.3g} % of the residual power of port "
             f"{self.port_names_[port]}; the detector noise is estimated without it and the "
-            f"uncertainties include it, but it costs the calibration precision; {remedy}",
+            "uncertainties include it, but it costs the calibration precision, and the fit "
+            "diagnostics cannot test the fringe phase through it (a phase drift, dispersion "
+            f"or other misfit would go unseen); {remedy}",
             cause="temperature_noise",
             remedy=remedy,
         )
