@@ -14,6 +14,7 @@ against the device's within ``MAX_Z`` of their own standard errors.
 from __future__ import annotations
 
 import csv
+import json
 import re
 import shlex
 from pathlib import Path
@@ -267,10 +268,25 @@ def test_reanchor_of_a_thermal_calibration_needs_the_temperature(files, device, 
     assert not new.exists()
 
 
-def test_evaluate_says_it_passes_no_temperature(files, capsys):
-    err = one_error(*run_cli(capsys, f"evaluate {files['cal']} {files['test']}")[::2])
-    assert "needs the chip temperature of each reading, which evaluate does not pass" in err
-    assert "wavemeter report CAL SWEEP TEST" in err
+def test_evaluate_reads_the_temperature_column_and_compares_with_the_bound(files, capsys):
+    code, out, err = run_cli(capsys, f"evaluate {files['cal']} {files['test']} --json")
+    assert code == 0, err
+    report = json.loads(out)
+    thermal = report["methods"]["thermal"]
+    # the bound is the Cramer-Rao one of the readings, without the sensor's share; the
+    # 1 mK sensor adds 2.6 MHz in quadrature to ~10 MHz: at most 4 %, and the RMS of
+    # TEST_READINGS errors is known to 4 / sqrt(2 M)
+    tolerance = 4 / np.sqrt(2 * TEST_READINGS)
+    assert 1 - tolerance <= thermal["rms_mod_fsr_over_crlb"] <= 1.04 * (1 + tolerance) + 0.05
+
+
+def test_evaluate_without_a_temperature_column_is_one_error(files, tmp_path, capsys):
+    columns = read_output(files["test"])
+    bare_test = tmp_path / "bare-test.csv"
+    write_table(bare_test, {name: v for name, v in columns.items() if name != "Temp (C)"})
+    err = one_error(*run_cli(capsys, f"evaluate {files['cal']} {bare_test}")[::2])
+    assert "the thermal calibration needs the chip temperature of each reading" in err
+    assert "--temperature COL" in err
 
 
 # ---------------------------------------------------------------------------- report

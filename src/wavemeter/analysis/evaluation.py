@@ -20,9 +20,18 @@ from .metrics import error_summary_hz, frequency_error_hz
 __all__ = ["adjacent_evaluation", "crlb_per_reading_hz", "evaluate_calibrations"]
 
 
-def _reading_inputs(calibration, coarse_hz) -> dict:
+def _reading_inputs(calibration, coarse_hz, temperature_k=None) -> dict:
     """Keyword inputs besides the powers that ``calibration`` needs per reading."""
-    return {"coarse_hz": coarse_hz} if "coarse_hz" in calibration.requires else {}
+    inputs = {"coarse_hz": coarse_hz} if "coarse_hz" in calibration.requires else {}
+    if "temperature_k" in calibration.requires:
+        if temperature_k is None:
+            raise InputError(
+                f"a {calibration.method_label} calibration needs the chip temperature of "
+                "each test reading: give temperature_k (K)",
+                parameter="temperature_k",
+            )
+        inputs["temperature_k"] = temperature_k
+    return inputs
 
 
 def _single_maps(calibration) -> list:
@@ -39,7 +48,9 @@ def _calibrated_range_hz(calibration) -> tuple[float, float]:
     return float(low), float(high)
 
 
-def crlb_per_reading_hz(calibration, powers_w, frequency_hz) -> np.ndarray | None:
+def crlb_per_reading_hz(
+    calibration, powers_w, frequency_hz, temperature_k=None
+) -> np.ndarray | None:
     """Per-reading Cramer-Rao standard deviation (Hz) at the true frequency.
 
     The bound under the calibration's own model: its fitted map, FSR and noise (estimated
@@ -55,6 +66,9 @@ def crlb_per_reading_hz(calibration, powers_w, frequency_hz) -> np.ndarray | Non
         Port readings, in the unit of the calibration sweep.
     frequency_hz : array_like, shape (N,)
         True frequency of each reading (Hz).
+    temperature_k : None or array_like, shape (N,)
+        Chip temperature of each reading (K), for a calibration that needs it (its FSR
+        and phase follow the temperature).
 
     Returns
     -------
@@ -77,8 +91,10 @@ def crlb_per_reading_hz(calibration, powers_w, frequency_hz) -> np.ndarray | Non
         index = np.zeros(truth.size, dtype=int)
     center_hz = np.array([single.center_hz_ for single in maps])[index]
     fsr_hz = np.array([single.fsr_hz_ for single in maps])[index]
+    inputs = _reading_inputs(calibration, truth, temperature_k)
+    if "temperature_k" in inputs:
+        fsr_hz = calibration.fsr_hz_at(inputs["temperature_k"])
     phase = wrap_phase_rad(2.0 * np.pi * (truth - center_hz) / fsr_hz)
-    inputs = _reading_inputs(calibration, truth)
     return calibration.crlb_hz(readings, phase_rad=phase, **inputs)
 
 
@@ -87,9 +103,10 @@ def _noise_std_w(calibration) -> float:
     return float(np.mean([single.noise_std_w_ for single in _single_maps(calibration)]))
 
 
-def _method_figures(calibration, readings, truth, coarse) -> dict:
+def _method_figures(calibration, readings, truth, coarse, temperature_k) -> dict:
     """Absolute and modulo-FSR error figures of one calibration (see evaluate_calibrations)."""
-    predicted = calibration.predict(readings, **_reading_inputs(calibration, coarse))
+    inputs = _reading_inputs(calibration, coarse, temperature_k)
+    predicted = calibration.predict(readings, **inputs)
     error = predicted - truth
     absolute = error_summary_hz(error)
     low, high = _calibrated_range_hz(calibration)
@@ -107,7 +124,9 @@ def _method_figures(calibration, readings, truth, coarse) -> dict:
     }
 
 
-def evaluate_calibrations(calibrations, powers_w, frequency_hz, *, coarse_hz=None) -> dict:
+def evaluate_calibrations(
+    calibrations, powers_w, frequency_hz, *, coarse_hz=None, temperature_k=None
+) -> dict:
     """Frequency errors of calibrations on readings of known frequency, against the CRLB.
 
     Each calibration retrieves every reading as it would in use; the error is the
@@ -130,6 +149,9 @@ def evaluate_calibrations(calibrations, powers_w, frequency_hz, *, coarse_hz=Non
         (``"coarse_hz"`` in ``requires``, e.g. a calibration set, where it picks the
         window); default: the true frequency, which tests the calibration but not the
         coarse values one would have in use.
+    temperature_k : None, float or array_like, shape (N,)
+        Chip temperature of each reading (K), for calibrations that need it (a thermal
+        one); an error when one does and it is None.
 
     Returns
     -------
@@ -160,11 +182,14 @@ def evaluate_calibrations(calibrations, powers_w, frequency_hz, *, coarse_hz=Non
     coarse = truth
     if coarse_hz is not None:
         coarse = check_per_reading("coarse_hz", coarse_hz, truth.size)
+    temperature = None
+    if temperature_k is not None:
+        temperature = check_per_reading("temperature_k", temperature_k, truth.size)
     coarse_from = None
     if any("coarse_hz" in calibration.requires for calibration in calibrations.values()):
         coarse_from = "truth" if coarse_hz is None else "coarse_hz"
     methods = {
-        label: _method_figures(calibration, readings, truth, coarse)
+        label: _method_figures(calibration, readings, truth, coarse, temperature)
         for label, calibration in calibrations.items()
     }
     summary = {
@@ -182,7 +207,7 @@ def evaluate_calibrations(calibrations, powers_w, frequency_hz, *, coarse_hz=Non
     ]
     if bounded:
         label = bounded[0]
-        bound = crlb_per_reading_hz(calibrations[label], readings, truth)
+        bound = crlb_per_reading_hz(calibrations[label], readings, truth, temperature)
         crlb_rms = float(np.sqrt(np.mean(bound**2)))
         summary.update(
             crlb_rms_hz=crlb_rms,

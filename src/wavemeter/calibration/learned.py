@@ -506,6 +506,10 @@ class Calibrator(BaseCalibrator):
         variance = variance * student_factor(self.noise_dof_) ** 2
         return np.sqrt(variance + self._sensor_variance_hz2(phase, temperature_k))
 
+    def _object_phase_rad(self, phase_rad, temperature_k=None):
+        """The map's phase (rad) of a phase as :meth:`phase` returns it (the same here)."""
+        return phase_rad
+
     def _map_columns(self) -> int:
         """Map columns ``k`` the parameter covariance holds: 3, or 4 with fitted offsets."""
         size = self.parameter_covariance_.shape[0] - self.nonlinear_parameters
@@ -535,7 +539,10 @@ class Calibrator(BaseCalibrator):
         ndarray, shape (N,), Hz
         """
         readings, inputs = self._check_reading_data(powers, coarse_hz, temperature_k)
-        phase = self._phase(readings) if phase_rad is None else np.asarray(phase_rad, float)
+        if phase_rad is None:
+            phase = self._phase(readings)
+        else:
+            phase = self._object_phase_rad(np.asarray(phase_rad, float), inputs["temperature_k"])
         power = source_power_ratio(readings, self.map_, phase, self.port_noise_std_w_)
         # the bound in phase (FSR 2 pi), in Hz at each reading's FSR
         phase_bound = crlb_frequency_std(self.map_, phase, power, self.port_noise_std_w_, 2 * np.pi)

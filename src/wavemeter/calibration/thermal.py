@@ -808,6 +808,10 @@ class ThermalCalibrator(Calibrator):
         offset = self._temperature_offset_k(temperature_k)
         return wrap_phase_rad(self._phase(powers) - self.thermal_phase_rad_per_k_ * offset)
 
+    def _object_phase_rad(self, phase_rad, temperature_k=None):
+        """``t = s + alpha dT``: the map's phase of a temperature-corrected phase ``s``."""
+        return phase_rad + self.thermal_phase_rad_per_k_ * self._temperature_offset_k(temperature_k)
+
     def _predict_checked(self, powers, temperature_k=None):
         phase = self._phase_at(powers, temperature_k)
         return self.center_hz_ + phase * self._hz_per_rad(temperature_k)

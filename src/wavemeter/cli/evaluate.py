@@ -22,7 +22,7 @@ from ._common import (
     read,
     say,
 )
-from ._temperature import needs_temperature
+from ._temperature import missing_temperature, needs_temperature
 
 
 def _other_method(calibration, sweep, options, phases):
@@ -199,17 +199,19 @@ def _print_adjacent(adjacent: dict) -> None:
     say(False, "\n".join(_table(labels, header, rows)))
 
 
-def _refuse_temperature(calibration, cal_path) -> None:
-    """The evaluation (:func:`wavemeter.analysis.evaluation.evaluate_calibrations`) passes
-    no chip temperature: refuse a calibration that needs one, naming what does."""
-    if needs_temperature(calibration):
-        raise InputError(
-            f"{cal_path} is a {calibration.method_label} calibration: it needs the chip "
-            "temperature of each reading, which evaluate does not pass yet; write a report "
-            "(wavemeter report CAL SWEEP TEST: errors against the bound and against "
-            "temperature) or measure the test file (wavemeter measure reads its temperature "
-            "column)"
+def _test_temperature_k(calibrations: dict, table):
+    """The test readings' chip temperature (K) when a calibration needs it, else None."""
+    thermal = [label for label, cal in calibrations.items() if needs_temperature(cal)]
+    if not thermal:
+        return None
+    if table.temperature_k is None:
+        raise missing_temperature(
+            f"the {thermal[0]} calibration",
+            table.source,
+            "give the test file a temperature column (found by name with its unit, or "
+            "named with --temperature COL)",
         )
+    return table.temperature_k
 
 
 @click.command()
@@ -264,7 +266,8 @@ def evaluate(
     than half an FSR. RMS/CRLB divides by the Cramer-Rao bound of the first learned map
     with the noise estimated from its calibration residual (a residual holding unmodelled
     structure makes that bound loose). A calibration set picks each reading's window from
-    --coarse, else from the truth.
+    --coarse, else from the truth; a thermal calibration reads each reading's chip
+    temperature from the test file's temperature column (--temperature COL).
 
     \b
     Example:
@@ -283,10 +286,8 @@ def evaluate(
     explicit = request.ports is not None
     check_ports(calibration, calibration_file, table, explicit)
     calibrations = {calibration.method_label: calibration}
-    _refuse_temperature(calibration, calibration_file)
     for path in compare_files:
         other = load(path)
-        _refuse_temperature(other, path)
         check_ports(other, path, table, explicit)
         calibrations.setdefault(f"{other.method_label} ({Path(path).name})", other)
     if sweep is not None:
@@ -306,7 +307,11 @@ def evaluate(
     with about(test):
         report.update(
             evaluate_calibrations(
-                calibrations, table.powers_w, table.x_hz, coarse_hz=table.coarse_hz
+                calibrations,
+                table.powers_w,
+                table.x_hz,
+                coarse_hz=table.coarse_hz,
+                temperature_k=_test_temperature_k(calibrations, table),
             )
         )
     if adjacent:
