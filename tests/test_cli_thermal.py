@@ -307,6 +307,31 @@ def test_the_report_shows_the_rates_and_the_error_against_temperature(files, tmp
     assert "[phase_drift]" in text
 
 
+def test_the_report_shows_a_thermal_calibration_alone_when_plain_cannot_fit(tmp_path, capsys):
+    """Sweeps 10 K apart move the fringes by 26 GHz: the plain learned comparison finds no
+    delay and is refused; the report shows the thermal calibration and says why."""
+    paths = []
+    for temperature in (290, 295, 300):
+        path = tmp_path / f"w{temperature}.csv"
+        command = (
+            f"simulate -o {path} --seed {SEED} --samples {SWEEP_SAMPLES} --platform sin "
+            f"--temperature-k {temperature} --quiet"
+        )
+        assert main(shlex.split(command)) == 0
+        paths.append(path)
+    cal = tmp_path / "wide.wmcal.json"
+    joined = " ".join(map(str, paths))
+    assert main(shlex.split(f"calibrate --method thermal {joined} -o {cal} --quiet")) == 0
+    texts = [path.read_text().splitlines() for path in paths]
+    sweep = tmp_path / "all.csv"
+    sweep.write_text("\n".join(texts[0] + texts[1][1:] + texts[2][1:]) + "\n")
+    page = tmp_path / "report.html"
+    code, _, err = run_cli(capsys, f"report {cal} {sweep} -o {page} --quiet")
+    assert code == 0, err
+    text = page.read_text()
+    assert "could not be fitted on the same sweep" in text and "side minimum" in text
+
+
 # ---------------------------------------------------------------------------- bad input
 def rewrite_temperature(source: Path, target: Path, header: str, values) -> Path:
     """A copy of a simulated sweep with its temperature column renamed and rewritten."""

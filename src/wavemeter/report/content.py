@@ -343,8 +343,10 @@ def report_content(
     summary : dict
         JSON-ready numbers shown in the page: ``methods`` (error summaries, Hz),
         ``crlb_rms_hz``, ``noise_std_w`` and ``noise_from`` (the learned method whose
-        residual gave it), ``evaluated_on``, ``samples``, ``comparison_warnings`` (the
-        ``[cause] message`` of each calibration warning the comparison's fit gave), and
+        residual gave it), ``evaluated_on``, ``samples``, ``comparison`` (its label, None
+        when it could not be fitted) and ``comparison_error`` (why not, else None),
+        ``comparison_warnings`` (the ``[cause] message`` of each calibration warning the
+        comparison's fit gave), and
         ``adjacent`` for sets.
     """
     from . import figures as plotting
@@ -356,18 +358,28 @@ def report_content(
     evaluation = calibration_readings if test is None else _readings(test, "test", ports, thermal)
     if isinstance(calibration, CalibrationSet):
         _check_inside(calibration, evaluation.frequency_hz, "sweep" if test is None else "test")
+    comparison_error = None
     with recorded_calibration_warnings() as comparison_warnings:
-        other = comparison_calibration(
-            calibration,
-            calibration_readings.powers_w,
-            calibration_readings.frequency_hz,
-            calibration_readings.monitor_w,
-            port_phases_rad,
-        )
+        try:
+            other = comparison_calibration(
+                calibration,
+                calibration_readings.powers_w,
+                calibration_readings.frequency_hz,
+                calibration_readings.monitor_w,
+                port_phases_rad,
+            )
+        except InputError as exc:
+            # a learned calibration is reported on its own when the other method cannot
+            # be fitted on its sweep (a plain one on sweeps at several temperatures)
+            if not _is_learned(calibration):
+                raise
+            other, comparison_error = None, str(exc)
     if not thermal:  # a plain comparison of a thermal sweep is expected to misfit: page only
         for warning in comparison_warnings:
             warnings.warn(warning, stacklevel=2)
-    methods = {calibration.method_label: calibration, other.method_label: other}
+    methods = {calibration.method_label: calibration}
+    if other is not None:
+        methods[other.method_label] = other
     learned_name = next(name for name, cal in methods.items() if _is_learned(cal))
     learned = methods[learned_name]
     truth, powers = evaluation.frequency_hz, evaluation.powers_w
@@ -413,7 +425,8 @@ def report_content(
         "noise_std_w": learned_noise_std_w(learned),
         "noise_from": learned_name,
         "methods": {name: error_summary_hz(error) for name, error in errors.items()},
-        "comparison": other.method_label,
+        "comparison": None if other is None else other.method_label,
+        "comparison_error": comparison_error,
         "comparison_warnings": [
             f"[{getattr(warning, 'cause', 'other_misfit')}] {warning}"
             for warning in comparison_warnings

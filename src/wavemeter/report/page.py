@@ -345,7 +345,14 @@ def _adjacent_html(adjacent: dict | str) -> str:
 
 def _comparison_note(summary: dict) -> str:
     """The calibration warnings of the comparison method's fit, which the page reports
-    instead of the command line (they are about the comparison, not the calibration)."""
+    instead of the command line (they are about the comparison, not the calibration), or
+    why it could not be fitted."""
+    error = summary.get("comparison_error")
+    if error:
+        return (
+            '<p class="note">The comparison method could not be fitted on the same sweep, so '
+            f"the calibration is shown alone: {html.escape(error)}</p>"
+        )
     notes = summary.get("comparison_warnings") or []
     if not notes:
         return ""
