@@ -41,6 +41,13 @@ the spread it would need, or names the collinearity.
 **Uncertainty.** :meth:`ThermalCalibrator.frequency_std_hz` adds to the learned calibrator's
 (noise and the parameter covariance, now of the map and all three of ``theta``) the
 temperature sensor's noise ``temperature_std_k`` times ``df / dT`` of each reading.
+
+**The sensor's noise in the calibration temperatures** scatters each calibration reading's
+phase by ``temperature_std_k |dt/dT|`` along its fringe tangent. The parameter covariance
+holds it (a sandwich term), the detector noise is estimated without it, and the fit
+diagnostics expect it; where it holds ``SENSOR_SHARE_NOTED`` of a port's residual power,
+a ``temperature_noise`` warning says so, and that the fit diagnostics cannot test the
+fringe phase through it.
 """
 
 from __future__ import annotations
