@@ -336,12 +336,15 @@ class ThermalFit:
         ``J = mean_k ||p_k - A x_k||^2`` (W^2).
     phase_rad : ndarray, shape (N,)
         Object phase of every reading at ``theta``.
+    residual_w : ndarray, shape (N, n)
+        Readings minus the fitted model (W).
     """
 
     theta: np.ndarray
     map_: np.ndarray
     cost: float
     phase_rad: np.ndarray
+    residual_w: np.ndarray
 
 
 def _grid_costs(powers, phases, scale, affine) -> np.ndarray:
@@ -472,6 +475,7 @@ def fit_thermal_map(
         map_=matrix,
         cost=float(np.einsum("ij,ij->", error, error) / powers.shape[0]),
         phase_rad=phase,
+        residual_w=error,
     )
 
 
@@ -602,15 +606,14 @@ class ThermalCalibrator(Calibrator):
         self.temperature_range_k_ = layout.range_k
         self.cost_ = fit.cost
         ports = powers.shape[1]
-        residual = powers - self._sweep_objects_at(frequency_hz, scale, affine)[0] @ fit.map_.T
         noise, self.noise_dof_ = port_noise_std_w(
-            residual, fit.map_.shape[1], shared=self.nonlinear_parameters
+            fit.residual_w, fit.map_.shape[1], shared=self.nonlinear_parameters
         )
         self._sweep = (frequency_hz, scale, affine)
         self._set_map(fit.map_[:, :3])
         noise = detector_noise_w(noise, self._sensor_variance_w2())
         self.port_noise_std_w_ = np.maximum(noise, np.finfo(float).eps * np.abs(powers).max())
-        pooled_dof = max(powers.size - fit.map_.size - 3, 1)
+        pooled_dof = max(powers.size - fit.map_.size - self.nonlinear_parameters, 1)
         self.noise_std_w_ = float(np.sqrt(fit.cost * powers.shape[0] / pooled_dof))
         self.residual_rms_ = float(np.sqrt(fit.cost / ports))
         self.offset_w_ = fit.map_[:, 3].copy() if affine else np.zeros(ports)
@@ -715,21 +718,17 @@ class ThermalCalibrator(Calibrator):
             remedy=remedy,
         )
 
-    def _sweep_objects_at(self, frequency_hz, scale, affine):
-        """Object vectors (N, k) and their derivatives (3, N, k) at the fitted parameters."""
-        temperature = self._sweep_temperature_k
-        theta = self._theta()
-        phase = thermal_phase_rad(
-            frequency_hz, temperature, self.center_hz_, self.reference_temperature_k_, *theta
-        )
-        derivatives = _phase_derivatives(
-            frequency_hz, temperature, self.center_hz_, self.reference_temperature_k_, theta
-        )
-        return thermal_objects(phase, scale, affine, derivatives)
-
     def _sweep_objects(self):
+        """Object vectors (N, k) and their derivatives (3, N, k) at the fitted parameters."""
         frequency_hz, scale, affine = self._sweep
-        return self._sweep_objects_at(frequency_hz, scale, affine)
+        derivatives = _phase_derivatives(
+            frequency_hz,
+            self._sweep_temperature_k,
+            self.center_hz_,
+            self.reference_temperature_k_,
+            self._theta(),
+        )
+        return thermal_objects(self._sweep_model_phase_rad(), scale, affine, derivatives)
 
     def _sweep_model_phase_rad(self) -> np.ndarray:
         frequency_hz = self._sweep[0]
