@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.thermal import thermal_phase_rad
+from wavemeter.calibration.thermal_fit import thermal_phase_rad
 
 from .conftest import NOISE_W, POWER_W, THERMAL_SWEEP_TEMPERATURES_K, thermal_sweep
 

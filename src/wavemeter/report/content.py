@@ -210,7 +210,7 @@ def _model_phase_rad(model: Calibrator, frequency_hz, temperature_k=None) -> np.
     chip temperature ``temperature_k`` (K) for a model that needs it."""
     if not _needs_temperature(model):
         return delay_phase_rad(frequency_hz, model.center_hz_, model.delay_s_)
-    from ..calibration.thermal import thermal_phase_rad
+    from ..calibration.thermal_fit import thermal_phase_rad
 
     return thermal_phase_rad(
         frequency_hz,
