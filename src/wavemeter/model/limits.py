@@ -61,38 +61,95 @@ def check_noise_std(name: str, value, ports: int) -> float | np.ndarray:
     return noise
 
 
+def stacked_phase_and_power(matrix: np.ndarray, phase_rad, power):
+    """Phases (N,) and power (scalar or (N,)) of N readings with a stack of maps (N, n, 3).
+
+    The phases set N: a stack of another length is refused (naming ``map_``), as are
+    phases that are not a vector and a power that is neither one value nor one per phase.
+    """
+    t = np.asarray(phase_rad, dtype=float)
+    if t.ndim != 1:
+        raise InputError(
+            f"phase_rad must have shape (N,) with a stack of maps, got {t.shape}",
+            parameter="phase_rad",
+        )
+    if matrix.shape[0] != t.size:
+        raise InputError(
+            f"map_ must hold one map per reading: {matrix.shape[0]} maps for {t.size} phases",
+            parameter="map_",
+        )
+    power = np.asarray(power, dtype=float)
+    if power.ndim != 0 and power.shape != t.shape:
+        raise InputError(
+            f"power must be one value or one per reading ({t.size}), got shape {power.shape}",
+            parameter="power",
+        )
+    return t, power
+
+
+def _stacked_fsr(fsr_hz, samples: int) -> float | np.ndarray:
+    """Free spectral range (Hz): one, or one per map of a stack of ``samples``."""
+    if np.ndim(fsr_hz) == 0:
+        try:
+            return check_positive("fsr_hz", fsr_hz)
+        except InputError as exc:
+            raise InputError(str(exc), parameter="fsr_hz") from None
+    fsr = np.asarray(fsr_hz, dtype=float)
+    if fsr.shape != (samples,) or not np.all(np.isfinite(fsr) & (fsr > 0)):
+        raise InputError(
+            f"fsr_hz must be one finite value > 0, or one per reading ({samples}) each finite "
+            f"and > 0, got shape {fsr.shape}",
+            parameter="fsr_hz",
+        )
+    return fsr
+
+
 def crlb_frequency_std(map_, phase_rad, power, noise_std, fsr_hz) -> np.ndarray:
     """Per-sample Cramer-Rao bound on the frequency standard deviation (Hz).
 
     Parameters
     ----------
-    map_ : array_like, shape (n, 3)
-        Map ``A`` per unit of ``power``.
+    map_ : array_like, shape (n, 3) or (N, n, 3)
+        Map ``A`` per unit of ``power``, or one map per sample (sample ``k`` uses
+        ``map_[k]``).
     phase_rad : float or array_like, shape (N,)
-        Interferometer phase ``t`` of each sample (rad).
+        Interferometer phase ``t`` of each sample (rad); shape (N,) with a stack of maps.
     power : float or array_like, shape (N,)
         Source power ``P`` in the unit ``map_`` is scaled by (W for a device's true map;
         1 for a fitted ``Calibrator.map_``, which already holds the calibration power).
     noise_std : float or array_like, shape (n,)
         Detector noise standard deviation per reading (W): one for every port, or one per
         port (the Fisher information then weighs port ``j`` by ``1 / noise_std[j]^2``).
-    fsr_hz : float
-        Free spectral range (Hz).
+    fsr_hz : float, or array_like of shape (N,) with a stack of maps
+        Free spectral range (Hz): one, or the local one of each sample's map.
 
     Returns
     -------
-    ndarray, shape of ``phase_rad`` broadcast with ``power``, Hz
+    ndarray, Hz
+        Shape of ``phase_rad`` broadcast with ``power``; (N,) with a stack of maps.
     """
     matrix = np.asarray(map_, dtype=float)
-    if matrix.ndim != 2 or matrix.shape[1] != 3:
-        raise InputError(f"map_ must have shape (n, 3), got {matrix.shape}", parameter="map_")
-    noise_std = check_noise_std("noise_std", noise_std, matrix.shape[0])
-    fsr_hz = check_positive("fsr_hz", fsr_hz)
-    t = np.asarray(phase_rad, dtype=float)
-    power = np.asarray(power, dtype=float)
-    zeros = np.zeros_like(t)
-    a_t = np.stack([-np.sin(t), np.cos(t), zeros], axis=-1) @ matrix.T * power[..., None]
-    a_p = np.stack([np.cos(t), np.sin(t), zeros + np.sqrt(2.0)], axis=-1) @ matrix.T
+    if matrix.ndim not in (2, 3) or matrix.shape[-1] != 3:
+        raise InputError(
+            f"map_ must have shape (n, 3) or, one map per sample, (N, n, 3), got {matrix.shape}",
+            parameter="map_",
+        )
+    noise_std = check_noise_std("noise_std", noise_std, matrix.shape[-2])
+    if matrix.ndim == 2:
+        fsr_hz = check_positive("fsr_hz", fsr_hz)
+        t = np.asarray(phase_rad, dtype=float)
+        power = np.asarray(power, dtype=float)
+        zeros = np.zeros_like(t)
+        a_t = np.stack([-np.sin(t), np.cos(t), zeros], axis=-1) @ matrix.T * power[..., None]
+        a_p = np.stack([np.cos(t), np.sin(t), zeros + np.sqrt(2.0)], axis=-1) @ matrix.T
+    else:
+        t, power = stacked_phase_and_power(matrix, phase_rad, power)
+        fsr_hz = _stacked_fsr(fsr_hz, t.size)
+        zeros = np.zeros_like(t)
+        tangent = np.stack([-np.sin(t), np.cos(t), zeros], axis=-1)
+        cone = np.stack([np.cos(t), np.sin(t), zeros + np.sqrt(2.0)], axis=-1)
+        a_t = np.einsum("kji,ki->kj", matrix, tangent) * power[..., None]
+        a_p = np.einsum("kji,ki->kj", matrix, cone)
     if np.ndim(noise_std) == 1:  # per-port noise: whiten both directions, then unit noise
         a_t, a_p, noise_std = a_t / noise_std, a_p / noise_std, 1.0
     along = np.einsum("...i,...i->...", a_t, a_p)

@@ -46,7 +46,7 @@ from scipy import linalg
 from ..exceptions import InputError
 from ..validation import check_positive
 from .cone import cone_vectors
-from .limits import check_noise_std
+from .limits import check_noise_std, stacked_phase_and_power
 
 __all__ = [
     "pinv_phase_gradient",
@@ -71,6 +71,21 @@ def _matrix(name: str, value, shape: tuple) -> np.ndarray:
     return array
 
 
+def _map_or_stack(name: str, value, shape: tuple) -> np.ndarray:
+    """One matrix of ``shape``, or a stack of them (one per reading): ``(N, *shape)``."""
+    array = np.asarray(value, dtype=float)
+    if array.ndim == len(shape) + 1:
+        return _matrix(name, array, (None, *shape))
+    if array.ndim != len(shape):
+        wanted = ", ".join("any" if want is None else str(want) for want in shape)
+        raise InputError(
+            f"{name} must have shape ({wanted}) or, one per reading, (N, {wanted}), got "
+            f"{array.shape}",
+            parameter=name,
+        )
+    return _matrix(name, array, shape)
+
+
 def _inverse_variance(noise_std_w, ports: int) -> np.ndarray:
     """Weights ``1 / sigma_j^2`` (1/W^2), shape (ports,)."""
     noise = check_noise_std("noise_std_w", noise_std_w, ports)
@@ -84,18 +99,31 @@ def pinv_phase_gradient(powers, map_pinv) -> np.ndarray:
     ----------
     powers : array_like, shape (N, n)
         Port readings (W).
-    map_pinv : array_like, shape (3, n)
-        Moore-Penrose inverse ``A+`` of the map.
+    map_pinv : array_like, shape (3, n) or (N, 3, n)
+        Moore-Penrose inverse ``A+`` of the map, or one per reading
+        (:func:`wavemeter.model.retrieval.stacked_pinv`).
 
     Returns
     -------
     ndarray, shape (N, n), rad/W
     """
-    inverse = _matrix("map_pinv", map_pinv, (3, None))
-    readings = _matrix("powers", powers, (None, inverse.shape[1]))
-    x_1, x_2 = readings @ inverse[0], readings @ inverse[1]
+    inverse = _map_or_stack("map_pinv", map_pinv, (3, None))
+    readings = _matrix("powers", powers, (None, inverse.shape[-1]))
+    if inverse.ndim == 2:
+        x_1, x_2 = readings @ inverse[0], readings @ inverse[1]
+        radius2 = x_1**2 + x_2**2
+        return (x_1[:, None] * inverse[1] - x_2[:, None] * inverse[0]) / radius2[:, None]
+    if inverse.shape[0] != readings.shape[0]:
+        raise InputError(
+            f"map_pinv must hold one inverse per reading: {inverse.shape[0]} for "
+            f"{readings.shape[0]} readings",
+            parameter="map_pinv",
+        )
+    first, second = inverse[:, 0], inverse[:, 1]
+    x_1 = np.einsum("ij,ij->i", readings, first)
+    x_2 = np.einsum("ij,ij->i", readings, second)
     radius2 = x_1**2 + x_2**2
-    return (x_1[:, None] * inverse[1] - x_2[:, None] * inverse[0]) / radius2[:, None]
+    return (x_1[:, None] * second - x_2[:, None] * first) / radius2[:, None]
 
 
 def ml_phase_gradient(map_, phase_rad, power, noise_std_w) -> np.ndarray:
@@ -103,8 +131,8 @@ def ml_phase_gradient(map_, phase_rad, power, noise_std_w) -> np.ndarray:
 
     Parameters
     ----------
-    map_ : array_like, shape (n, 3)
-        The map ``A``.
+    map_ : array_like, shape (n, 3) or (N, n, 3)
+        The map ``A``, or one map per reading (reading ``k`` uses ``map_[k]``).
     phase_rad : array_like, shape (N,)
         Phase ``t`` of each reading (rad).
     power : float or array_like, shape (N,)
@@ -119,12 +147,18 @@ def ml_phase_gradient(map_, phase_rad, power, noise_std_w) -> np.ndarray:
         ``g = W a_perp / (a_perp' W a_perp)``; ``sum_j g_j^2 sigma_j^2`` is the inverse
         Fisher information on ``t``.
     """
-    matrix = _matrix("map_", map_, (None, 3))
-    weight = _inverse_variance(noise_std_w, matrix.shape[0])
-    t = np.atleast_1d(np.asarray(phase_rad, dtype=float))
-    tangent = np.stack([-np.sin(t), np.cos(t), np.zeros_like(t)], axis=-1)
-    along_t = tangent @ matrix.T * np.asarray(power, dtype=float)[..., None]
-    along_p = cone_vectors(t) @ matrix.T
+    matrix = _map_or_stack("map_", map_, (None, 3))
+    weight = _inverse_variance(noise_std_w, matrix.shape[-2])
+    if matrix.ndim == 2:
+        t = np.atleast_1d(np.asarray(phase_rad, dtype=float))
+        tangent = np.stack([-np.sin(t), np.cos(t), np.zeros_like(t)], axis=-1)
+        along_t = tangent @ matrix.T * np.asarray(power, dtype=float)[..., None]
+        along_p = cone_vectors(t) @ matrix.T
+    else:
+        t, power = stacked_phase_and_power(matrix, phase_rad, power)
+        tangent = np.stack([-np.sin(t), np.cos(t), np.zeros_like(t)], axis=-1)
+        along_t = np.einsum("kji,ki->kj", matrix, tangent) * power[..., None]
+        along_p = np.einsum("kji,ki->kj", matrix, cone_vectors(t))
     weighted_p = along_p * weight
     share = np.einsum("ij,ij->i", along_t, weighted_p) / np.einsum("ij,ij->i", along_p, weighted_p)
     perpendicular = along_t - along_p * share[:, None]
