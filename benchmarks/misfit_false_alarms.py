@@ -115,7 +115,7 @@ def faulty_sweep(fault: str, severity: float, device, readings: int, rng):
         frequency = np.concatenate([frequency[::2], frequency[::-2]])
         bias = thermal_ramp_rad(frequency.size, severity, 1.0)
     elif fault.startswith("dispersion"):
-        device = dataclasses.replace(device, gdd_s2=severity)
+        device = dataclasses.replace(device, dispersion_s2=severity)
     powers = device.powers(frequency, power, NOISE_W, rng, bias_drift_rad=bias)
     if fault.startswith("detector"):
         powers = powers - severity * powers**2 / powers.max()

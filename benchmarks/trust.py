@@ -366,8 +366,8 @@ def thermal_two_way(device, total_k, rng, samples, test) -> Case:
     return make_case(device, rng, samples, test, train_hz=train_hz, train_bias_rad=drift_rad)
 
 
-def dispersion(device, gdd_s2, rng, samples, test) -> Case:
-    device = dataclasses.replace(device, gdd_s2=gdd_s2)
+def dispersion(device, dispersion_s2, rng, samples, test) -> Case:
+    device = dataclasses.replace(device, dispersion_s2=dispersion_s2)
     return make_case(
         device,
         rng,

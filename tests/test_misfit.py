@@ -212,9 +212,9 @@ def test_linear_ramp_is_invisible_one_way_and_seen_two_way():
     assert first_cause(report_of(two_way, powers)) == "phase_drift"
 
 
-@pytest.mark.parametrize("gdd_s2", [1e-25, 1e-24])
-def test_group_delay_dispersion_is_dispersion(gdd_s2):
-    device = dataclasses.replace(wm.Interferometer.table1(3, seed=14), gdd_s2=gdd_s2)
+@pytest.mark.parametrize("dispersion_s2", [1e-25, 1e-24])
+def test_group_delay_dispersion_is_dispersion(dispersion_s2):
+    device = dataclasses.replace(wm.Interferometer.table1(3, seed=14), dispersion_s2=dispersion_s2)
     frequency, powers = sweep(device, 1000, 10.0, seed=15)
     report = report_of(frequency, powers)
     assert first_cause(report) == "dispersion"

@@ -53,10 +53,10 @@ def test_dark_offset_is_validated_and_read_only(device):
 
 
 # ---------------------------------------------------------------------------- dispersion
-def test_gdd_bends_the_phase_and_the_local_fsr(device):
+def test_dispersion_bends_the_phase_and_the_local_fsr(device):
     # the group delay changes by 10 % over one FSR either side of the centre
-    gdd_s2 = 0.1 * device.delay_s / (2 * np.pi * device.true_fsr_hz)
-    bent = dataclasses.replace(device, gdd_s2=gdd_s2)
+    dispersion_s2 = 0.1 * device.delay_s / (2 * np.pi * device.true_fsr_hz)
+    bent = dataclasses.replace(device, dispersion_s2=dispersion_s2)
     assert bent.true_fsr_hz == device.true_fsr_hz == 1 / device.delay_s
     f = device.center_hz + device.true_fsr_hz * np.linspace(-1.0, 1.0, 9)
     step_hz = 1e8
@@ -65,20 +65,20 @@ def test_gdd_bends_the_phase_and_the_local_fsr(device):
     # (|t| <= 2.2 pi) is rounded to ~eps |t|, the step is 2 pi tau 2e8 ~ 0.025 rad
     slope = (bent.phase_rad(upper) - bent.phase_rad(lower)) / (upper - lower)
     local_fsr_hz = 2 * np.pi / slope
-    expected_hz = 1 / (device.delay_s + gdd_s2 * 2 * np.pi * (f - device.center_hz))
+    expected_hz = 1 / (device.delay_s + dispersion_s2 * 2 * np.pi * (f - device.center_hz))
     np.testing.assert_allclose(local_fsr_hz, expected_hz, rtol=1e-11)
     np.testing.assert_allclose(1 / bent.group_delay_s(f), expected_hz, rtol=1e-14)
     assert np.ptp(expected_hz) / device.true_fsr_hz > 0.15  # the test sees the dispersion
     # the readings follow the bent phase: the clean map applied to the cone at phase t
     detuning = 2 * np.pi * (f - device.center_hz)
-    phase_rad = detuning * device.delay_s + 0.5 * gdd_s2 * detuning**2
+    phase_rad = detuning * device.delay_s + 0.5 * dispersion_s2 * detuning**2
     expected_w = wm.cone_vectors(phase_rad, POWER_W) @ device.true_map().T
     np.testing.assert_allclose(bent.powers(f, POWER_W), expected_w, atol=1e-18)
 
 
-def test_gdd_must_be_finite(device):
-    with pytest.raises(wm.InputError, match="gdd_s2"):
-        dataclasses.replace(device, gdd_s2=np.inf)
+def test_dispersion_must_be_finite(device):
+    with pytest.raises(wm.InputError, match="dispersion_s2"):
+        dataclasses.replace(device, dispersion_s2=np.inf)
 
 
 # ---------------------------------------------------------------------------- noise per port
@@ -270,11 +270,11 @@ def test_cli_port_noise(capsys, tmp_path, clean, noiseless):
     assert np.std(_ports(test) - _ports(noiseless[1]), axis=0)[2] > 1e-6  # the test file too
 
 
-def test_cli_gdd_bends_sweep_and_test(capsys, tmp_path, noiseless):
-    gdd_s2 = 5e-24
-    device = dataclasses.replace(Interferometer.table1(3, seed=3), gdd_s2=gdd_s2)
+def test_cli_dispersion_bends_sweep_and_test(capsys, tmp_path, noiseless):
+    dispersion_s2 = 5e-24
+    device = dataclasses.replace(Interferometer.table1(3, seed=3), dispersion_s2=dispersion_s2)
     for table, axis in zip(
-        _simulate(capsys, tmp_path, "gdd", f"--gdd {gdd_s2} --noise 0"),
+        _simulate(capsys, tmp_path, "dispersion", f"--dispersion {dispersion_s2} --noise 0"),
         ("frequency_hz", "true_frequency_hz"),
         strict=True,
     ):
@@ -323,8 +323,8 @@ def test_cli_thermal_drift_ramps_the_bias_in_the_sweep_only(capsys, tmp_path, no
         ("--port-noise 1e-7,-1e-7,0", "each must be >= 0"),
         ("--port-noise 1e-7", "--port-noise has 1 value(s) for 3 ports: give 3"),
         ("--port-noise 1e-7,1e-7,1e-7 --noise 1e-7", "give --noise (every port) or --port-noise"),
-        ("--gdd nan", "nan is not a finite number"),
-        ("--gdd 1ps", "'1ps' is not a valid float"),
+        ("--dispersion nan", "nan is not a finite number"),
+        ("--dispersion 1ps", "'1ps' is not a valid float"),
         ("--power-drift 1", "1: must be in [0, 1)"),
         ("--power-drift -0.2", "-0.2: must be in [0, 1)"),
         ("--thermal-drift inf", "inf is not a finite number"),

@@ -125,7 +125,7 @@ def test_fsr_at_temperature_is_one_over_the_scaled_delay(device, delta_k):
 
 
 def test_dispersion_keeps_its_slope_when_the_delay_moves(device):
-    warm = dataclasses.replace(device.with_thermal("sin"), gdd_s2=2e-23)
+    warm = dataclasses.replace(device.with_thermal("sin"), dispersion_s2=2e-23)
     f = warm.sweep_hz(32, span_fsr=4.0)
     delta_k = 5.0
     shift_s = warm.group_delay_s(f, warm.reference_temperature_k + delta_k) - warm.group_delay_s(f)
@@ -147,7 +147,7 @@ def test_powers_at_a_temperature_are_the_true_map_at_that_temperature(device):
 
 
 def test_per_sample_temperatures_equal_per_reading_calls(device):
-    warm = dataclasses.replace(device.with_thermal("sin"), gdd_s2=1e-23)
+    warm = dataclasses.replace(device.with_thermal("sin"), dispersion_s2=1e-23)
     rng = np.random.default_rng(11)
     f = warm.sweep_hz(40, span_fsr=2.0)
     temperature_k = warm.reference_temperature_k + rng.uniform(-20.0, 20.0, f.size)
@@ -168,7 +168,7 @@ def test_per_sample_temperatures_equal_per_reading_calls(device):
 
 def test_zero_delay_rate_leaves_the_phase_bit_identical(device):
     assert Interferometer.ideal(3).thermal_delay_per_k == 0.0
-    biased = dataclasses.replace(device, thermal_phase_rad_per_k=0.4, gdd_s2=3e-23)
+    biased = dataclasses.replace(device, thermal_phase_rad_per_k=0.4, dispersion_s2=3e-23)
     f = biased.sweep_hz(64, span_fsr=2.0)
     temperature_k = biased.reference_temperature_k + np.linspace(-30.0, 30.0, f.size)
     np.testing.assert_array_equal(biased.phase_rad(f, temperature_k), biased.phase_rad(f))

@@ -4,6 +4,13 @@ Hardware faults can be added: detector dark offsets, unequal detector noise and 
 dispersion are properties of the device and reach every file; a source-power drift and a
 thermal drift happen during the calibration sweep only.
 
+A wide-band device (``--spectral sin``: the dispersion of silicon nitride, and output-coupler
+entries and responsivities that change slowly with frequency) makes a C-band sweep
+realistic (``--span-fsr 88``); ``--dispersion``, ``--coupler-slope`` and
+``--responsivity-slope`` replace the preset's values or set them alone. The slopes are
+drawn from a stream of the seed of their own, so the device's Table 1 impairments and the
+noise stay those of the seed.
+
 A thermal device (``--platform sin|soi``: the fringe shift and delay rate of silicon nitride
 or silicon on insulator) is recorded at a chip temperature (``--temperature-k``, default
 the device's reference 293.15 K) or during a linear ramp (``--ramp-k A:B`` over the whole
@@ -53,8 +60,19 @@ _DRIFT_STREAM = 1
 #: a recording at a given temperature (or ramp) draws its noise from this stream of the seed
 #: and the temperatures in mK, so that runs at different temperatures have their own noise
 _TEMPERATURE_STREAM = 2
+#: the spectral slopes are drawn from this stream of the seed: the seed itself would draw
+#: them from the numbers of the Table 1 spread, in proportion to it
+_SPECTRAL_STREAM = 3
 #: thermal platforms of ``--platform``: the keys of wavemeter.THERMAL_PRESETS
 PLATFORMS = ("sin", "soi")
+#: spectral platforms of ``--spectral``: the keys of wavemeter.simulation.SPECTRAL_PRESETS
+SPECTRAL_PLATFORMS = ("sin",)
+#: options that set a field of the spectral preset: option dest -> SpectralPreset field
+_SPECTRAL_OPTIONS = {
+    "dispersion_s2": "dispersion_s2",
+    "coupler_slope": "coupler_slope_sigma_per_thz",
+    "responsivity_slope": "responsivity_slope_sigma_per_thz",
+}
 
 
 class FiniteFloat(click.types.FloatParamType):
@@ -74,10 +92,16 @@ class FiniteFloat(click.types.FloatParamType):
         number = super().convert(value, param, ctx)
         if not math.isfinite(number):
             self.fail(f"{value} is not a finite number", param, ctx)
-        if (self.low is not None and number < self.low) or (
-            self.high is not None and number >= self.high
-        ):
-            self.fail(f"{value}: must be in [{self.low:g}, {self.high:g})", param, ctx)
+        below = self.low is not None and number < self.low
+        above = self.high is not None and number >= self.high
+        if below or above:
+            if self.low is None:
+                allowed = f"< {self.high:g}"
+            elif self.high is None:
+                allowed = f">= {self.low:g}"
+            else:
+                allowed = f"in [{self.low:g}, {self.high:g})"
+            self.fail(f"{value}: must be {allowed}", param, ctx)
         return number
 
 
@@ -180,11 +204,55 @@ def _noise_w(options, ports: int):
 
 
 def _faulty(device, options):
-    """The device with the faults it carries into every file: dark offset and GDD."""
+    """The device with the detector fault it carries into every file: the dark offset."""
     offset_w = options["dark_offset_w"]
     if offset_w is not None:
         offset_w = _per_port(offset_w, device.ports, "--dark-offset", single=True)
-    return dataclasses.replace(device, dark_offset_w=offset_w, gdd_s2=options["gdd_s2"])
+    return dataclasses.replace(device, dark_offset_w=offset_w)
+
+
+def _spectral(device, options):
+    """The device with the dispersion and spectral slopes of ``--spectral``, each replaced
+    by ``--dispersion``, ``--coupler-slope`` or ``--responsivity-slope`` when given.
+
+    Returns
+    -------
+    device : Interferometer
+    preset : SpectralPreset or None
+        What the slopes were drawn with (from a stream of the seed); None when neither
+        ``--spectral`` nor a slope option is given (then only ``--dispersion`` applies).
+    """
+    from ..simulation.interferometer import SPECTRAL_PRESETS, SpectralPreset
+
+    given = {
+        field: options[name]
+        for name, field in _SPECTRAL_OPTIONS.items()
+        if options[name] is not None
+    }
+    platform = options["spectral"]
+    if platform is None and set(given) <= {"dispersion_s2"}:
+        return dataclasses.replace(device, dispersion_s2=given.get("dispersion_s2", 0.0)), None
+    preset = SPECTRAL_PRESETS[platform] if platform else SpectralPreset(0.0, 0.0, 0.0, 0.0)
+    preset = dataclasses.replace(preset, **given)
+    rng = np.random.default_rng([options["seed"], _SPECTRAL_STREAM])
+    return device.with_spectral(preset, seed=rng), preset
+
+
+def _spectral_text(device, preset, sweep_hz: np.ndarray, platform: str | None) -> str:
+    """The ``spectral:`` summary line: dispersion, slope sigmas, local FSR over the sweep."""
+    parts = [platform or "custom", f"dispersion {device.dispersion_s2:.3g} s^2"]
+    if preset is not None:
+        parts.append(
+            f"slope sigmas: coupler {preset.coupler_slope_sigma_per_thz:.3g} /THz (symmetry "
+            f"breaking {preset.coupler_breaking_sigma_per_thz:.3g} /THz), responsivity "
+            f"{preset.responsivity_slope_sigma_per_thz:.3g} /THz"
+        )
+    local_hz = device.local_fsr_hz(np.array([sweep_hz.min(), sweep_hz.max()]))
+    parts.append(
+        f"local FSR {fsr_text(local_hz[0])} at the sweep's low end, {fsr_text(local_hz[1])} "
+        "at its high end"
+    )
+    return "spectral: " + ", ".join(parts)
 
 
 def _sweep_drift(device, samples: int, options) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -349,15 +417,37 @@ def _targets(out_path: str, test_samples: int, test_out: str | None) -> list[str
     help="Fault: detector noise standard deviation of each port, replacing --noise (give "
     "one or the other): '5e-7,2e-6,5e-7'; a bare number is in W. Sweep and test file.",
 )
-@setting(
-    "--gdd",
-    0.0,
-    FiniteFloat(),
-    "Fault: group-delay dispersion of the delay imbalance in s^2 (e.g. 1e-26): the group "
-    "delay is tau + GDD 2 pi (f - centre), so the FSR changes across the band. Sweep and "
-    "test file.",
-    dest="gdd_s2",
+@click.option(
+    "--dispersion",
+    "dispersion_s2",
+    type=FiniteFloat(),
     metavar="S2",
+    help="Fault: group-delay dispersion of the delay imbalance in s^2 (e.g. 1e-26): the group "
+    "delay is tau + D 2 pi (f - centre), so the FSR changes across the band. Default 0, or "
+    "the --spectral platform's. Sweep and test file.",
+)
+@click.option(
+    "--spectral",
+    type=click.Choice(SPECTRAL_PLATFORMS),
+    help="Make the device wide-band: the dispersion of silicon nitride (sin, 4e-28 s^2) and "
+    "random slopes of the coupler entries (sigma 1 %/THz, 0.2 %/THz symmetry breaking) and "
+    "responsivities (0.5 %/THz), drawn from --seed. Sweep and test file.",
+)
+@click.option(
+    "--coupler-slope",
+    type=FiniteFloat(0.0),
+    metavar="PER_THZ",
+    help="Sigma of the random relative slope per THz of the output-coupler entries (real "
+    "and imaginary parts), shared by the entries the MMI symmetry makes equal, drawn from "
+    "--seed: 0.01 is 1 %/THz. Replaces --spectral's; its symmetry-breaking part stays the "
+    "platform's (none without --spectral).",
+)
+@click.option(
+    "--responsivity-slope",
+    type=FiniteFloat(0.0),
+    metavar="PER_THZ",
+    help="Sigma of the random relative slope per THz of each port's responsivity, drawn from "
+    "--seed: 0.005 is 0.5 %/THz. Replaces --spectral's.",
 )
 @setting(
     "--power-drift",
@@ -421,7 +511,7 @@ def simulate(out_path, test_samples, test_out, force, **options):
     SI (W, Hz). Both files are checked before anything is simulated; an existing file is
     replaced only with --force.
 
-    Fault options (--dark-offset, --port-noise, --gdd, --power-drift, --thermal-drift)
+    Fault options (--dark-offset, --port-noise, --dispersion, --power-drift, --thermal-drift)
     model real hardware. The detectors and the chip's dispersion are the device's: they
     reach the --test file too. The drifts happen during the calibration sweep: the test
     file has none. The power drift has a random stream of its own, so the noise is the
@@ -434,6 +524,10 @@ def simulate(out_path, test_samples, test_out, force, **options):
     together); both files get a temperature_k column. Runs at several temperatures with
     one --seed simulate one device, each with noise of its own.
 
+    A wide-band device (--spectral sin, or --coupler-slope and --responsivity-slope alone)
+    has an output coupler and receivers that change slowly with frequency, drawn from
+    --seed, and the platform's dispersion; a C-band sweep is --span-fsr 88.
+
     \b
     Example:
       wavemeter simulate -o sweep.csv --ports 3 --seed 1 --test 20000
@@ -441,6 +535,7 @@ def simulate(out_path, test_samples, test_out, force, **options):
       wavemeter simulate -o faulty.csv --dark-offset 2uW --power-drift 0.05 --test 2000
       wavemeter simulate -o s290.csv --platform sin --temperature-k 290
       wavemeter simulate -o ramp.csv --platform sin --ramp-k 290:300 --repeat 5
+      wavemeter simulate -o band.csv --spectral sin --span-fsr 88 --samples 176000
     """
     from ..simulation.interferometer import Interferometer
 
@@ -454,6 +549,7 @@ def simulate(out_path, test_samples, test_out, force, **options):
     formats = [output_format(path, options["file_format"], force=force) for path in targets]
     messages_to_stderr = any(is_stdio(path) for path in targets)
     device = Interferometer.table1(options["ports"], seed=options["seed"], fsr_hz=options["fsr"])
+    device, spectral_preset = _spectral(device, options)
     device = _thermal(_faulty(device, options), options)
     options["noise_w"] = _noise_w(options, device.ports)
     varies = options["power_fluctuation"] > 0 or options["power_drift"] > 0
@@ -503,6 +599,12 @@ def simulate(out_path, test_samples, test_out, force, **options):
         f"{fsr_text(device.true_fsr_hz)}, centre {optical_text(device.center_hz)}",
         err=messages_to_stderr,
     )
+    if spectral_preset is not None or device.dispersion_s2 != 0:
+        say(
+            quiet,
+            _spectral_text(device, spectral_preset, sweep_hz, options["spectral"]),
+            err=messages_to_stderr,
+        )
     if options["platform"] is not None:
         shift_hz = device.thermal_phase_rad_per_k * device.true_fsr_hz / (2 * np.pi)
         say(

@@ -1,12 +1,20 @@
 """Simulated interferometers with the impairments of the paper's Table 1 and hardware faults."""
 
 from .drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
-from .interferometer import THERMAL_PRESETS, Interferometer, ThermalPreset
+from .interferometer import (
+    SPECTRAL_PRESETS,
+    THERMAL_PRESETS,
+    Interferometer,
+    SpectralPreset,
+    ThermalPreset,
+)
 
 __all__ = [
     "Interferometer",
     "ThermalPreset",
     "THERMAL_PRESETS",
+    "SpectralPreset",
+    "SPECTRAL_PRESETS",
     "slow_power_drift",
     "flicker_power_noise",
     "thermal_ramp_rad",

@@ -5,6 +5,12 @@ Beyond Table 1 the device can carry hardware faults a real chip has: per-port de
 and a bias phase that drifts during a sweep (see :mod:`wavemeter.simulation.drift` for
 per-sample drift series). Temperature moves both the bias phase and the delay imbalance;
 :data:`THERMAL_PRESETS` holds the thermal coefficients of two photonic platforms.
+
+Across a wide band (the C band is about 88 FSRs of 50 GHz) the output coupler and the
+receivers change slowly with frequency: linear slopes per THz of each coupler entry and of
+each responsivity, drawn like Table 1's static spread. :data:`SPECTRAL_PRESETS` holds
+realistic dispersion and slopes of a silicon-nitride chip (see
+:meth:`Interferometer.with_spectral`).
 """
 
 from __future__ import annotations
@@ -19,10 +25,18 @@ from ..model.cone import delay_phase_rad
 from ..model.couplers import mmi_2x2, mmi_matrix, port_phases_rad, y_junction
 from ..validation import as_rng
 
-__all__ = ["Interferometer", "ThermalPreset", "THERMAL_PRESETS"]
+__all__ = [
+    "Interferometer",
+    "ThermalPreset",
+    "THERMAL_PRESETS",
+    "SpectralPreset",
+    "SPECTRAL_PRESETS",
+]
 
 DEFAULT_FSR_HZ = 50e9
 DEFAULT_CENTER_HZ = 193.4e12
+#: the unit of the spectral slopes: relative change per THz of detuning from ``center_hz``
+TERAHERTZ_HZ = 1e12
 SPLITTERS = ("mmi", "y")
 
 #: thermo-optic coefficient of crystalline silicon near 1550 nm (1/K)
@@ -62,6 +76,76 @@ THERMAL_PRESETS = MappingProxyType(
 )
 
 
+@dataclass(frozen=True)
+class SpectralPreset:
+    """Dispersion and spectral slopes of a photonic platform, see
+    :meth:`Interferometer.with_spectral`.
+
+    Parameters
+    ----------
+    dispersion_s2 : float
+        Group-delay dispersion of the delay imbalance (s^2), see
+        :attr:`Interferometer.dispersion_s2`.
+    coupler_slope_sigma_per_thz : float
+        Standard deviation (1/THz) of the relative slope of the real and imaginary parts of
+        the output-coupler entries, shared by the entries the MMI symmetry makes equal.
+    coupler_breaking_sigma_per_thz : float
+        Standard deviation (1/THz) of the symmetry-breaking slope, drawn per entry.
+    responsivity_slope_sigma_per_thz : float
+        Standard deviation (1/THz) of the relative slope of each receiver's responsivity.
+    """
+
+    dispersion_s2: float
+    coupler_slope_sigma_per_thz: float
+    coupler_breaking_sigma_per_thz: float
+    responsivity_slope_sigma_per_thz: float
+
+    def __post_init__(self):
+        if not np.isfinite(self.dispersion_s2):
+            raise InputError(
+                f"dispersion_s2 must be a finite number (s^2), got {self.dispersion_s2}",
+                parameter="dispersion_s2",
+            )
+        for name in (
+            "coupler_slope_sigma_per_thz",
+            "coupler_breaking_sigma_per_thz",
+            "responsivity_slope_sigma_per_thz",
+        ):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise InputError(
+                    f"{name} must be a finite number >= 0 (1/THz), got {value}", parameter=name
+                )
+
+
+#: Dispersion and spectral slopes by platform; ``"sin"``: silicon nitride near 1550 nm.
+#:
+#: - ``dispersion_s2`` 4e-28 s^2: a SiN strip waveguide has a group-velocity dispersion
+#:   ``beta_2`` of about 1.2e-25 s^2/m (120 ps^2/km, normal); a 20 ps (50 GHz) imbalance
+#:   is ``c tau / n_g`` = 3.3 mm of it at group index 1.8 (SiN's dn/dT, 2.45e-5 /K, over
+#:   the delay rate 1.35e-5 /K of the SiN thermal preset), and ``beta_2 L`` = 4e-28 s^2. The
+#:   local FSR then moves by 2.7e-4 of itself 2.2 THz from the centre (the C band's edge).
+#: - ``coupler_slope_sigma_per_thz`` 0.01: a SiN MMI's self-imaging length scales with the
+#:   wavelength, so its entries change by a few percent across the C band (4.4 THz): about
+#:   1 %/THz, the same for the entries its symmetry makes equal (as Table 1's spread).
+#: - ``coupler_breaking_sigma_per_thz`` 0.002: fabrication asymmetry breaks that symmetry
+#:   by a fifth of it, 0.2 %/THz per entry.
+#: - ``responsivity_slope_sigma_per_thz`` 0.005: an InGaAs photodiode's responsivity
+#:   ``eta e / (h f)`` falls by ``1/f`` = 0.5 %/THz at 193 THz. That common slope scales all
+#:   ports as the source power does; the ports differ by as much through their quantum
+#:   efficiencies and the couplers to the detectors, 0.5 %/THz per port.
+SPECTRAL_PRESETS = MappingProxyType(
+    {
+        "sin": SpectralPreset(
+            dispersion_s2=4e-28,
+            coupler_slope_sigma_per_thz=0.01,
+            coupler_breaking_sigma_per_thz=0.002,
+            responsivity_slope_sigma_per_thz=0.005,
+        ),
+    }
+)
+
+
 def _splitter_amplitudes(splitter: str) -> np.ndarray:
     if splitter == "mmi":
         return mmi_2x2()[:, 0]
@@ -90,21 +174,41 @@ def _symmetry_classes(n: int) -> np.ndarray:
     return labels
 
 
+def _orbit_changes(
+    n: int, rng: np.random.Generator, symmetric_sigma: float, breaking_sigma: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Gaussian relative changes of the real and imaginary parts of an ``n x n`` MMI matrix.
+
+    Returns
+    -------
+    shared : ndarray of complex, shape (n, n)
+        ``g_re + 1j g_im``, sigma ``symmetric_sigma`` each, shared by the entries of one
+        symmetry orbit (see :func:`_symmetry_classes`).
+    own : ndarray of complex, shape (n, n)
+        ``e_re + 1j e_im``, sigma ``breaking_sigma`` each, drawn per entry.
+    """
+    labels = _symmetry_classes(n)
+    classes = labels.max() + 1
+    shared_re = rng.normal(0.0, symmetric_sigma, classes)[labels]
+    shared_im = rng.normal(0.0, symmetric_sigma, classes)[labels]
+    own_re = rng.normal(0.0, breaking_sigma, (n, n))
+    own_im = rng.normal(0.0, breaking_sigma, (n, n))
+    return shared_re + 1j * shared_im, own_re + 1j * own_im
+
+
 def _perturb_coupler(
     matrix: np.ndarray, rng: np.random.Generator, symmetric_sigma: float, breaking_sigma: float
 ) -> np.ndarray:
     """Scale real and imaginary parts by Gaussian factors (Table 1).
 
     Factor ``1 + g + e``: ``g`` (sigma ``symmetric_sigma``) is shared by the entries of one
-    symmetry orbit, ``e`` (sigma ``breaking_sigma``) is drawn per entry.
+    symmetry orbit, ``e`` (sigma ``breaking_sigma``) is drawn per entry
+    (:func:`_orbit_changes`).
     """
-    labels = _symmetry_classes(matrix.shape[0])
-    classes = labels.max() + 1
-    shared_re = rng.normal(0.0, symmetric_sigma, classes)[labels]
-    shared_im = rng.normal(0.0, symmetric_sigma, classes)[labels]
-    own_re = rng.normal(0.0, breaking_sigma, matrix.shape)
-    own_im = rng.normal(0.0, breaking_sigma, matrix.shape)
-    return matrix.real * (1.0 + shared_re + own_re) + 1j * matrix.imag * (1.0 + shared_im + own_im)
+    shared, own = _orbit_changes(matrix.shape[0], rng, symmetric_sigma, breaking_sigma)
+    return matrix.real * (1.0 + shared.real + own.real) + 1j * matrix.imag * (
+        1.0 + shared.imag + own.imag
+    )
 
 
 @dataclass(frozen=True)
@@ -133,7 +237,8 @@ class Interferometer:
     responsivity : ndarray, shape (n,)
         Relative photoreceiver responsivities (1 is nominal).
     center_hz : float
-        Reference frequency (Hz), the phase origin of :meth:`true_map`.
+        Reference frequency (Hz), the phase origin of :meth:`true_map` and the origin of
+        the spectral slopes.
     design_port_phases_rad : ndarray, shape (n,)
         Nominal fringe phases of the design (rad), what the conventional method assumes.
     thermal_phase_rad_per_k : float
@@ -148,21 +253,29 @@ class Interferometer:
     dark_offset_w : ndarray, shape (n,), optional
         Detector dark/ADC offset of each port (W), added to every reading whatever the source
         power (None: no offset). Stored read-only.
-    gdd_s2 : float
+    dispersion_s2 : float
         Group-delay dispersion of the delay imbalance (s^2). The group delay at ``f`` is
-        ``delay_s + gdd_s2 * 2 pi (f - center_hz)`` and the phase gains
-        ``gdd_s2 / 2 * (2 pi (f - center_hz))**2`` (see :meth:`phase_rad`); ``delay_s`` and
-        :attr:`true_fsr_hz` stay those at ``center_hz``.
+        ``delay_s + dispersion_s2 * 2 pi (f - center_hz)`` and the phase gains
+        ``dispersion_s2 / 2 * (2 pi (f - center_hz))**2`` (see :meth:`phase_rad`);
+        ``delay_s`` and :attr:`true_fsr_hz` stay those at ``center_hz``, the local FSR is
+        :meth:`local_fsr_hz`.
     thermal_delay_per_k : float
         Relative change of the delay imbalance per kelvin (1/K): at temperature ``T`` the
         delay is ``delay_s * (1 + thermal_delay_per_k * (T - reference_temperature_k))``
         (see :meth:`delay_at`), so the FSR moves too (:meth:`true_fsr_hz_at`). The
-        dispersion ``gdd_s2`` does not change with temperature.
+        dispersion ``dispersion_s2`` does not change with temperature.
+    coupler_slope_per_thz : ndarray of complex, shape (n, n), optional
+        Relative change per THz of the real and imaginary parts of each output-coupler
+        entry: at ``f`` the coupler is ``Re(M) * (1 + Re(S) d) + 1j Im(M) * (1 + Im(S) d)``
+        with ``d = (f - center_hz) / 1 THz`` (None: no change). Stored read-only.
+    responsivity_slope_per_thz : ndarray, shape (n,), optional
+        Relative change per THz of each responsivity: at ``f`` it is ``responsivity *
+        (1 + slope d)`` (None: no change). Stored read-only.
 
     Notes
     -----
     A faulty device is a copy of a clean one:
-    ``dataclasses.replace(device, dark_offset_w=..., gdd_s2=...)``.
+    ``dataclasses.replace(device, dark_offset_w=..., dispersion_s2=...)``.
     """
 
     output_coupler: np.ndarray
@@ -178,8 +291,10 @@ class Interferometer:
     reference_temperature_k: float = 293.15
     monitor_ratio: float = 0.01
     dark_offset_w: np.ndarray | None = None
-    gdd_s2: float = 0.0
+    dispersion_s2: float = 0.0
     thermal_delay_per_k: float = 0.0
+    coupler_slope_per_thz: np.ndarray | None = None
+    responsivity_slope_per_thz: np.ndarray | None = None
 
     def __post_init__(self):
         coupler = np.array(self.output_coupler, dtype=complex)
@@ -204,9 +319,10 @@ class Interferometer:
         design = port_phases_rad(coupler, self.inputs) if design is None else np.array(design)
         if design.shape != (n,):
             raise InputError(f"design_port_phases_rad must have {n} entries, got {design.shape}")
-        if not np.isfinite(self.gdd_s2):
+        if not np.isfinite(self.dispersion_s2):
             raise InputError(
-                f"gdd_s2 must be a finite number (s^2), got {self.gdd_s2}", parameter="gdd_s2"
+                f"dispersion_s2 must be a finite number (s^2), got {self.dispersion_s2}",
+                parameter="dispersion_s2",
             )
         for name in ("thermal_phase_rad_per_k", "thermal_delay_per_k", "reference_temperature_k"):
             if not np.isfinite(getattr(self, name)):
@@ -223,12 +339,35 @@ class Interferometer:
                 )
             object.__setattr__(self, "dark_offset_w", offset)
             arrays.append(offset)
+        for name, dtype, shape in (
+            ("coupler_slope_per_thz", complex, (n, n)),
+            ("responsivity_slope_per_thz", float, (n,)),
+        ):
+            if getattr(self, name) is not None:
+                slope = self._slope_array(name, dtype, shape)
+                object.__setattr__(self, name, slope)
+                arrays.append(slope)
         for array in arrays:
             array.setflags(write=False)
         object.__setattr__(self, "output_coupler", coupler)
         object.__setattr__(self, "splitter_amplitudes", splitter)
         object.__setattr__(self, "responsivity", responsivity)
         object.__setattr__(self, "design_port_phases_rad", design)
+
+    def _slope_array(self, name: str, dtype, shape: tuple[int, ...]) -> np.ndarray:
+        """Field ``name`` as a finite array of ``dtype`` and ``shape``, or an InputError."""
+        try:
+            slope = np.array(getattr(self, name), dtype=dtype)
+        except (TypeError, ValueError) as exc:
+            raise InputError(
+                f"{name} must be numbers (1/THz), got {getattr(self, name)!r}", parameter=name
+            ) from exc
+        if slope.shape != shape or not np.all(np.isfinite(slope)):
+            raise InputError(
+                f"{name} must be finite numbers (1/THz) of shape {shape}, got shape {slope.shape}",
+                parameter=name,
+            )
+        return slope
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -333,6 +472,58 @@ class Interferometer:
             thermal_delay_per_k=preset.delay_per_k,
         )
 
+    def with_spectral(self, platform: str | SpectralPreset = "sin", seed=None) -> Interferometer:
+        """This device with the dispersion and spectral slopes of ``platform``, drawn from ``seed``.
+
+        The dispersion is the preset's, for the delay the preset names (``beta_2 L`` grows
+        with the imbalance length: scale it for another delay with a preset of your own).
+        Coupler slopes are drawn as Table 1 draws the coupler's spread
+        (:func:`_orbit_changes`): a relative slope of the real and of the imaginary part of
+        each entry, ``g + e`` with ``g ~ N(0, coupler_slope_sigma_per_thz)`` shared by the
+        entries the MMI symmetry makes equal and ``e ~ N(0, coupler_breaking_sigma_per_thz)``
+        per entry; then one responsivity slope per port, ``N(0,
+        responsivity_slope_sigma_per_thz)``. Everything else is kept.
+
+        Parameters
+        ----------
+        platform : str or SpectralPreset
+            A key of :data:`SPECTRAL_PRESETS` (``"sin"``, silicon nitride) or a preset.
+        seed : None, int or numpy.random.Generator
+            Source of the slopes. An int seed draws the same numbers as the same seed in
+            :meth:`table1`, so the slopes would follow the static spread: give the
+            device's own seed as a separate stream
+            (``numpy.random.default_rng([seed, stream])``).
+
+        Returns
+        -------
+        Interferometer
+        """
+        if isinstance(platform, SpectralPreset):
+            preset = platform
+        elif platform in SPECTRAL_PRESETS:
+            preset = SPECTRAL_PRESETS[platform]
+        else:
+            raise InputError(
+                f"platform must be one of {tuple(SPECTRAL_PRESETS)} or a SpectralPreset, "
+                f"got {platform!r}",
+                parameter="platform",
+            )
+        rng = as_rng(seed)
+        shared, own = _orbit_changes(
+            self.ports,
+            rng,
+            preset.coupler_slope_sigma_per_thz,
+            preset.coupler_breaking_sigma_per_thz,
+        )
+        return replace(
+            self,
+            dispersion_s2=preset.dispersion_s2,
+            coupler_slope_per_thz=shared + own,
+            responsivity_slope_per_thz=rng.normal(
+                0.0, preset.responsivity_slope_sigma_per_thz, self.ports
+            ),
+        )
+
     # ------------------------------------------------------------------ properties
     @property
     def ports(self) -> int:
@@ -347,6 +538,11 @@ class Interferometer:
     def _detuning_rad_s(self, f_hz) -> np.ndarray:
         """Angular detuning ``w = 2 pi (f - center_hz)`` (rad/s) of frequencies ``f_hz`` (Hz)."""
         return 2.0 * np.pi * (np.asarray(f_hz, dtype=float) - self.center_hz)
+
+    def _detuning_thz(self, f_hz) -> np.ndarray:
+        """Detuning ``d = (f - center_hz) / 1 THz`` of frequencies ``f_hz`` (Hz), the spectral
+        slopes' variable."""
+        return (np.asarray(f_hz, dtype=float) - self.center_hz) / TERAHERTZ_HZ
 
     def _temperature_offset_k(self, temperature_k) -> np.ndarray:
         """``T - reference_temperature_k`` (K) of finite temperatures ``temperature_k`` (K)."""
@@ -390,7 +586,7 @@ class Interferometer:
     def phase_rad(self, f_hz, temperature_k=None) -> np.ndarray:
         """Fringe phase ``t`` (rad) at source frequencies ``f_hz`` (Hz), bias excluded.
 
-        ``t = w tau(T) + gdd_s2 w**2 / 2`` with ``w = 2 pi (f - center_hz)`` and ``tau(T)``
+        ``t = w tau(T) + dispersion_s2 w**2 / 2`` with ``w = 2 pi (f - center_hz)`` and ``tau(T)``
         from :meth:`delay_at`: the phase of the cone vector that :meth:`true_map` at the same
         temperature maps to the port powers (the bias is a rotation inside the map). Its
         derivative ``dt/dw`` is :meth:`group_delay_s`.
@@ -408,14 +604,15 @@ class Interferometer:
         """
         detuning_rad_s = self._detuning_rad_s(f_hz)
         return delay_phase_rad(f_hz, self.center_hz, self.delay_at(temperature_k)) + (
-            0.5 * self.gdd_s2 * detuning_rad_s**2
+            0.5 * self.dispersion_s2 * detuning_rad_s**2
         )
 
     def group_delay_s(self, f_hz, temperature_k=None) -> np.ndarray:
-        """Group delay of the imbalance (s) at ``f_hz`` (Hz): ``tau(T) + gdd_s2 2 pi (f - f0)``.
+        """Group delay of the imbalance (s) at ``f_hz`` (Hz).
 
-        The local FSR at ``f`` is its inverse; at ``center_hz`` that is
-        :meth:`true_fsr_hz_at` (:attr:`true_fsr_hz` at the reference temperature).
+        ``tau(T) + dispersion_s2 2 pi (f - center_hz)``. The local FSR at ``f`` is its
+        inverse (:meth:`local_fsr_hz`); at ``center_hz`` that is :meth:`true_fsr_hz_at`
+        (:attr:`true_fsr_hz` at the reference temperature).
 
         Parameters
         ----------
@@ -428,14 +625,65 @@ class Interferometer:
         -------
         ndarray, shape (N,), s
         """
-        return self.delay_at(temperature_k) + self.gdd_s2 * self._detuning_rad_s(f_hz)
+        return self.delay_at(temperature_k) + self.dispersion_s2 * self._detuning_rad_s(f_hz)
 
-    def _port_fields(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per-port field amplitudes (delayed arm, other arm), shape (n,) each."""
+    def local_fsr_hz(self, f_hz, temperature_k=None) -> np.ndarray:
+        """The local free spectral range (Hz) at ``f_hz`` (Hz): one over :meth:`group_delay_s`.
+
+        Without dispersion it is :meth:`true_fsr_hz_at` at every frequency.
+
+        Parameters
+        ----------
+        f_hz : array_like, shape (N,)
+            Source optical frequency (Hz).
+        temperature_k : None, float or array_like, shape (N,)
+            Chip temperature (K), scalar or per sample; ``None`` is the reference.
+
+        Returns
+        -------
+        ndarray, shape (N,), Hz
+        """
+        return 1.0 / self.group_delay_s(f_hz, temperature_k)
+
+    def _port_fields(self, f_hz=None) -> tuple[np.ndarray, np.ndarray]:
+        """Per-port field amplitudes (delayed arm, other arm) at frequencies ``f_hz`` (Hz).
+
+        Shape (n,) each at ``center_hz`` (``f_hz`` None) or without coupler slopes, else
+        ``f_hz.shape + (n,)``: the two coupler columns the arms feed, changed by
+        ``coupler_slope_per_thz`` (see the class parameters).
+        """
         a, b = self.inputs
         loss = 10.0 ** (-np.asarray(self.arm_loss_db, dtype=float) / 20.0)
         arms = self.splitter_amplitudes * loss
-        return self.output_coupler[:, a] * arms[0], self.output_coupler[:, b] * arms[1]
+        columns = self.output_coupler[:, [a, b]]
+        if f_hz is not None and self.coupler_slope_per_thz is not None:
+            detuning = self._detuning_thz(f_hz)[..., None, None]
+            slope = self.coupler_slope_per_thz[:, [a, b]]
+            columns = columns.real * (1.0 + slope.real * detuning) + 1j * (
+                columns.imag * (1.0 + slope.imag * detuning)
+            )
+        return columns[..., 0] * arms[0], columns[..., 1] * arms[1]
+
+    def _responsivity_at(self, f_hz=None) -> np.ndarray:
+        """Responsivities at frequencies ``f_hz`` (Hz): shape (n,) at ``center_hz`` (``f_hz``
+        None) or without slopes, else ``f_hz.shape + (n,)``; InputError where one would not
+        be positive."""
+        if f_hz is None or self.responsivity_slope_per_thz is None:
+            return self.responsivity
+        detuning = self._detuning_thz(f_hz)[..., None]
+        responsivity = self.responsivity * (1.0 + self.responsivity_slope_per_thz * detuning)
+        if np.any(responsivity <= 0):
+            frequency_hz = np.broadcast_to(
+                np.asarray(f_hz, dtype=float)[..., None], responsivity.shape
+            )
+            where = np.nonzero(responsivity <= 0)
+            raise InputError(
+                f"responsivity_slope_per_thz makes the responsivity of port {where[-1][0] + 1} "
+                f"not positive at {frequency_hz[where][0]:.6g} Hz: give smaller slopes or a "
+                "narrower band",
+                parameter="responsivity_slope_per_thz",
+            )
+        return responsivity
 
     def bias_at(self, temperature_k=None) -> np.ndarray:
         """Bias phase (rad) at a temperature (K); ``None`` means the reference temperature.
@@ -447,23 +695,55 @@ class Interferometer:
         offset = self._temperature_offset_k(temperature_k)
         return self.bias_phase_rad + self.thermal_phase_rad_per_k * offset
 
-    def true_map(self, temperature_k=None) -> np.ndarray:
-        """The exact map ``A`` (n x 3) with ``p = A @ (P [cos t, sin t, sqrt 2])``.
+    def true_map(self, temperature_k=None, frequency_hz=None) -> np.ndarray:
+        """The exact map ``A`` with ``p = A @ (P [cos t, sin t, sqrt 2])``.
 
-        ``t`` is :meth:`phase_rad` at the same temperature (``2 pi (f - center_hz) tau(T)``
-        without dispersion): the phase origin is the centre frequency and the bias phase at
-        ``temperature_k`` (K, scalar) is absorbed into ``A`` as a rotation about the cone
-        axis. A dark offset is not part of the map.
+        ``t`` is :meth:`phase_rad` at the same temperature and frequency (``2 pi (f -
+        center_hz) tau(T)`` without dispersion): the phase origin is the centre frequency
+        and the bias phase at ``temperature_k`` is absorbed into ``A`` as a rotation about
+        the cone axis. The output coupler and the responsivities are those at
+        ``frequency_hz`` (see ``coupler_slope_per_thz`` and ``responsivity_slope_per_thz``).
+        A dark offset is not part of the map.
+
+        Parameters
+        ----------
+        temperature_k : None, float or array_like, shape (N,)
+            Chip temperature (K); ``None`` is the reference. One per frequency only with
+            ``frequency_hz`` of shape (N,).
+        frequency_hz : None, float or array_like, shape (N,)
+            Source optical frequency (Hz); ``None`` is ``center_hz``.
+
+        Returns
+        -------
+        ndarray, shape (n, 3), or (N, n, 3) for ``frequency_hz`` of shape (N,)
         """
-        delayed, other = self._port_fields()
-        cross = delayed * np.conj(other) * np.exp(1j * self.bias_at(temperature_k))
-        return self.responsivity[:, None] * np.column_stack(
-            [
-                2.0 * cross.real,
-                -2.0 * cross.imag,
-                (np.abs(delayed) ** 2 + np.abs(other) ** 2) / np.sqrt(2.0),
-            ]
+        frequency = None
+        if frequency_hz is not None:
+            frequency = np.asarray(frequency_hz, dtype=float)
+            if frequency.ndim > 1 or not np.all(np.isfinite(frequency)):
+                raise InputError(
+                    f"frequency_hz must be a finite number or a 1-D array of them (Hz), got "
+                    f"shape {frequency.shape}",
+                    parameter="frequency_hz",
+                )
+        bias = self.bias_at(temperature_k)
+        if bias.shape not in ((), np.shape(frequency)):
+            raise InputError(
+                f"temperature_k must be a number or one per frequency_hz (K), got shape "
+                f"{bias.shape}",
+                parameter="temperature_k",
+            )
+        delayed, other = self._port_fields(frequency)
+        cross = delayed * np.conj(other) * np.exp(1j * bias)[..., None]
+        columns = [
+            2.0 * cross.real,
+            -2.0 * cross.imag,
+            (np.abs(delayed) ** 2 + np.abs(other) ** 2) / np.sqrt(2.0),
+        ]
+        map_ = self._responsivity_at(frequency)[..., None] * np.stack(
+            np.broadcast_arrays(*columns), axis=-1
         )
+        return np.array(np.broadcast_to(map_, np.shape(frequency) + (self.ports, 3)))
 
     # ------------------------------------------------------------------ readings
     def powers(
@@ -479,7 +759,8 @@ class Interferometer:
 
         Each reading is ``responsivity |E|^2 P + dark_offset_w + noise``, where the fields
         interfere at phase :meth:`phase_rad` plus the bias, both at ``temperature_k``, plus
-        ``bias_drift_rad``.
+        ``bias_drift_rad``; the output coupler and the responsivity are those at each
+        reading's frequency.
 
         Parameters
         ----------
@@ -530,9 +811,9 @@ class Interferometer:
                     parameter="bias_drift_rad",
                 )
             psi = psi + drift
-        delayed, other = self._port_fields()
-        fields = np.exp(1j * psi)[:, None] * delayed[None, :] + other[None, :]
-        readings = np.abs(fields) ** 2 * self.responsivity * power[:, None]
+        delayed, other = self._port_fields(f)
+        fields = np.exp(1j * psi)[:, None] * delayed + other
+        readings = np.abs(fields) ** 2 * self._responsivity_at(f) * power[:, None]
         if self.dark_offset_w is not None:
             readings = readings + self.dark_offset_w
         if np.any(noise > 0):
