@@ -10,6 +10,14 @@ module measures that structure, tests it against the noise, names the likely cau
 what to do, as :class:`~wavemeter.exceptions.CalibrationWarning` objects whose ``cause`` is
 one of :data:`CAUSES` (:func:`misfit_report`).
 
+A wide-band model has a map that changes with frequency and a phase polynomial: reading
+``k`` has its own map ``A_k = A(f_k)`` (``sum_j A_j L_j(y_k)``, ``y = (f - f0) / h``) and phase
+``t_k = sum_i b_i y_k^i``. Its map coefficients are linear least squares on the design
+columns ``kron(L_j(y_k), x_k)`` (``c = 3 (J + 1)``, shared by the ports), its ``q`` phase
+coefficients are shared by the ports; the caller passes the per-reading maps, the phases,
+the design and the phase's derivatives ``dt_k / db_i``, and every statistic below takes
+them in place of the one map, the ``3`` cone columns and the delay.
+
 Noise without the model
 -----------------------
 Each port's noise ``s_j`` is estimated from the second differences of its residual along
@@ -26,8 +34,9 @@ gives the noise and ``noise_method == "residual"`` says so.
 
 Statistics reported per port
 ----------------------------
-``residual_rms_w``: ``sqrt(sum r^2 / (N - c - 1/n))`` (``c`` = 3 fitted columns, 4 with
-offsets; the delay is shared by the ``n`` ports). ``noise_std_w``: above. ``noise_ratio``:
+``residual_rms_w``: ``sqrt(sum r^2 / (N - c - q/n))`` (``c`` = 3 fitted columns, 4 with
+offsets, or the rank of the design; ``q`` = 1 for the delay, shared by the ``n`` ports, or
+the number of phase coefficients). ``noise_std_w``: above. ``noise_ratio``:
 their ratio, 1 on average for in-model data. ``lag1_autocorrelation``: ``sum r_k r_{k+1} /
 sum r_k^2``, about 0 (within ``1/sqrt(N)``) for white noise and near 1 for a slow drift.
 ``harmonic_power``: the residual energy in harmonics 2 and 3 of the fringe phase (the
@@ -41,24 +50,27 @@ The residual is whitened by the noise (``r_kj / s_j``; one pooled ``s`` for ever
 unless the unequal-noise test below finds them different at ``POOLED_NOISE_P_VALUE``, so
 that in-model sweeps are not tested with noisy weights). Each alternative is a set of
 columns in the ``N n`` dimensional space of readings x ports, from which the directions the
-fit absorbs (the map's columns on every port, the offsets, the delay) are projected out. The
-energy of the whitened residual along the remaining columns is a score (Lagrange-multiplier)
-statistic: chi-square with as many degrees of freedom ``k`` as independent columns when the
-model holds. Its p-value is that of the lack-of-fit F test, the statistic per degree of
-freedom over the rest of the whitened residual per degree of freedom, F(k, n d - k) with
-``d = N - c - 1/n`` (exact for white noise of known port ratios; the model-free noise
-keeps the weights robust to the misfit itself). *Smooth in time* means a combination of
-the first ``K`` discrete cosines of the row index, ``b_m(k) = cos(pi m (k + 1/2) / N)``,
-``m = 1..K``, tested at the nested scales ``K`` of ``SMOOTH_ORDERS`` (up to ``N / 4``;
-``MAX_COUPLED_ORDER`` for the columns that couple the ports), so that a slow drift and a
-thermostat cycling many times are both caught; a family's p-value is its smallest over the
-scales times their number (Bonferroni). Columns are taken in order, and one that the fit and
-the columns before it absorb (to ``RANK_TOLERANCE`` of its norm: on a sweep of evenly spaced
-frequencies, the fringe's own ``cos t`` and ``sin t`` can span a discrete cosine) is left
-out, with no degree of freedom.
+fit absorbs are projected out: the map's columns on every port, the offsets, and for each
+nonlinear parameter ``theta_i`` the direction ``(dt_k / d theta_i) a_t,k`` it moves the
+readings in (``2 pi (f_k - f0) a_t,k`` for the delay; ``a_t`` below), these orthonormalised
+jointly and left out where the others absorb them. The energy of the whitened residual along
+the remaining columns is a score (Lagrange-multiplier) statistic: chi-square with as many
+degrees of freedom ``k`` as independent columns when the model holds. Its p-value is that of
+the lack-of-fit F test, the statistic per degree of freedom over the rest of the whitened
+residual per degree of freedom, F(k, n d - k) with ``d = N - c - q/n`` (exact for white
+noise of known port ratios; the model-free noise keeps the weights robust to the misfit
+itself). *Smooth in time* means a combination of the first ``K`` discrete cosines of the row
+index, ``b_m(k) = cos(pi m (k + 1/2) / N)``, ``m = 1..K``, tested at the nested scales ``K``
+of ``SMOOTH_ORDERS`` (up to ``N / 4``; ``MAX_COUPLED_ORDER`` for the columns that couple the
+ports), so that a slow drift and a thermostat cycling many times are both caught; a family's
+p-value is its smallest over the scales times their number (Bonferroni). Columns are taken
+in order, and one that the fit and the columns before it absorb (to ``RANK_TOLERANCE`` of
+its norm: on a sweep of evenly spaced frequencies, the fringe's own ``cos t`` and ``sin t``
+can span a discrete cosine) is left out, with no degree of freedom.
 
 1. **power** (``power_drift``): columns ``b_m(k) a_P,k``, ``a_P,k = A x_k`` (the reading's
-   own image): a relative source-power error ``u(k)`` smooth in time.
+   own image, through its own map ``A_k`` in a wide-band model): a relative source-power
+   error ``u(k)`` smooth in time.
 2. **phase** (``phase_drift``): columns ``b_m(k) a_t,k``, ``a_t,k = m_k A [-sin t_k, cos t_k,
    0]`` (the fringe tangent): a phase error smooth in time.
 3. **dispersion**: columns ``P_2(y_k) a_t,k`` and ``P_4(y_k) a_t,k`` (Legendre polynomials
@@ -66,7 +78,9 @@ out, with no degree of freedom.
    dispersion gives (``t = w tau + GDD w^2 / 2``). The odd part of a dispersion is a local
    change of the FSR that, in a one-way sweep, cannot be told from a drift (nor a drift of
    one cycle from a cubic phase), so it is left to ``phase_drift``. Only for sweeps over
-   more than ``DISPERSION_MIN_SPAN_FSR`` FSRs.
+   more than ``DISPERSION_MIN_SPAN_FSR`` FSRs. After a fitted phase polynomial of degree 2
+   or more, ``P_2`` lies in the fitted directions and is left out: ``P_4`` tests what the
+   polynomial left.
 4. **harmonics** (``other_misfit``): harmonics 2 and 3 of the fringe phase on every port
    (a fringe that is not a sinusoid: detector nonlinearity, stray interference).
 5. **smooth** (``other_misfit``): columns ``b_m(k)`` on every port, up to ``N / 4``: any
@@ -77,7 +91,7 @@ out, with no degree of freedom.
    residual RMS, pooled as above) into its component along ``a_P``, its component along
    ``a_t`` orthogonal to that, and the rest (``n - 2`` directions). White detector noise
    puts the same energy in each direction, so ``(S_P / d) / (S_rest / (d (n - 2)))`` is
-   F(d, d (n - 2)) (``d = N - c - 1/n``), and likewise for ``S_t``; source-power noise from
+   F(d, d (n - 2)) (``d = N - c - q/n``), and likewise for ``S_t``; source-power noise from
    reading to reading (flicker, which the second differences count as noise on a short
    sweep) raises ``S_P``, phase jitter (an error of the known frequencies, laser frequency
    noise) ``S_t``.
@@ -112,6 +126,12 @@ What cannot be seen
   ``f - f0``: exactly another FSR, absorbed by the delay fit and invisible here. Log the
   temperature and use a thermal calibration; a cycling thermostat, or a ramp over repeated
   or two-way sweeps, is not collinear with frequency and is detected (2).
+* With a **map that changes with frequency**, a small phase error ``e(y)`` moves reading
+  ``k`` by ``e(y_k) A_k R x_k`` (``R`` the quarter turn about the cone axis): a map of degree
+  ``J`` absorbs it where ``e(y) A(y)`` is of degree ``J`` or less (``e`` of degree ``J - deg
+  A``), and nearly so where ``A``'s coefficients of the highest degrees are small. Such an
+  error is invisible here, and phase coefficients of those degrees are determined by the
+  map's variation alone (with large standard errors).
 * A **constant detector offset without a power monitor** is absorbed exactly by the map's
   cone-axis column (``sqrt 2`` for every reading) and leaves no residual. With a monitor
   that shows the power varying, the caller fits offsets ``d`` with standard errors; when no
@@ -129,8 +149,9 @@ Checks of the map and the sweep
   ``n (n - 1)`` ordered pairs below ``TEST_P_VALUE``), and the retrieval does not weight
   the ports by their noise.
 * ``ill_conditioned``: for the pseudo-inverse retrieval, the phase variance it gives at
-  equal port noise, averaged over the sweep, exceeds the Cramer-Rao bound's by more than
-  ``MAX_PINV_VARIANCE_RATIO`` (1.2^2); the cone maximum likelihood reaches the bound.
+  equal port noise, averaged over the sweep (each reading with its own map), exceeds the
+  Cramer-Rao bound's by more than ``MAX_PINV_VARIANCE_RATIO`` (1.2^2); the cone maximum
+  likelihood reaches the bound.
 
 A sweep whose residual is at the rounding level of the readings (a noiseless simulation)
 fits exactly: the residual and noise tests are not made.
@@ -149,6 +170,7 @@ from scipy import linalg, special, stats
 from ..exceptions import CalibrationWarning, InputError
 from ..model.cone import cone_vectors, delay_phase_rad
 from ..model.limits import crlb_frequency_std
+from ..model.retrieval import stacked_pinv
 from ..model.uncertainty import phase_std_rad, pinv_phase_gradient
 from .residual_tests import (
     RANK_TOLERANCE,
@@ -240,8 +262,8 @@ REMEDIES = {
         "(it is absorbed into the FSR)"
     ),
     "dispersion": (
-        "calibrate per FSR (CalibrationSet) or with a wide-band calibration whose phase is "
-        "a polynomial in frequency"
+        "calibrate the band with WidebandCalibrator (a phase polynomial and a map smooth in "
+        "frequency, orders chosen by cross-validation), or per FSR (CalibrationSet)"
     ),
     "partial_span": "calibrate over at least one FSR",
     "unequal_noise": 'use the maximum-likelihood retrieval (retrieval="ml"), which weights '
@@ -281,7 +303,7 @@ class MisfitReport:
     span_fsr : float
         Effective span of the sweep in FSRs (1 for a sweep of one FSR).
     condition_number : float
-        2-norm condition number of the map.
+        2-norm condition number of the map (the largest over the readings' maps).
     pinv_variance_ratio : float
         Phase variance of the pseudo-inverse retrieval over the Cramer-Rao bound's, averaged
         over the sweep at equal port noise (1 for an ideal map).
@@ -387,9 +409,11 @@ def _check_inputs(powers, frequency_hz, center_hz, delay_s, map_, scale, offset_
     if not delay_s > 0:
         raise InputError(f"delay_s must be > 0 (s), got {delay_s!r}", parameter="delay_s")
     matrix = np.asarray(map_, dtype=float)
-    if matrix.shape != (ports, 3) or not np.all(np.isfinite(matrix)):
+    if matrix.shape not in ((ports, 3), (samples, ports, 3)) or not np.all(np.isfinite(matrix)):
         raise InputError(
-            f"map_ must be {ports} x 3 finite numbers, got shape {matrix.shape}", parameter="map_"
+            f"map_ must be {ports} x 3 finite numbers (one map) or {samples} x {ports} x 3 (the "
+            f"map of each reading), got shape {matrix.shape}",
+            parameter="map_",
         )
     power = np.ones(samples) if scale is None else _vector("scale", scale, samples)
     if (offset_w is None) != (offset_std_w is None):
@@ -403,6 +427,41 @@ def _check_inputs(powers, frequency_hz, center_hz, delay_s, map_, scale, offset_
     if offset_std is not None and np.any(offset_std < 0):
         raise InputError("offset_std_w must be >= 0 (W)", parameter="offset_std_w")
     return readings, frequency, float(center_hz), float(delay_s), matrix, power, offsets, offset_std
+
+
+def _fitted_columns(design, samples: int) -> np.ndarray:
+    """The columns (N, k) each port's map row was fitted on, checked."""
+    columns = np.asarray(design, dtype=float)
+    if columns.ndim != 2 or columns.shape[0] != samples or not 1 <= columns.shape[1] < samples:
+        raise InputError(
+            f"design must have shape (N, k) with N = {samples} readings and 1 <= k < N fitted "
+            f"columns, got {columns.shape}",
+            parameter="design",
+        )
+    if not np.all(np.isfinite(columns)):
+        raise InputError("design must be finite numbers", parameter="design")
+    return columns
+
+
+def _phase_derivatives(derivatives, samples: int) -> np.ndarray:
+    """The derivatives (q, N) of the model phase by the shared nonlinear parameters, checked."""
+    rows = np.asarray(derivatives, dtype=float)
+    if rows.ndim != 2 or rows.shape[1] != samples or rows.shape[0] < 1:
+        raise InputError(
+            f"phase_derivatives must have shape (q, N) with q >= 1 parameters and N = "
+            f"{samples} readings, got {rows.shape}",
+            parameter="phase_derivatives",
+        )
+    if not np.all(np.isfinite(rows)):
+        raise InputError("phase_derivatives must be finite numbers", parameter="phase_derivatives")
+    return rows
+
+
+def _images(matrix: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """``A x_k`` (N, n) of vectors (N, 3) through one map (n, 3) or each reading's (N, n, 3)."""
+    if matrix.ndim == 2:
+        return vectors @ matrix.T
+    return np.einsum("kij,kj->ki", matrix, vectors)
 
 
 def _span_fsr(phase_rad: np.ndarray) -> float:
@@ -420,9 +479,12 @@ def _lag1(residual: np.ndarray) -> np.ndarray:
 
 
 def _pinv_variance_ratio(matrix, phase_rad, power) -> float:
-    """Mean pseudo-inverse phase variance over the mean Cramer-Rao variance, unit noise."""
-    images = cone_vectors(phase_rad, power) @ matrix.T
-    gradient = pinv_phase_gradient(images, linalg.pinv(matrix))
+    """Mean pseudo-inverse phase variance over the mean Cramer-Rao variance, unit noise, for
+    one map (n, 3) or each reading's (N, n, 3) (their inverses from the normal equations,
+    several times faster than SVDs: a stack with a map of rank < 3 raises InputError)."""
+    images = _images(matrix, cone_vectors(phase_rad, power))
+    inverse = linalg.pinv(matrix) if matrix.ndim == 2 else stacked_pinv(matrix)
+    gradient = pinv_phase_gradient(images, inverse)
     pinv_variance = phase_std_rad(gradient, 1.0) ** 2
     # the bound in Hz on an FSR of 2 pi "Hz" is the bound on the phase in rad
     bound = crlb_frequency_std(matrix, phase_rad, power, 1.0, 2.0 * np.pi) ** 2
@@ -736,6 +798,8 @@ def misfit_report(
     weighted_retrieval: bool = False,
     phase_rad=None,
     phase_noise_std_rad=None,
+    design=None,
+    phase_derivatives=None,
 ) -> MisfitReport:
     """Test a fitted calibration sweep against the model and name what departs from it.
 
@@ -749,8 +813,10 @@ def misfit_report(
         Phase origin ``f0`` (Hz).
     delay_s : float
         Fitted delay ``tau`` (s); the FSR is ``1 / delay_s``.
-    map_ : array_like, shape (n, 3)
-        Fitted map ``A`` (W).
+    map_ : array_like, shape (n, 3) or (N, n, 3)
+        Fitted map ``A`` (W), or the map of each reading (``A(f_k)``, a map that changes with
+        frequency): the images, fringe tangents, residual and scatter tests use each
+        reading's own; the condition number reported is the largest over the readings.
     scale : None or array_like, shape (N,)
         Relative monitored source power per reading (mean 1), or None.
     offset_w, offset_std_w : None or array_like, shape (n,)
@@ -770,6 +836,14 @@ def misfit_report(
         (a chip temperature known to ``s_T``: ``s_T`` times the thermal rate). The phase
         scatter test looks for scatter beyond it, and the noise reported (and tested for
         unequal ports) is the detector's: the model-free estimate less its share.
+    design : None or array_like, shape (N, k)
+        The columns every port's map row was fitted on, by linear least squares (the residual
+        is orthogonal to them), with a column of ones when offsets were fitted. None: the cone
+        objects ``m_k [cos t_k, sin t_k, sqrt 2]`` (and ones with ``offset_w``).
+    phase_derivatives : None or array_like, shape (q, N)
+        Derivatives ``dt_k / d theta_i`` (rad per unit) of the model phase by the ``q``
+        nonlinear parameters shared by the ports (a phase polynomial's coefficients). None:
+        the delay alone, ``2 pi (f - f0)``.
 
     Returns
     -------
@@ -790,13 +864,19 @@ def misfit_report(
         if phase_rad is None
         else _vector("phase_rad", phase_rad, samples)
     )
+    derivatives = (
+        (2.0 * np.pi * (frequency - center))[None]
+        if phase_derivatives is None
+        else _phase_derivatives(phase_derivatives, samples)
+    )
     objects = cone_vectors(phase, power)
-    design = objects if offsets is None else np.column_stack([objects, np.ones(samples)])
-    basis = linalg.orth(design)
-    image = objects @ matrix.T
+    if design is None:
+        design = objects if offsets is None else np.column_stack([objects, np.ones(samples)])
+    basis = linalg.orth(_fitted_columns(design, samples))
+    image = _images(matrix, objects)
     residual = readings - image - (0.0 if offsets is None else offsets)
 
-    residual_dof = max(samples - basis.shape[1] - 1.0 / ports, 1.0)
+    residual_dof = max(samples - basis.shape[1] - derivatives.shape[0] / ports, 1.0)
     residual_rms = np.sqrt(np.einsum("ij,ij->j", residual, residual) / residual_dof)
     span = _span_fsr(phase)
     dense = samples >= MIN_READINGS_PER_FSR * max(span, 1.0)
@@ -811,8 +891,8 @@ def misfit_report(
     lag1 = _lag1(residual)
     exact_fit = float(np.sqrt(np.mean(residual**2))) <= ROUNDOFF_EPSILONS * floor
 
-    tangent = power[:, None] * (
-        np.stack([-np.sin(phase), np.cos(phase), np.zeros(samples)], axis=1) @ matrix.T
+    tangent = power[:, None] * _images(
+        matrix, np.stack([-np.sin(phase), np.cos(phase), np.zeros(samples)], axis=1)
     )
     expected = (
         np.zeros(samples)
@@ -827,8 +907,9 @@ def misfit_report(
     # whitening weights: one noise for all ports unless theirs differ (module docstring)
     pooled = unequal_p >= POOLED_NOISE_P_VALUE
     weight = np.full(ports, np.sqrt(np.mean(noise**2))) if pooled else noise
-    delay_column = (2.0 * np.pi * (frequency - center))[:, None] * tangent
-    projector = Projector(basis, delay_column / weight)
+    # the directions the nonlinear parameters move the images in, d_i,k a_t,k (N, n, q)
+    coupled = np.stack([derivative[:, None] * tangent for derivative in derivatives], axis=2)
+    projector = Projector(basis, coupled / weight[:, None])
     # the fitted columns carry the model's phase noise, which the residual carries too: a
     # test column partly inside their span is left with that noise in its direction
     tolerance = NOISY_BASIS_TOLERANCE if np.any(expected > 0) else RANK_TOLERANCE
@@ -863,7 +944,7 @@ def misfit_report(
     if not (weighted_retrieval or exact_fit):
         notes.append(noise_note)
     variance_ratio = _pinv_variance_ratio(matrix, phase, power)
-    condition = float(np.linalg.cond(matrix))
+    condition = float(np.max(np.linalg.cond(matrix)))
     if variance_ratio > MAX_PINV_VARIANCE_RATIO and not weighted_retrieval:
         notes.append(
             _warning(
