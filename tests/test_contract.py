@@ -317,6 +317,8 @@ CASES = {
     "extended_conventional": [("", {"known_power": True})],
     # the learned map's contract at the reference temperature, with the pseudo-inverse
     "thermal": [("", {"efficient_device": "table1", "estimator_excess": pinv_excess})],
+    # a one-FSR sweep: the paper's orders (1, 0), the learned map's contract via coarse_hz
+    "wideband": [("", {"efficient_device": "table1", "estimator_excess": pinv_excess})],
     # the sum of port powers is the source power only when ideal
     "nonlinear_fit": [("", {"exact_device": "ideal"})],
     # in quadrature on a 90-degree hybrid: a circle, Heydemann efficient; a fixed ellipse

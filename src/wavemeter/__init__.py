@@ -24,6 +24,7 @@ _WHERE = {
     "NonlinearFitCalibrator": "calibration",
     "PlaneEllipseCalibrator": "calibration",
     "ThermalCalibrator": "calibration",
+    "WidebandCalibrator": "calibration",
     "load_calibration": "calibration",
     "save_calibration": "calibration",
     "predict_frequency_hz": "calibration",

@@ -18,6 +18,7 @@ from .learned import Calibrator, predict_frequency_hz, retrieve_phase_rad
 from .registry import registered
 from .set import CalibrationSet
 from .thermal import ThermalCalibrator
+from .wideband import WidebandCalibrator
 
 __all__ = [
     "BaseCalibrator",
@@ -35,4 +36,5 @@ __all__ = [
     "retrieve_phase_rad",
     "save_calibration",
     "ThermalCalibrator",
+    "WidebandCalibrator",
 ]

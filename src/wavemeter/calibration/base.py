@@ -248,8 +248,7 @@ class BaseCalibrator:
         total = corrected.sum(axis=1)
         # the range the flags compare readings with, offset-corrected like them
         self.total_power_range_w_ = (float(total.min()), float(total.max()))
-        predicted = self._predict_checked(corrected, temperature)
-        error = wrap_to_period(predicted - frequency, self.fsr_hz_)
+        error = self._sweep_error_hz(corrected, frequency, temperature)
         self.calibration_rms_hz_ = float(np.sqrt(np.mean(error**2)))
         misfit = self._misfit_report(powers, frequency, scale, delay)
         self._use_misfit_report(misfit)
@@ -268,6 +267,12 @@ class BaseCalibrator:
         for note in notes:
             warnings.warn(note, stacklevel=2)
         return self
+
+    def _sweep_error_hz(self, readings, frequency_hz, temperature_k) -> np.ndarray:
+        """Frequency error (Hz) of the sweep's own readings (offset-corrected), modulo the
+        FSR: a calibration that needs a coarse frequency is read with the true one."""
+        predicted = self._predict_checked(readings, temperature_k)
+        return wrap_to_period(predicted - frequency_hz, self.fsr_hz_)
 
     def _sweep_temperature(self, temperature_k, n_samples: int) -> np.ndarray | None:
         """The sweep's chip temperatures (K) checked, one per reading; None when not given

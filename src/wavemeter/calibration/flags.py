@@ -29,6 +29,12 @@ integer per reading whose bits are :class:`ReadingFlag` members:
     the calibrated temperature range by more than ``TEMPERATURE_MARGIN_FRACTION`` (10 %) of
     that range, or ``TEMPERATURE_MARGIN_STD`` (5) sensor standard deviations if more: the
     linear thermal model is extrapolated there.
+``ORDER_AMBIGUOUS`` (32)
+    For a calibration that reads the fringe order from a coarse frequency (the wide-band
+    one): the frequency found lies more than a quarter of the local FSR from the coarse
+    value. A coarse value off by less than that is never flagged and always picks the right
+    order; one off by more is flagged until it is three quarters of an FSR off, beyond
+    which it picks a wrong order unseen (no reading of one interferometer can tell).
 
 The pure functions here decide each rule; the calibrators supply the numbers.
 """
@@ -75,6 +81,7 @@ class ReadingFlag(enum.IntFlag):
     POWER_RANGE = 4
     INVALID = 8
     TEMPERATURE_RANGE = 16
+    ORDER_AMBIGUOUS = 32
 
 
 def off_model_threshold(ports: int, noise_dof: float) -> float:

@@ -1,0 +1,271 @@
+"""The orders of the wide-band model, chosen by cross-validation on held-out whole FSRs.
+
+The sweep's readings are grouped by FSR window (``floor((f - f_low) / FSR)``, whole FSRs
+whatever gaps the sweep has). The two outermost windows always train (a reading outside
+the calibrated band is flagged, never extrapolated to); the others are dealt round-robin
+into ``CV_FOLDS`` folds. A candidate ``(P, J)`` is scored by the frequency error of the
+readings of each fold read with the model whose map was fitted on the other folds, at the
+coarse frequency of the truth, with the pseudo-inverse retrieval. Its phase coefficients
+are fitted once on all readings: ``P`` numbers from thousands of readings carry no
+information worth holding out, while the ``3 n (J + 1)`` map coefficients are what a
+held-out FSR tests.
+
+The search starts from the paper's model ``(1, 0)`` and moves to the candidate one order
+higher in phase or in map (two higher when neither one-step move helps) that lowers the
+held-out mean squared error the most, as long as the lowering is significant: the paired
+per-reading differences of squared error have a mean above ``CV_Z`` standard errors. The
+orders stop where more parameters no longer predict held-out FSRs better: the smallest
+model the data support. Every candidate scored is kept (the cross-validation curve).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .wideband_fit import (
+    BandModel,
+    band_frequency_hz,
+    band_objects,
+    band_phase_rad,
+    evenly,
+    fit_band_region,
+    least_squares_map,
+    map_coefficients,
+    padded,
+)
+
+__all__ = [
+    "CV_FOLDS",
+    "CV_READINGS",
+    "CV_Z",
+    "MAX_MAP_ORDER",
+    "MAX_PHASE_ORDER",
+    "MIN_CV_WINDOWS",
+    "OrderSelection",
+    "fsr_windows",
+    "parameter_count",
+    "select_orders",
+]
+
+#: highest phase order and map order searched
+MAX_PHASE_ORDER = 4
+MAX_MAP_ORDER = 8
+#: folds of held-out FSR windows
+CV_FOLDS = 3
+#: readings the cross-validation uses, at most (evenly spaced in acquisition order)
+CV_READINGS = 20000
+#: a higher order is taken when it lowers the held-out error by this many standard errors
+CV_Z = 3.0
+#: FSR windows a sweep needs for the orders to be chosen (else the paper's (1, 0))
+MIN_CV_WINDOWS = 2 + CV_FOLDS
+
+
+def fsr_windows(frequency_hz, low_hz: float, fsr_hz: float) -> np.ndarray:
+    """Index of the FSR-wide window of each frequency (Hz), counted from ``low_hz``."""
+    return np.floor((np.asarray(frequency_hz, dtype=float) - low_hz) / fsr_hz).astype(int)
+
+
+def parameter_count(ports: int, phase_order: int, map_order: int, affine: bool) -> int:
+    """Fitted numbers: ``3 n (J + 1)`` map coefficients, ``n`` offsets if fitted, ``P``."""
+    return 3 * ports * (map_order + 1) + (ports if affine else 0) + phase_order
+
+
+@dataclass(frozen=True)
+class OrderSelection:
+    """The orders and how they were chosen.
+
+    Attributes
+    ----------
+    phase_order, map_order : int
+        ``P`` and ``J``.
+    method : {"cross_validation", "given", "default"}
+        Chosen by cross-validation, given by the user, or the paper's ``(1, 0)`` on a
+        sweep of fewer than ``MIN_CV_WINDOWS`` FSR windows (``reason`` says so).
+    reason : str
+        How the orders were chosen, in words.
+    candidates : tuple of dict
+        Every candidate scored: ``phase_order``, ``map_order``, ``parameters``,
+        ``cv_rms_hz`` (held-out RMS frequency error) and ``chosen``.
+    held_out_windows : int
+        FSR windows held out in turn.
+    """
+
+    phase_order: int
+    map_order: int
+    method: str
+    reason: str
+    candidates: tuple[dict, ...]
+    held_out_windows: int
+
+    def record(self) -> dict:
+        """JSON-ready entries of ``diagnostics_["wideband"]["orders"]``."""
+        return {
+            "phase_order": self.phase_order,
+            "map_order": self.map_order,
+            "method": self.method,
+            "reason": self.reason,
+            "held_out_windows": self.held_out_windows,
+            "candidates": [dict(candidate) for candidate in self.candidates],
+        }
+
+
+def _folds(windows: np.ndarray) -> np.ndarray:
+    """Fold of each reading: -1 for the two outermost windows (always trained on), else
+    the rank of its window among the inner ones modulo ``CV_FOLDS``."""
+    present = np.unique(windows)
+    inner = present[1:-1]
+    rank = np.searchsorted(inner, windows)
+    folds = rank % CV_FOLDS
+    folds[(windows == present[0]) | (windows == present[-1])] = -1
+    return folds
+
+
+def select_orders(
+    powers,
+    frequency_hz,
+    center_hz: float,
+    half_span_hz: float,
+    coefficients_rad,
+    fsr_hz: float,
+    retrieve: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    *,
+    scale=None,
+    affine: bool = False,
+    phase_order: int | None = None,
+    map_order: int | None = None,
+) -> OrderSelection:
+    """Choose the orders ``(P, J)`` left None by cross-validation (module docstring).
+
+    Parameters
+    ----------
+    powers : ndarray, shape (N, n)
+        Readings (W), dark-subtracted.
+    frequency_hz : ndarray, shape (N,)
+        Known frequencies (Hz).
+    center_hz, half_span_hz : float
+        ``f0`` and ``h`` (Hz) of the band.
+    coefficients_rad : array_like
+        Phase coefficients in ``y`` (rad) of a fit over the band, to start from.
+    fsr_hz : float
+        The FSR (Hz) that cuts the sweep into windows.
+    retrieve : callable
+        ``retrieve(readings, maps) -> phase`` (the pseudo-inverse's).
+    scale, affine
+        As for :func:`~wavemeter.calibration.wideband_fit.fit_band_region`.
+    phase_order, map_order : int or None
+        Given orders (kept); None to choose.
+
+    Returns
+    -------
+    OrderSelection
+    """
+    rows = evenly(np.arange(powers.shape[0]), CV_READINGS)
+    frequency = frequency_hz[rows]
+    readings = powers[rows]
+    weights = None if scale is None else scale[rows]
+    windows = fsr_windows(frequency, float(frequency_hz.min()), fsr_hz)
+    present = np.unique(windows).size
+    ports = powers.shape[1]
+    if phase_order is not None and map_order is not None:
+        return OrderSelection(phase_order, map_order, "given", "both orders given", (), 0)
+    if present < MIN_CV_WINDOWS:
+        return OrderSelection(
+            phase_order or 1,
+            map_order or 0,
+            "default",
+            f"the sweep has {present} FSR windows, fewer than the {MIN_CV_WINDOWS} "
+            "cross-validation needs: the paper's linear phase and constant map",
+            (),
+            0,
+        )
+    folds = _folds(windows)
+    held = folds >= 0
+    training_windows = present - int(
+        max(np.unique(windows[folds == k]).size for k in range(CV_FOLDS))
+    )
+    highest_map = min(MAX_MAP_ORDER, training_windows // 2 - 1)
+    highest_phase = min(MAX_PHASE_ORDER, max(training_windows // 2, 1))
+    y = (frequency - center_hz) / half_span_hz
+
+    def held_out_errors(orders: tuple[int, int]) -> np.ndarray:
+        order_p, order_j = orders
+        fit = fit_band_region(
+            readings,
+            frequency,
+            center_hz,
+            half_span_hz,
+            padded(coefficients_rad, order_p),
+            map_order=order_j,
+            scale=weights,
+            affine=affine,
+        )
+        phase = band_phase_rad(y, fit.coefficients_rad)
+        objects = band_objects(y, phase, weights, order_j, affine)
+        errors = np.empty(np.count_nonzero(held))
+        positions = np.flatnonzero(held)
+        for fold in range(CV_FOLDS):
+            train, test = folds != fold, folds == fold
+            matrix = least_squares_map(objects[train], readings[train])
+            coefficients, offsets = map_coefficients(matrix, order_j)
+            model = BandModel(center_hz, half_span_hz, fit.coefficients_rad, coefficients)
+            tested = readings[test] - (0.0 if offsets is None else offsets)
+            estimate = band_frequency_hz(model, tested, frequency[test], retrieve)[0]
+            errors[np.searchsorted(positions, np.flatnonzero(test))] = estimate - frequency[test]
+        return errors
+
+    scored: dict[tuple[int, int], np.ndarray] = {}
+
+    def score(orders):
+        if orders not in scored:
+            scored[orders] = held_out_errors(orders) ** 2
+        return scored[orders]
+
+    def allowed(orders):
+        order_p, order_j = orders
+        return (
+            (phase_order is None or order_p == phase_order)
+            and (map_order is None or order_j == map_order)
+            and 1 <= order_p <= highest_phase
+            and 0 <= order_j <= highest_map
+        )
+
+    current = (phase_order or 1, map_order or 0)
+    while True:
+        best = None
+        for step in (1, 2):
+            moves = [(current[0] + step, current[1]), (current[0], current[1] + step)]
+            for move in filter(allowed, moves):
+                lowered = score(current) - score(move)
+                spread = lowered.std(ddof=1) / np.sqrt(lowered.size)
+                if lowered.mean() > CV_Z * spread and (best is None or lowered.mean() > best[0]):
+                    best = (float(lowered.mean()), move)
+            if best is not None:
+                break
+        if best is None:
+            break
+        current = best[1]
+    score(current)
+    candidates = tuple(
+        {
+            "phase_order": order_p,
+            "map_order": order_j,
+            "parameters": parameter_count(ports, order_p, order_j, affine),
+            "cv_rms_hz": float(np.sqrt(errors.mean())),
+            "chosen": (order_p, order_j) == current,
+        }
+        for (order_p, order_j), errors in sorted(scored.items())
+    )
+    held_windows = int(np.unique(windows[held]).size)
+    return OrderSelection(
+        current[0],
+        current[1],
+        "cross_validation",
+        f"cross-validation on {held_windows} held-out FSR windows in {CV_FOLDS} folds: "
+        f"the smallest model whose held-out error no higher order lowers by {CV_Z:g} "
+        "standard errors",
+        candidates,
+        held_windows,
+    )
