@@ -34,18 +34,43 @@ def _reading_inputs(calibration, coarse_hz, temperature_k=None) -> dict:
     return inputs
 
 
+def _is_set(calibration) -> bool:
+    """Whether ``calibration`` is a set of per-window calibrations (it has ``windows_``)."""
+    return hasattr(calibration, "windows_")
+
+
 def _single_maps(calibration) -> list:
-    """The single-FSR calibrations a calibration retrieves with: a set's windows, or itself."""
-    return calibration.windows_ if "coarse_hz" in calibration.requires else [calibration]
+    """The calibrations a calibration retrieves with: a set's windows, or itself."""
+    return calibration.windows_ if _is_set(calibration) else [calibration]
 
 
 def _calibrated_range_hz(calibration) -> tuple[float, float]:
     """Lowest and highest frequency (Hz) the calibration was fitted for: the sweep span of
-    a single-FSR calibration, the range a set's windows cover."""
-    if "coarse_hz" in calibration.requires:
+    a single calibration (one FSR, or a wide band), the range a set's windows cover."""
+    if _is_set(calibration):
         return calibration.covered_hz()
     low, high = calibration.span_hz_
     return float(low), float(high)
+
+
+def _model_phase_at_truth_rad(calibration, truth_hz, temperature_k) -> np.ndarray:
+    """The phase (rad, wrapped) each true frequency has under the calibration's model:
+    ``model_phase_rad`` of a calibration that has one (a wide band's phase polynomial),
+    else the linear phase of the window (a set's, by the truth) or of the calibration,
+    with the FSR at each reading's chip temperature for a calibration that needs it."""
+    model_phase = getattr(calibration, "model_phase_rad", None)
+    if callable(model_phase):
+        return model_phase(truth_hz)
+    maps = _single_maps(calibration)
+    if _is_set(calibration):
+        index = calibration.window_index(truth_hz)
+    else:
+        index = np.zeros(truth_hz.size, dtype=int)
+    center_hz = np.array([single.center_hz_ for single in maps])[index]
+    fsr_hz = np.array([single.fsr_hz_ for single in maps])[index]
+    if temperature_k is not None:
+        fsr_hz = calibration.fsr_hz_at(temperature_k)
+    return wrap_phase_rad(2.0 * np.pi * (truth_hz - center_hz) / fsr_hz)
 
 
 def crlb_per_reading_hz(
@@ -56,7 +81,9 @@ def crlb_per_reading_hz(
     The bound under the calibration's own model: its fitted map, FSR and noise (estimated
     from the calibration residual), at the phase the true frequency has under that map
     (:meth:`~wavemeter.Calibrator.crlb_hz` with ``phase_rad``). A calibration
-    set evaluates each reading under the window its true frequency falls in.
+    set evaluates each reading under the window its true frequency falls in; a wide-band
+    calibration at its model phase of the truth (``model_phase_rad``), the truth as the
+    coarse frequency.
 
     Parameters
     ----------
@@ -77,24 +104,15 @@ def crlb_per_reading_hz(
     Raises
     ------
     InputError
-        When the readings or frequencies are malformed, or (for a set) a true frequency
-        lies outside the range its windows cover.
+        When the readings or frequencies are malformed, or a true frequency lies outside
+        the range a set's windows cover (more than half an FSR outside a wide band).
     """
     if "frequency_std" not in calibration.capabilities:
         return None
     readings = check_powers(powers_w)
     truth = check_frequency(frequency_hz, readings.shape[0])
-    maps = _single_maps(calibration)
-    if "coarse_hz" in calibration.requires:
-        index = calibration.window_index(truth)
-    else:
-        index = np.zeros(truth.size, dtype=int)
-    center_hz = np.array([single.center_hz_ for single in maps])[index]
-    fsr_hz = np.array([single.fsr_hz_ for single in maps])[index]
     inputs = _reading_inputs(calibration, truth, temperature_k)
-    if "temperature_k" in inputs:
-        fsr_hz = calibration.fsr_hz_at(inputs["temperature_k"])
-    phase = wrap_phase_rad(2.0 * np.pi * (truth - center_hz) / fsr_hz)
+    phase = _model_phase_at_truth_rad(calibration, truth, inputs.get("temperature_k"))
     return calibration.crlb_hz(readings, phase_rad=phase, **inputs)
 
 
@@ -146,9 +164,10 @@ def evaluate_calibrations(
         True frequency of each reading (Hz).
     coarse_hz : None or array_like, shape (N,)
         Coarse frequency of each reading (Hz) for calibrations that need one
-        (``"coarse_hz"`` in ``requires``, e.g. a calibration set, where it picks the
-        window); default: the true frequency, which tests the calibration but not the
-        coarse values one would have in use.
+        (``"coarse_hz"`` in ``requires``: a calibration set, where it picks the window, or
+        a wide-band calibration, where it picks the fringe order); default: the true
+        frequency, which tests the calibration but not the coarse values one would have in
+        use.
     temperature_k : None, float or array_like, shape (N,)
         Chip temperature of each reading (K), for calibrations that need it (a thermal
         one); an error when one does and it is None.
@@ -160,7 +179,8 @@ def evaluate_calibrations(
         ``p95_abs_hz``, ``p99_abs_hz`` (absolute error, Hz), ``rms_mod_fsr_hz`` (error
         modulo the calibration's FSR, Hz), ``fsr_hz``, ``span_hz`` (calibrated span, a
         set: the range its windows cover), ``outside_span_fraction`` (share of readings
-        whose truth lies outside it), ``gross_error_fraction`` (share with an absolute
+        whose truth lies outside it; a wide band: its sweep span),
+        ``gross_error_fraction`` (share with an absolute
         error over half an FSR) and, when a bound is known, ``rms_abs_over_crlb`` and
         ``rms_mod_fsr_over_crlb``. At the top level: ``samples``; ``coarse_from``
         (``"coarse_hz"``, ``"truth"``, or None when no calibration needs one);

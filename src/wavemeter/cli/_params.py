@@ -1,4 +1,5 @@
-"""What options accept: physical quantities with units, and old option names kept hidden.
+"""What options accept: physical quantities with units, the orders of a wide-band model,
+and old option names kept hidden.
 
 Every physical quantity on the command line is a number with a unit (``50GHz``, ``1 mW``,
 ``-30dBm``, ``1550nm``, ``20C``); a bare number is in SI units (Hz, W, K). A bare frequency
@@ -32,6 +33,7 @@ __all__ = [
     "PowerParam",
     "PowerListParam",
     "TemperatureParam",
+    "OrderParam",
     "FREQUENCY",
     "FSR",
     "OPTICAL_FREQUENCY",
@@ -40,6 +42,8 @@ __all__ = [
     "OFFSETS",
     "NOISE_POWERS",
     "TEMPERATURE",
+    "PHASE_ORDER",
+    "MAP_ORDER",
     "BARE_FREQUENCY_LIMIT_HZ",
 ]
 
@@ -247,6 +251,46 @@ class TemperatureParam(click.ParamType):
         return temperature_k
 
 
+class OrderParam(click.ParamType):
+    """An order of the wide-band model: an integer from ``lowest`` to the calibration's
+    highest (looked up when a value is given, so that ``--help`` imports no numerics).
+
+    Parameters
+    ----------
+    lowest : int
+        Smallest order allowed.
+    highest_name : str
+        Name of the constant in :mod:`wavemeter.calibration.wideband_orders` holding the
+        highest order allowed (``"MAX_PHASE_ORDER"``).
+    """
+
+    name = "ORDER"
+
+    def __init__(self, lowest: int, highest_name: str):
+        self.lowest = lowest
+        self.highest_name = highest_name
+
+    def convert(self, value, param, ctx):
+        from ..calibration import wideband_orders
+
+        highest = getattr(wideband_orders, self.highest_name)
+        text = str(value).strip()
+        if isinstance(value, int) and not isinstance(value, bool):
+            order = value
+        elif re.fullmatch(r"[+-]?\d+", text):
+            order = int(text)
+        else:
+            order = None
+        if order is None or not self.lowest <= order <= highest:
+            self.fail(
+                f"must be an integer from {self.lowest} to {highest} (leave it out to choose "
+                f"it by cross-validation), got {text!r}",
+                param,
+                ctx,
+            )
+        return order
+
+
 #: any frequency; a bare number is in Hz
 FREQUENCY = FrequencyParam()
 #: a free spectral range: refuses a bare number below 1 MHz (``--fsr 50`` meant 50GHz)
@@ -263,3 +307,7 @@ OFFSETS = PowerListParam(signed=True)
 NOISE_POWERS = PowerListParam(signed=False)
 #: a chip temperature (K) given as K or C; a bare number is in K
 TEMPERATURE = TemperatureParam()
+#: phase order P of a wide-band calibration, 1 (linear phase) to the highest searched
+PHASE_ORDER = OrderParam(1, "MAX_PHASE_ORDER")
+#: map order J of a wide-band calibration, 0 (one map) to the highest searched
+MAP_ORDER = OrderParam(0, "MAX_MAP_ORDER")

@@ -110,6 +110,11 @@ OPTION_OF_PARAMETER = {
     "samples": "--samples",
     "span_fsr": "--span-fsr",
     "power_fluctuation": "--power-fluctuation",
+    "dispersion_s2": "--dispersion",
+    "coupler_slope_per_thz": "--coupler-slope",
+    "responsivity_slope_per_thz": "--responsivity-slope",
+    "phase_order": "--phase-order",
+    "map_order": "--map-order",
 }
 _OPTION_IN_COMMAND = {
     "simulate": {"x_unit": "--write-axis-unit", "power_unit": "--write-power-unit"},
@@ -192,7 +197,7 @@ class WarningsRefused(Exception):
 OPTIONS_OF_CAUSE = {
     "power_drift": "--monitor COL",
     "detector_offset": "--dark FILE or --dark-w",
-    "dispersion": "--per-fsr",
+    "dispersion": "--method wideband (or --per-fsr)",
     "unequal_noise": "--retrieval ml",
     "ill_conditioned": "--retrieval ml",
     "phase_drift": "--method thermal with a temperature column",
@@ -200,11 +205,18 @@ OPTIONS_OF_CAUSE = {
 }
 
 
+#: a remedy that names one of these settings is done with its option, whatever the cause
+#: (a wide-band fit whose phase order is too low: ``dispersion``, remedied by its order)
+OPTIONS_OF_REMEDY_SETTING = {"phase_order": "--phase-order"}
+
+
 def warning_text(warning: Warning) -> str:
     """``[cause] message`` of a calibration warning, on one line (``other_misfit`` when the
     warning names no cause), with the options of its remedy where it has some."""
     cause = getattr(warning, "cause", "other_misfit")
-    hint = OPTIONS_OF_CAUSE.get(cause)
+    remedy = getattr(warning, "remedy", "")
+    named = [option for setting, option in OPTIONS_OF_REMEDY_SETTING.items() if setting in remedy]
+    hint = named[0] if named else OPTIONS_OF_CAUSE.get(cause)
     return f"[{cause}] {warning}" + (f" (options: {hint})" if hint else "")
 
 

@@ -11,6 +11,10 @@ temperature from each file's temperature column or ``--temperature-k`` once per 
 files must have the same ports and all or none a power monitor. The other methods take one
 sweep file: they model one chip state, and several files would be one sweep only if they
 were recorded as one.
+
+``--method wideband`` fits one model across a band of many FSRs (a phase polynomial and a
+map smooth in frequency); ``--phase-order`` and ``--map-order`` fix its orders, which are
+otherwise chosen by cross-validation on held-out FSRs. They belong to that method alone.
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ from ._common import (
     say,
     setting,
 )
-from ._params import OFFSETS
+from ._params import MAP_ORDER, OFFSETS, PHASE_ORDER
 from ._streams import STDIN_LABEL, is_stdio, output_path
 from ._temperature import (
     check_temperature_options,
@@ -53,6 +57,8 @@ from .app import WarningsRefused
 
 #: sensor noise of the chip temperature a thermal calibration assumes by default (K)
 DEFAULT_TEMPERATURE_STD_K = 1e-3
+#: options of the wide-band method alone: option name -> its parameter
+WIDEBAND_OPTIONS = {"--phase-order": "phase_order", "--map-order": "map_order"}
 
 
 @contextlib.contextmanager
@@ -121,10 +127,27 @@ def _calibrator(options: dict, phases):
     retrieval = options["retrieval"]
     if method == "conventional" and retrieval != "pinv":
         raise InputError(
-            f"--retrieval {retrieval} needs --method learned or thermal, got --method {method}"
+            f"--retrieval {retrieval} needs --method learned, thermal or wideband, got "
+            f"--method {method}"
         )
+    for option, name in WIDEBAND_OPTIONS.items():
+        if method != "wideband" and _given(name):
+            raise InputError(
+                f"{option} is an order of the wide-band model (--method wideband); --method "
+                f"{method} has no such order: leave {option} out, or add --method wideband"
+            )
     if method == "learned":
         calibrator = Calibrator(fsr_hz=fsr, fsr_tolerance=tolerance, retrieval=retrieval)
+    elif method == "wideband":
+        from ..calibration.wideband import WidebandCalibrator
+
+        calibrator = WidebandCalibrator(
+            fsr_hz=fsr,
+            fsr_tolerance=tolerance,
+            phase_order=options["phase_order"],
+            map_order=options["map_order"],
+            retrieval=retrieval,
+        )
     elif method == "thermal":
         from ..calibration.thermal import ThermalCalibrator
 
@@ -142,6 +165,11 @@ def _calibrator(options: dict, phases):
             f"(--method thermal); --method {method} does not use it"
         )
     if options["per_fsr"]:
+        if method == "wideband":
+            raise InputError(
+                "--per-fsr calibrates each FSR on its own, --method wideband the whole band "
+                "with one model: choose one of them"
+            )
         if calibrator.requires:
             raise InputError(
                 f"--per-fsr calibrates each FSR with a method that needs nothing but the "
@@ -384,21 +412,36 @@ def _read_line(sweeps: _Sweeps) -> str:
 )
 @click.option(
     "--method",
-    type=click.Choice(("learned", "conventional", "thermal")),
+    type=click.Choice(("learned", "conventional", "thermal", "wideband")),
     default="learned",
     show_default=True,
-    help="Learned linear map (paper), the conventional ideal-map method, or the learned map "
+    help="Learned linear map (paper), the conventional ideal-map method, the learned map "
     "with the chip temperature's effect on bias phase and delay (sweeps at several "
-    "temperatures).",
+    "temperatures), or one learned model across a band of many FSRs (phase polynomial "
+    "and a map smooth in frequency; readings then need a coarse frequency).",
 )
 @click.option(
     "--retrieval",
     type=click.Choice(("pinv", "ml")),
     default="pinv",
     show_default=True,
-    help="Phase retrieval of the learned and thermal methods: pseudo-inverse (paper) or "
-    "cone-constrained maximum likelihood (reaches the Cramer-Rao bound also for "
+    help="Phase retrieval of the learned, thermal and wideband methods: pseudo-inverse "
+    "(paper) or cone-constrained maximum likelihood (reaches the Cramer-Rao bound also for "
     "ill-conditioned maps).",
+)
+@click.option(
+    "--phase-order",
+    type=PHASE_ORDER,
+    metavar="P",
+    help="Order of the phase polynomial of --method wideband: 1 (linear phase, the paper's), "
+    "2 (adds dispersion) or higher. Default: chosen by cross-validation on held-out FSRs.",
+)
+@click.option(
+    "--map-order",
+    type=MAP_ORDER,
+    metavar="J",
+    help="Legendre order of the map's change across the band of --method wideband: 0 (one "
+    "map) or higher. Default: chosen by cross-validation on held-out FSRs.",
 )
 @temperature_k_option(
     "Chip temperature of every reading of a sweep file (thermal method), once per file in "
@@ -457,6 +500,12 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
     unit, e.g. temperature_K or 'Temp (C)', or --temperature COL) or --temperature-k once
     per file. The other methods take one sweep.
 
+    --method wideband fits one model across a sweep of many FSRs (whole FSRs may be
+    missing): a phase polynomial of order --phase-order and a map of Legendre order
+    --map-order in frequency, both chosen by cross-validation on held-out FSRs unless
+    given. Measuring with it needs a coarse frequency of each reading within half an
+    FSR (--coarse or --coarse-frequency), which picks the fringe order.
+
     \b
     Example:
       wavemeter calibrate sweep.csv -o chip.wmcal.json --fsr 50GHz
@@ -466,6 +515,8 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
       wavemeter calibrate --method thermal cold.csv mid.csv warm.csv -o chip.wmcal.json
       wavemeter calibrate --method thermal a.csv b.csv --temperature-k 20C \\
           --temperature-k 21.5C -o chip.wmcal.json
+      wavemeter calibrate --method wideband band.csv -o band.wmcal.json
+      wavemeter calibrate --method wideband band.csv -o band.wmcal.json --phase-order 2
     """
     from ..calibration.files import save_calibration
 

@@ -26,7 +26,8 @@ from ._temperature import missing_temperature, needs_temperature
 
 
 def _other_method(calibration, sweep, options, phases):
-    """The other method (learned <-> conventional) fitted on the sweep file."""
+    """The other method fitted on the sweep file (learned <-> conventional; a wide band:
+    the learned calibration set per FSR)."""
     from ..report.content import comparison_calibration
 
     request = column_request(options)
@@ -70,7 +71,20 @@ def _table(labels, header, rows) -> list[str]:
     ]
 
 
-def _print_evaluation(report: dict) -> None:
+def _coarse_users(calibrations: dict) -> str:
+    """The kinds of calibration that need a coarse frequency, for the messages:
+    ``calibration sets``, ``wideband calibrations``."""
+    kinds = [
+        "calibration sets"
+        if hasattr(calibration, "windows_")
+        else f"{calibration.method} calibrations"
+        for calibration in calibrations.values()
+        if "coarse_hz" in calibration.requires
+    ]
+    return ", ".join(dict.fromkeys(kinds))
+
+
+def _print_evaluation(report: dict, calibrations: dict) -> None:
     say(
         False,
         f"{report['test_file']}: {report['samples']} readings, truth {report['truth_column']} "
@@ -108,17 +122,14 @@ def _print_evaluation(report: dict) -> None:
             f"from the calibration residual of {report['crlb_method']}, its map taken as the "
             "true one)",
         )
+    users = _coarse_users(calibrations)
     if report["coarse_from"] == "coarse_hz":
-        say(
-            False,
-            "coarse frequency of each reading (calibration sets): column "
-            f"{report['coarse_column']}",
-        )
+        say(False, f"coarse frequency of each reading ({users}): column {report['coarse_column']}")
     elif report["coarse_from"] == "truth":
         say(
             False,
-            "coarse frequency of each reading (calibration sets): the true frequency, as no "
-            "--coarse column was given (in use the coarse values may be worse)",
+            f"coarse frequency of each reading ({users}): the true frequency, as no --coarse "
+            "column was given (in use the coarse values may be worse)",
         )
 
 
@@ -145,12 +156,19 @@ def _placement_notes(report: dict, calibrations: dict) -> list[str]:
                 f"({gross} of {samples}) are off by more than half the FSR "
                 f"({fsr / 1e9:.6f} GHz)"
             )
-        if "coarse_hz" in calibrations[label].requires and report["coarse_from"] == "truth":
+        needs_coarse = "coarse_hz" in calibrations[label].requires
+        if needs_coarse and report["coarse_from"] == "truth":
             reason = "its maps misread them even with the true frequency as the coarse value"
-        elif "coarse_hz" in calibrations[label].requires:
+        elif needs_coarse and hasattr(calibrations[label], "windows_"):
             reason = (
                 "a calibration set picks each reading's window and alias by its coarse "
                 "frequency, which must lie within half an FSR of the truth"
+            )
+        elif needs_coarse:
+            reason = (
+                f"a {calibrations[label].method_label} calibration picks each reading's "
+                "fringe order by its coarse frequency, which must lie within half an FSR of "
+                "the truth"
             )
         elif high - low > SPAN_OVER_FSR_LIMIT * fsr:
             reason = (
@@ -220,7 +238,8 @@ def _test_temperature_k(calibrations: dict, table):
 @click.option(
     "--sweep",
     type=click.Path(dir_okay=False),
-    help="Sweep to fit the other method (learned <-> conventional) for comparison.",
+    help="Sweep to fit the other method (learned <-> conventional; wideband -> learned per "
+    "FSR) for comparison.",
 )
 @click.option(
     "--compare",
@@ -234,7 +253,8 @@ def _test_temperature_k(calibrations: dict, table):
     "--coarse",
     "coarse_column",
     metavar="COL",
-    help="Coarse frequency column for a calibration set (default: the truth).",
+    help="Coarse frequency column for a calibration set or a wide-band calibration "
+    "(default: the truth).",
 )
 @click.option(
     "--adjacent",
@@ -265,9 +285,10 @@ def evaluate(
     one FSR), the share of readings outside the calibrated span and the share off by more
     than half an FSR. RMS/CRLB divides by the Cramer-Rao bound of the first learned map
     with the noise estimated from its calibration residual (a residual holding unmodelled
-    structure makes that bound loose). A calibration set picks each reading's window from
-    --coarse, else from the truth; a thermal calibration reads each reading's chip
-    temperature from the test file's temperature column (--temperature COL).
+    structure makes that bound loose). A calibration set picks each reading's window, a
+    wide-band calibration its fringe order, from --coarse, else from the truth; a thermal
+    calibration reads each reading's chip temperature from the test file's temperature
+    column (--temperature COL).
 
     \b
     Example:
@@ -315,10 +336,12 @@ def evaluate(
             )
         )
     if adjacent:
-        if "coarse_hz" not in calibration.requires:
+        if not hasattr(calibration, "windows_"):
             raise InputError(
-                f"--adjacent needs a per-FSR calibration set; {calibration_file} is a single "
-                "calibration: calibrate with --per-fsr on a sweep over several FSRs"
+                f"--adjacent needs a per-FSR calibration set (it applies each FSR window's "
+                f"map to its neighbours); {calibration_file} is a "
+                f"{calibration.method_label} calibration (one model): calibrate with "
+                "--per-fsr on a sweep over several FSRs"
             )
         from ..calibration.baselines import ConventionalCalibrator
 
@@ -335,7 +358,7 @@ def evaluate(
     if as_json:
         click.echo(json.dumps(report, indent=1))  # JSON: text escaped by json
     elif not options["quiet"]:
-        _print_evaluation(report)
+        _print_evaluation(report, calibrations)
         if adjacent:
             _print_adjacent(report["adjacent"])
     for line in _placement_notes(report, calibrations):

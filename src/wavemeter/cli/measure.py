@@ -6,6 +6,9 @@ Every output row carries ``flags``, the calibration's quality bits for that read
 needs the chip temperature (``"temperature_k"`` in its ``requires``: a thermal one) gets it
 from the readings' temperature column or ``--temperature-k`` for the whole file, and the
 output has a ``temperature_k`` column: the temperature (K) each reading was retrieved at.
+A calibration that needs a coarse frequency of each reading (``"coarse_hz"`` in its
+``requires``: a per-FSR set, which picks the window by it, or a wide-band calibration,
+which picks the fringe order) gets it from ``--coarse COL`` or ``--coarse-frequency``.
 """
 
 from __future__ import annotations
@@ -43,20 +46,32 @@ from ._temperature import (
     temperature_k_option,
 )
 
+#: how to give the coarse frequencies, as the messages say it
+COARSE_OPTIONS = "pass --coarse COL or --coarse-frequency VALUE"
+
 
 def _coarse(calibration, cal_path, table, coarse_hz):
-    """Coarse frequency per reading for a calibration set (None for a single map)."""
+    """Coarse frequency per reading for a calibration that needs one (``"coarse_hz"`` in
+    its ``requires``: a calibration set, a wide-band calibration); None for the others."""
     if "coarse_hz" not in calibration.requires:
         return None
     if table.coarse_hz is not None:
         return table.coarse_hz
     if coarse_hz is not None:
         return np.full(table.n_rows, coarse_hz)
-    low, high = calibration.covered_hz()
+    if hasattr(calibration, "windows_"):
+        low, high = calibration.covered_hz()
+        raise InputError(
+            f"{cal_path} is a per-FSR calibration set ({len(calibration.windows_)} windows, "
+            f"{low / 1e12:.6f} to {high / 1e12:.6f} THz): it needs a coarse frequency per "
+            f"reading to pick the window; {COARSE_OPTIONS}"
+        )
+    low, high = calibration.span_hz_
     raise InputError(
-        f"{cal_path} is a per-FSR calibration set ({len(calibration.windows_)} windows, "
-        f"{low / 1e12:.6f} to {high / 1e12:.6f} THz): it needs a coarse frequency per "
-        "reading to pick the window; pass --coarse COL or --coarse-frequency VALUE"
+        f"{cal_path} is a {calibration.method_label} calibration ({low / 1e12:.6f} to "
+        f"{high / 1e12:.6f} THz, FSR {calibration.fsr_hz_ / 1e9:.6f} GHz): it needs a coarse "
+        "frequency per reading, within half an FSR of the truth (e.g. the laser set point), "
+        f"to pick the fringe order; {COARSE_OPTIONS}"
     )
 
 
@@ -81,7 +96,8 @@ def flag_summary(flags: np.ndarray) -> str:
     "--coarse",
     "coarse_column",
     metavar="COL",
-    help="Coarse frequency or wavelength column (calibration sets).",
+    help="Coarse frequency or wavelength column, within half an FSR of the truth "
+    "(calibration sets, wide-band calibrations).",
 )
 @click.option(
     "--coarse-frequency",
@@ -91,7 +107,7 @@ def flag_summary(flags: np.ndarray) -> str:
     hidden_aliases=("--coarse-hz",),
     type=OPTICAL_FREQUENCY,
     help="One coarse frequency for every reading, 193.4THz or 1550nm; a bare number is in Hz "
-    "(calibration sets).",
+    "(calibration sets, wide-band calibrations).",
 )
 @click.option(
     "--temperature",
@@ -131,7 +147,8 @@ def measure(
     Writes one row per input row, in order: frequency_hz, wavelength_nm (vacuum) and
     phase_rad at full float64 precision, frequency_std_hz (unless --no-uncertainty or
     the calibration gives none), flags (quality bits: 1 OFF_MODEL, 2 OUTSIDE_SPAN,
-    4 POWER_RANGE, 8 INVALID, 16 TEMPERATURE_RANGE; 0 when nothing is wrong), for a
+    4 POWER_RANGE, 8 INVALID, 16 TEMPERATURE_RANGE, 32 ORDER_AMBIGUOUS; 0 when nothing is
+    wrong), for a
     thermal calibration temperature_k (the chip temperature used, K), then the --keep
     columns. Rows skipped with --drop-invalid are written as NaN with the INVALID flag.
     DATA '-' is read from stdin; with -o - the table goes to stdout (CSV unless --format)
@@ -139,12 +156,16 @@ def measure(
 
     A thermal calibration needs the chip temperature of each reading: from a temperature
     column (found by name with its unit, e.g. temperature_K or 'Temp (C)', or
-    --temperature COL) or --temperature-k for the whole file.
+    --temperature COL) or --temperature-k for the whole file. A per-FSR calibration set
+    and a wide-band calibration need a coarse frequency of each reading within half an
+    FSR of the truth (--coarse COL, or --coarse-frequency for the whole file): it picks
+    the window, or the fringe order.
 
     \b
     Example:
       wavemeter measure chip.wmcal.json readings.csv -o frequencies.csv --keep time_s
       wavemeter measure thermal.wmcal.json readings.csv -o f.csv --temperature 'Temp (C)'
+      wavemeter measure band.wmcal.json readings.csv -o f.csv --coarse set_point_THz
     """
     quiet = options["quiet"]
     file_format = output_format(

@@ -15,6 +15,12 @@ phase drift, expected for a sweep over several temperatures) are listed in the p
 and the report adds the frequency error against the chip temperature. Its fringes are
 drawn at the frequency that has the same model phase at the reference temperature, so that
 readings at every temperature lie on one fringe.
+
+A wide-band calibration (:class:`~wavemeter.calibration.wideband.WidebandCalibrator`) is
+compared with the learned calibration set fitted per FSR on the same sweep (the other way
+to cover a band), reads every reading with the truth as its coarse frequency, and adds the
+cross-validation curve of its orders and the residual phase across the band, per FSR
+window (``diagnostics_["wideband"]``).
 """
 
 from __future__ import annotations
@@ -31,10 +37,13 @@ from ..calibration.base import BaseCalibrator
 from ..calibration.baselines import ConventionalCalibrator
 from ..calibration.learned import Calibrator
 from ..calibration.set import CalibrationSet
+from ..calibration.wideband import WidebandCalibrator
+from ..calibration.wideband_fit import BandModel
 from ..exceptions import InputError, recorded_calibration_warnings
 from ..model.cone import SQRT2, cone_vectors, delay_phase_rad, wrap_phase_rad
 from ..validation import check_fitted, check_frequency, check_per_reading, check_powers
 from .fringes import FringePanel
+from .page import wideband_record
 
 __all__ = [
     "report_content",
@@ -103,14 +112,18 @@ def _readings(table, role: str, ports: int, temperature: bool = False) -> _Readi
     )
 
 
-def _check_inside(calibration: CalibrationSet, frequency_hz: np.ndarray, role: str) -> None:
-    low, high = calibration.covered_hz()
+def _check_inside(calibration: BaseCalibrator, frequency_hz: np.ndarray, role: str) -> None:
+    """Every reading inside the range a set has windows for, or a wide band was calibrated
+    on (it would be read with no map, or beside the per-FSR comparison's)."""
+    low, high = _calibrated_range_hz(calibration)
     outside = (frequency_hz < low) | (frequency_hz > high)
     if outside.any():
+        what = "calibration set" if isinstance(calibration, CalibrationSet) else "calibrated band"
         raise InputError(
-            f"{role}: {int(outside.sum())} readings lie outside the calibration set's span "
+            f"{role}: {int(outside.sum())} readings lie outside the {what}'s span "
             f"{low / 1e12:.6f} to {high / 1e12:.6f} THz (first at "
-            f"{frequency_hz[outside][0] / 1e12:.6f} THz); a set has no map there: drop them",
+            f"{frequency_hz[outside][0] / 1e12:.6f} THz); a {calibration.method_label} "
+            "calibration is evaluated only where it has a map: drop them",
             parameter=role,
         )
 
@@ -129,7 +142,29 @@ def _central(calibration: BaseCalibrator) -> BaseCalibrator:
 
 
 def _is_learned(calibration: BaseCalibrator) -> bool:
-    return isinstance(_central(calibration), Calibrator)
+    return isinstance(_central(calibration), (Calibrator, WidebandCalibrator))
+
+
+def _is_wideband(calibration: BaseCalibrator) -> bool:
+    return isinstance(calibration, WidebandCalibrator)
+
+
+def _band_model(calibration: WidebandCalibrator) -> BandModel:
+    """The fitted phase polynomial and map of a wide-band calibration."""
+    return BandModel(
+        calibration.center_hz_,
+        calibration.half_span_hz_,
+        calibration.phase_coefficients_rad_,
+        calibration.map_coefficients_,
+    )
+
+
+def _calibrated_range_hz(calibration: BaseCalibrator) -> tuple[float, float]:
+    """The frequencies (Hz) a set has windows for, or a wide band was calibrated on."""
+    if isinstance(calibration, CalibrationSet):
+        return calibration.covered_hz()
+    low, high = calibration.span_hz_
+    return float(low), float(high)
 
 
 def learned_noise_std_w(calibration: BaseCalibrator) -> float | None:
@@ -147,7 +182,8 @@ def comparison_calibration(
     power_monitor_w=None,
     port_phases_rad=None,
 ) -> BaseCalibrator:
-    """The other method fitted on the same sweep: learned for any other, else conventional.
+    """The other method fitted on the same sweep: learned for any other, else conventional;
+    for a wide band, the learned calibration set per FSR.
 
     Parameters
     ----------
@@ -169,18 +205,22 @@ def comparison_calibration(
     BaseCalibrator
         Fitted with the design FSR of ``calibration``; for a calibration that needs the
         chip temperature, the plain learned calibration with its FSR settings and
-        retrieval, fitted without the temperature (what the temperature buys).
+        retrieval, fitted without the temperature (what the temperature buys); for a
+        wide-band calibration, a set of learned calibrations, one per FSR, with its FSR
+        settings and retrieval (what one model of the band buys).
     """
     design = calibration.fsr_hz
     own = _central(calibration)
     phases = own.get_params().get("port_phases_rad") if port_phases_rad is None else port_phases_rad
-    if _needs_temperature(calibration):
+    if _needs_temperature(calibration) or _is_wideband(calibration):
         settings = calibration.get_params()
         fitted = Calibrator(
             fsr_hz=design,
             fsr_tolerance=settings["fsr_tolerance"],
             retrieval=settings["retrieval"],
         )
+        if _is_wideband(calibration):
+            fitted = CalibrationSet(design, settings["fsr_tolerance"], window=fitted)
     elif _is_learned(calibration):
         fitted = ConventionalCalibrator(fsr_hz=design, port_phases_rad=phases)
     else:
@@ -195,11 +235,12 @@ def retrieved_frequency_hz(
 ) -> np.ndarray:
     """Frequency (Hz) each reading is retrieved at, the alias nearest its true frequency.
 
-    A calibration set is given the true frequency as the coarse value; a calibration that
-    needs the chip temperature gets ``temperature_k`` (K, scalar or (N,)).
+    A calibration that needs a coarse frequency (a set, a wide band) is given the true
+    frequency as the coarse value; a calibration that needs the chip temperature gets
+    ``temperature_k`` (K, scalar or (N,)).
     """
     truth = np.asarray(frequency_hz, dtype=float)
-    if isinstance(calibration, CalibrationSet):
+    if "coarse_hz" in calibration.requires:
         return calibration.predict(powers_w, coarse_hz=truth)
     predicted = calibration.predict(powers_w, **_temperature_inputs(calibration, temperature_k))
     return truth + frequency_error_hz(predicted, truth, calibration.fsr_hz_)
@@ -271,8 +312,37 @@ def _fringe_panel(model: Calibrator, sweep: _Readings, rows: np.ndarray, title: 
     )
 
 
+def _band_fringe_panel(calibration: WidebandCalibrator, sweep: _Readings, rows: np.ndarray):
+    """Readings of ``rows``, the wide-band model's fringes (its phase polynomial and its
+    map at each frequency) and its fit at each reading."""
+    model = _band_model(calibration)
+    frequency, powers = sweep.frequency_hz[rows], sweep.powers_w[rows]
+
+    def model_powers_w(frequency_hz):
+        vectors = cone_vectors(model.phase_rad(frequency_hz))
+        return np.einsum("knc,kc->kn", model.maps_at(frequency_hz), vectors)
+
+    fitted = model_powers_w(frequency)
+    if sweep.monitor_w is not None:  # the map is per unit of the mean monitor reading
+        monitor = sweep.monitor_w[rows]
+        fitted = fitted * (monitor / monitor.mean())[:, None]
+    model_hz = np.linspace(frequency.min(), frequency.max(), MODEL_POINTS)
+    return FringePanel(
+        center_hz=calibration.center_hz_,
+        frequency_hz=frequency,
+        powers_w=powers,
+        fitted_w=fitted,
+        model_frequency_hz=model_hz,
+        model_powers_w=model_powers_w(model_hz),
+        noise_std_w=calibration.noise_std_w_,
+        title=f"readings within {FRINGE_HALF_WIDTH_FSR:g} FSR of the one nearest the middle "
+        "of the band",
+    )
+
+
 def _fringe_figure(learned: BaseCalibrator, learned_name: str, sweep: _Readings, ports):
-    """A single calibration: the sweep near its centre; a set: every window (small multiples)."""
+    """A single calibration: the sweep near its centre (a wide band: near the middle of the
+    band); a set: every window (small multiples)."""
     from .fringes import plot_fringes, plot_window_fringes
 
     if isinstance(learned, CalibrationSet):
@@ -285,9 +355,13 @@ def _fringe_figure(learned: BaseCalibrator, learned_name: str, sweep: _Readings,
             if np.count_nonzero(index == k) > 0
         ]
         return plot_window_fringes(panels, ports, model_label=learned_name)
-    near = (
-        np.abs(sweep.frequency_hz - learned.center_hz_) <= FRINGE_HALF_WIDTH_FSR * learned.fsr_hz_
-    )
+    anchor = learned.center_hz_
+    if _is_wideband(learned):  # the sweep may have a gap in the middle of the band
+        anchor = sweep.frequency_hz[np.argmin(np.abs(sweep.frequency_hz - anchor))]
+    near = np.abs(sweep.frequency_hz - anchor) <= FRINGE_HALF_WIDTH_FSR * learned.fsr_hz_
+    if _is_wideband(learned):
+        panel = _band_fringe_panel(learned, sweep, near)
+        return plot_fringes(panel, ports, model_label=learned_name)
     title = ""
     if _needs_temperature(learned):
         title = (
@@ -307,10 +381,24 @@ def _unit_power_samples(
     return radius[:, None] * np.column_stack([np.cos(phase), np.sin(phase)])
 
 
+def _band_unit_power_samples(calibration: WidebandCalibrator, powers, truth_hz) -> np.ndarray:
+    """Retrieved object samples ``r [cos t, sin t]`` (N, 2) of a wide band, each reading
+    under the map at the frequency it is read at (the truth as its coarse frequency)."""
+    frequency = calibration.predict(powers, coarse_hz=truth_hz)
+    inverses = np.linalg.pinv(_band_model(calibration).maps_at(frequency))
+    objects = np.einsum("kcn,kn->kc", inverses, powers)
+    radius = np.hypot(objects[:, 0], objects[:, 1]) * SQRT2 / objects[:, 2]
+    phase = calibration.phase(powers, coarse_hz=truth_hz)
+    return radius[:, None] * np.column_stack([np.cos(phase), np.sin(phase)])
+
+
 def _object_samples(calibration: BaseCalibrator, evaluation: _Readings) -> np.ndarray:
-    """Unit-power object samples of the evaluation readings, each under its own window; a
-    single calibration: the readings within its central stretch."""
+    """Unit-power object samples of the evaluation readings, each under its own window (a
+    wide band: its own map); a single-FSR calibration: the readings within its central
+    stretch."""
     truth, powers = evaluation.frequency_hz, evaluation.powers_w
+    if _is_wideband(calibration):
+        return _band_unit_power_samples(calibration, powers, truth)
     if not isinstance(calibration, CalibrationSet):
         near = np.abs(truth - calibration.center_hz_) <= (
             FRINGE_HALF_WIDTH_FSR * calibration.fsr_hz_
@@ -338,8 +426,9 @@ def report_content(
     -------
     figures : dict of str to matplotlib.figure.Figure
         Keys ``fringes`` (a set: one panel pair per window), ``object_space``,
-        ``retrieved``, ``residual``, ``histogram``, and ``temperature`` for a calibration
-        that needs the chip temperature.
+        ``retrieved``, ``residual``, ``histogram``, ``temperature`` for a calibration
+        that needs the chip temperature, ``cross_validation`` and ``residual_phase`` for a
+        wide-band calibration.
     summary : dict
         JSON-ready numbers shown in the page: ``methods`` (error summaries, Hz),
         ``crlb_rms_hz``, ``noise_std_w`` and ``noise_from`` (the learned method whose
@@ -356,7 +445,7 @@ def report_content(
     thermal = _needs_temperature(calibration)
     calibration_readings = _readings(sweep, "sweep", ports, thermal)
     evaluation = calibration_readings if test is None else _readings(test, "test", ports, thermal)
-    if isinstance(calibration, CalibrationSet):
+    if isinstance(calibration, CalibrationSet) or _is_wideband(calibration):
         _check_inside(calibration, evaluation.frequency_hz, "sweep" if test is None else "test")
     comparison_error = None
     with recorded_calibration_warnings() as comparison_warnings:
@@ -394,7 +483,7 @@ def report_content(
     samples = {
         name: _object_samples(cal, evaluation)
         for name, cal in methods.items()
-        if hasattr(_central(cal), "map_")
+        if hasattr(_central(cal), "map_") or _is_wideband(cal)
     }
     edges = calibration.window_edges_hz_ if isinstance(calibration, CalibrationSet) else None
     figures = {
@@ -410,6 +499,8 @@ def report_content(
             errors[learned_name], crlb_rms, label=learned_name
         ),
     }
+    if wideband_record(calibration) is not None:
+        figures.update(_wideband_figures(calibration, crlb_rms))
     if thermal:
         figures["temperature"] = plotting.plot_error_against_temperature(
             evaluation.temperature_k,
@@ -435,6 +526,35 @@ def report_content(
     if isinstance(calibration, CalibrationSet):
         summary["adjacent"] = _adjacent_or_reason(calibration, powers, truth)
     return figures, summary
+
+
+def _wideband_figures(calibration: WidebandCalibrator, crlb_rms_hz: float) -> dict:
+    """The cross-validation curve of the orders and the residual phase per FSR window
+    across the band (``diagnostics_["wideband"]``), with the Cramer-Rao phase ``+-1 sigma``
+    of the evaluation readings (their RMS frequency bound over the FSR) as the noise level
+    to judge the residual by."""
+    from . import figures as plotting
+
+    record = wideband_record(calibration)
+    orders = record["orders"]
+    candidates = orders["candidates"]
+    residual = record["residual_phase"]
+    return {
+        "cross_validation": plotting.plot_cross_validation(
+            [candidate["parameters"] for candidate in candidates],
+            [candidate["cv_rms_hz"] for candidate in candidates],
+            [(candidate["phase_order"], candidate["map_order"]) for candidate in candidates],
+            [candidate["chosen"] for candidate in candidates],
+            orders["reason"],
+        ),
+        "residual_phase": plotting.plot_residual_phase(
+            [row["center_hz"] for row in residual],
+            [row["mean_rad"] for row in residual],
+            [row["rms_rad"] for row in residual],
+            calibration.center_hz_,
+            noise_std_rad=2.0 * np.pi * crlb_rms_hz / calibration.fsr_hz_,
+        ),
+    }
 
 
 def _adjacent_or_reason(calibration: CalibrationSet, powers, truth) -> dict | str:

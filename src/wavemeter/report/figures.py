@@ -1,4 +1,5 @@
-"""Figures of a calibration's errors, after the paper's Figs. 4, 7 and 8; arrays in.
+"""Figures of a calibration's errors, after the paper's Figs. 4, 7 and 8, and of a wide-band
+calibration's orders and residual phase; arrays in.
 
 Each function returns a :class:`matplotlib.figure.Figure` drawn on the Agg canvas, without
 pyplot (no global state, no window). Matplotlib is imported only when a figure is made, so
@@ -17,6 +18,7 @@ from .formatting import frequency_error_unit, significant
 from .plotting import (
     DATA_ZORDER,
     FIGURE_HEIGHT_IN,
+    FIT_ZORDER,
     MARKER_ALPHA,
     MARKER_SIZE,
     REFERENCE_ALPHA,
@@ -34,10 +36,16 @@ __all__ = [
     "plot_residuals",
     "plot_error_histogram",
     "plot_error_against_temperature",
+    "plot_cross_validation",
+    "plot_residual_phase",
     "CIRCLE_POINTS",
 ]
 
 CIRCLE_POINTS = 361
+#: a residual phase whose largest value is below this (rad) is shown in mrad
+MRAD_BELOW_RAD = 0.1
+#: marker size of the chosen candidate, ringed, in the cross-validation curve
+CHOSEN_MARKER_SIZE = 12
 
 
 def _markers(axes, x, y, color: str, label: str) -> None:
@@ -350,4 +358,130 @@ def plot_error_against_temperature(
         legend_outside(axes)
     top.set_title("Frequency error against chip temperature")
     bottom.set_xlabel("chip temperature (K)")
+    return figure
+
+
+def plot_cross_validation(parameters, cv_rms_hz, orders, chosen, reason: str):
+    """Held-out RMS frequency error of each order pair scored, against its parameter count.
+
+    Parameters
+    ----------
+    parameters : array_like of int, shape (K,)
+        Fitted numbers of each candidate.
+    cv_rms_hz : array_like, shape (K,)
+        Its RMS frequency error on the held-out FSR windows (Hz).
+    orders : sequence of (int, int), length K
+        Its phase order ``P`` and map order ``J``, written beside its marker.
+    chosen : array_like of bool, shape (K,)
+        The candidate chosen (ringed).
+    reason : str
+        How the orders were chosen; shown instead of the curve when nothing was scored
+        (orders given, or too few FSR windows).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    figure, (axes,) = new_figure()
+    axes.set_title("Choice of the orders: held-out error against parameters")
+    count = np.asarray(parameters, dtype=float)
+    if count.size == 0:
+        axes.text(
+            0.5,
+            0.5,
+            f"no cross-validation: {reason}",
+            ha="center",
+            va="center",
+            wrap=True,
+            transform=axes.transAxes,
+        )
+        axes.set_axis_off()
+        return figure
+    rms = np.asarray(cv_rms_hz, dtype=float)
+    picked = np.asarray(chosen, dtype=bool)
+    scale, unit = frequency_error_unit(rms)
+    axes.plot(
+        count,
+        rms / scale,
+        "o",
+        color=method_color("wideband", 0),
+        zorder=DATA_ZORDER,
+        label="candidate (P, J)",
+    )
+    axes.plot(
+        count[picked],
+        rms[picked] / scale,
+        "o",
+        markersize=CHOSEN_MARKER_SIZE,
+        markerfacecolor="none",
+        markeredgecolor="black",
+        zorder=REFERENCE_ZORDER,
+        label="chosen",
+    )
+    for x, y, (phase_order, map_order) in zip(count, rms / scale, orders, strict=True):
+        axes.annotate(
+            f"({phase_order}, {map_order})",
+            (x, y),
+            textcoords="offset points",
+            xytext=(5, 4),
+            fontsize="small",
+        )
+    if rms.max() > 10 * rms.min():
+        axes.set_yscale("log")
+    axes.set_xlabel("fitted parameters (count)")
+    axes.set_ylabel(f"held-out RMS frequency error ({unit})")
+    legend_outside(axes)
+    return figure
+
+
+def plot_residual_phase(window_center_hz, mean_rad, rms_rad, center_hz: float, noise_std_rad=None):
+    """Retrieved minus model phase across the band, per FSR window: RMS and mean.
+
+    Parameters
+    ----------
+    window_center_hz : array_like, shape (K,)
+        Mean sweep frequency of each window (Hz).
+    mean_rad, rms_rad : array_like, shape (K,)
+        Mean and RMS residual phase of the window's readings (rad).
+    center_hz : float
+        Origin of the frequency axis (Hz).
+    noise_std_rad : None or float
+        Phase standard deviation the detector noise alone gives (rad), drawn as a line:
+        an RMS near it is noise, one above it is structure the model leaves.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    offset = (np.asarray(window_center_hz, dtype=float) - center_hz) / 1e9
+    mean = np.asarray(mean_rad, dtype=float)
+    rms = np.asarray(rms_rad, dtype=float)
+    peak = max(float(np.max(np.abs(np.r_[mean, rms]))), float(noise_std_rad or 0.0))
+    scale, unit = (1e-3, "mrad") if peak < MRAD_BELOW_RAD else (1.0, "rad")
+    figure, (axes,) = new_figure()
+    axes.plot(
+        offset, rms / scale, "o-", color="tab:blue", zorder=FIT_ZORDER, label="RMS per FSR window"
+    )
+    axes.plot(
+        offset,
+        mean / scale,
+        "s-",
+        color="tab:orange",
+        zorder=FIT_ZORDER,
+        label="mean per FSR window",
+    )
+    if noise_std_rad is not None:
+        axes.axhline(
+            noise_std_rad / scale,
+            color="black",
+            linestyle="--",
+            linewidth=0.9,
+            zorder=REFERENCE_ZORDER,
+            label="CRLB phase σ (RMS)",
+        )
+    axes.axhline(0.0, color="black", linewidth=0.6, zorder=1)
+    axes.set_xlabel(offset_label(center_hz))
+    axes.set_ylabel(f"residual phase ({unit})")
+    axes.set_title("Residual phase across the band (retrieved minus model)")
+    legend_outside(axes)
     return figure

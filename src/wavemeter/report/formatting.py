@@ -19,13 +19,22 @@ from ..units import canonical_unit
 __all__ = [
     "significant",
     "scientific",
+    "scientific_with_error",
     "port_label",
     "power_unit",
     "frequency_error_unit",
     "SIGNIFICANT_DIGITS",
+    "PHASE_COEFFICIENT_NAMES",
 ]
 
 SIGNIFICANT_DIGITS = 3
+#: names of the phase coefficients ``c_i`` (s^i) of a wide-band calibration, by order
+PHASE_COEFFICIENT_NAMES = {
+    1: "delay",
+    2: "group-delay dispersion",
+    3: "third-order dispersion",
+    4: "fourth-order dispersion",
+}
 #: display units of power, largest first: (W per unit, name)
 POWER_DISPLAY_UNITS = ((1.0, "W"), (1e-3, "mW"), (1e-6, "uW"), (1e-9, "nW"))
 _BRACKETED_UNIT = re.compile(r"^(.*?\S)\s*[\[(]\s*([^\])]*?)\s*[\])]\s*$")
@@ -55,6 +64,21 @@ def significant(value: float, digits: int = SIGNIFICANT_DIGITS) -> str:
 def scientific(value: float, digits: int = SIGNIFICANT_DIGITS) -> str:
     """``value`` in exponent notation with ``digits`` significant digits: ``2.00e-08``."""
     return f"{float(value):.{digits - 1}e}"
+
+
+def scientific_with_error(value: float, error: float | None, separator: str = " ± ") -> str:
+    """``value ± error`` in exponent notation: the error with ``SIGNIFICANT_DIGITS``
+    significant digits, the value to the same decimal place (``1.90403591e-11 ±
+    1.47e-17``); without a positive error, the value with six significant digits."""
+    value = float(value)
+    if error is None or not error > 0 or not math.isfinite(value):
+        return f"{value:.5e}"
+    magnitude = math.floor(math.log10(abs(value))) if value != 0 else None
+    spread = math.floor(math.log10(error))
+    digits = SIGNIFICANT_DIGITS
+    if magnitude is not None:
+        digits = max(SIGNIFICANT_DIGITS, magnitude - spread + SIGNIFICANT_DIGITS)
+    return f"{value:.{digits - 1}e}{separator}{float(error):.{SIGNIFICANT_DIGITS - 1}e}"
 
 
 def port_label(name: str) -> str:

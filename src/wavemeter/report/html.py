@@ -69,7 +69,9 @@ def write_report(
     Parameters
     ----------
     calibration : BaseCalibrator
-        A fitted calibration (learned, conventional or a :class:`CalibrationSet`).
+        A fitted calibration (learned, conventional, thermal, wide-band or a
+        :class:`CalibrationSet`). A wide-band one adds the figures of its cross-validation
+        curve and of its residual phase across the band.
     sweep : object
         The calibration sweep: any object with ``powers_w`` (N, n) in W and ``frequency_hz``
         or ``x_hz`` (N,) in Hz; ``monitor_w`` (N,) is used when present, ``source`` (its

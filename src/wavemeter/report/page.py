@@ -15,7 +15,13 @@ from datetime import UTC, datetime
 
 from ..calibration.base import BaseCalibrator
 from ..units import SPEED_OF_LIGHT_M_S
-from .formatting import port_label, scientific, significant
+from .formatting import (
+    PHASE_COEFFICIENT_NAMES,
+    port_label,
+    scientific,
+    scientific_with_error,
+    significant,
+)
 
 __all__ = [
     "render_page",
@@ -23,6 +29,8 @@ __all__ = [
     "PAPER_CITATION",
     "FIGURE_CAPTIONS",
     "THERMAL_FIGURES",
+    "WIDEBAND_FIGURES",
+    "wideband_record",
     "RETRIEVAL_NAMES",
 ]
 
@@ -49,9 +57,17 @@ FIGURE_CAPTIONS = {
     "temperature": "Frequency error against the chip temperature of each reading, the "
     "calibrated temperatures shaded; bottom: the thermal calibration alone with its "
     "Cramer-Rao ±1σ (RMS over the readings).",
+    "cross_validation": "How the wide-band orders were chosen: the RMS frequency error on "
+    "held-out FSR windows of each phase order P and map order J scored, against the "
+    "number of fitted parameters; the chosen pair ringed.",
+    "residual_phase": "Retrieved minus model phase of the calibration sweep across the "
+    "band, RMS and mean per FSR window; the dashed line is the phase standard deviation "
+    "the Cramer-Rao bound gives for the detector noise alone.",
 }
 #: figures only a calibration that needs the chip temperature has
 THERMAL_FIGURES = ("temperature",)
+#: figures only a wide-band calibration has (from its ``diagnostics_["wideband"]``)
+WIDEBAND_FIGURES = ("cross_validation", "residual_phase")
 #: phase retrieval of a calibration, by its ``retrieval`` setting (None: no such setting)
 RETRIEVAL_NAMES = {
     "pinv": "pinv: x = A⁺ p, t = atan2(x₂, x₁) ([1], Eq. 24-25)",
@@ -74,11 +90,23 @@ footer, .note { font-size: 0.85em; color: #555; }
 """
 
 
+def wideband_record(calibration: BaseCalibrator | None) -> Mapping | None:
+    """``diagnostics_["wideband"]`` of a wide-band calibration, else None."""
+    record = (getattr(calibration, "diagnostics_", None) or {}).get("wideband")
+    return record if isinstance(record, Mapping) else None
+
+
 def figure_names(calibration: BaseCalibrator | None = None) -> list[str]:
     """The figures of a calibration's report, in page order (default: those of every
-    calibration; a calibration that needs the chip temperature adds ``THERMAL_FIGURES``)."""
+    calibration; a calibration that needs the chip temperature adds ``THERMAL_FIGURES``,
+    a wide-band one ``WIDEBAND_FIGURES``)."""
     thermal = calibration is not None and "temperature_k" in calibration.requires
-    return [name for name in FIGURE_CAPTIONS if thermal or name not in THERMAL_FIGURES]
+    wideband = wideband_record(calibration) is not None
+    return [
+        name
+        for name in FIGURE_CAPTIONS
+        if (thermal or name not in THERMAL_FIGURES) and (wideband or name not in WIDEBAND_FIGURES)
+    ]
 
 
 def _table(header: list[str] | None, rows: list[list[str]]) -> str:
@@ -138,7 +166,7 @@ def _calibration_rows(calibration: BaseCalibrator, summary: dict) -> list[list[s
         rows.append(["detector noise estimate (W)", f"{scientific(noise)} ({source})"])
     if hasattr(calibration, "windows_"):
         rows.append(["windows (one FSR each)", str(len(calibration.windows_))])
-    return rows + _thermal_rows(calibration)
+    return rows + _thermal_rows(calibration) + _wideband_rows(calibration)
 
 
 def _with_error(value, error, scale: float = 1.0) -> str:
@@ -190,6 +218,62 @@ def _thermal_rows(calibration: BaseCalibrator) -> list[list[str]]:
     ]
 
 
+def _wideband_rows(calibration: BaseCalibrator) -> list[list[str]]:
+    """The orders, parameter count and phase coefficients (with standard errors) of a
+    wide-band calibration (``diagnostics_["wideband"]``); none for other calibrations."""
+    record = wideband_record(calibration)
+    if record is None:
+        return []
+    rows = [
+        ["phase order P", str(record["phase_order"])],
+        ["map order J", str(record["map_order"])],
+        ["fitted parameters", str(record["n_parameters"])],
+    ]
+    errors = record.get("phase_coefficients_std_s") or [None] * len(record["phase_coefficients_s"])
+    for order, (value, error) in enumerate(
+        zip(record["phase_coefficients_s"], errors, strict=True), start=1
+    ):
+        unit = "s" if order == 1 else f"s^{order}"
+        name = PHASE_COEFFICIENT_NAMES.get(order, f"order {order}")
+        rows.append([f"phase c{order}, {name} ({unit})", scientific_with_error(value, error)])
+    return rows
+
+
+def _wideband_html(calibration: BaseCalibrator) -> str:
+    """The wide-band section: the candidates the orders were chosen from (the
+    cross-validation curve as a table) and the residual phase across the band."""
+    record = wideband_record(calibration)
+    if record is None:
+        return ""
+    orders = record["orders"]
+    candidates = orders["candidates"]
+    if candidates:
+        header = ["phase order P", "map order J", "parameters", "held-out RMS (MHz)", "chosen"]
+        rows = [
+            [
+                str(candidate["phase_order"]),
+                str(candidate["map_order"]),
+                str(candidate["parameters"]),
+                _mhz(candidate["cv_rms_hz"]),
+                "chosen" if candidate["chosen"] else "",
+            ]
+            for candidate in candidates
+        ]
+        choice = f"<p>{html.escape(str(orders['reason']))}.</p>" + _table(header, rows)
+    else:
+        choice = f"<p>No cross-validation: {html.escape(str(orders['reason']))}.</p>"
+    residual = record["residual_phase"]
+    worst = max(residual, key=lambda row: row["rms_rad"])
+    lowest = min(row["rms_rad"] for row in residual)
+    text = (
+        f"Residual phase RMS per FSR window: {significant(lowest * 1e3)} to "
+        f"{significant(worst['rms_rad'] * 1e3)} mrad over {len(residual)} windows; the "
+        f"largest in the window at {worst['center_hz'] / 1e12:.6f} THz (mean "
+        f"{significant(worst['mean_rad'] * 1e3)} mrad, {worst['readings']} readings)."
+    )
+    return "<h2>Wide band: orders and residual phase</h2>" + choice + f"<p>{html.escape(text)}</p>"
+
+
 #: SI suffix of a diagnostics key -> (unit shown, SI value per unit, exponent notation)
 #: temperatures (``_k``, not rates ``_per_k``) with the digits a temperature needs
 _KEY_UNITS = {
@@ -201,7 +285,7 @@ _KEY_UNITS = {
 #: digits of a temperature in K (mK resolution near room temperature)
 TEMPERATURE_DIGITS = 6
 #: diagnostics shown in a table of their own rather than among the diagnostics
-_SHOWN_ELSEWHERE = {"thermal"}
+_SHOWN_ELSEWHERE = {"thermal", "wideband"}
 
 
 def _key_unit(key: str):
@@ -256,7 +340,7 @@ def _warning_row(note) -> list[str]:
 def _diagnostics_html(calibration: BaseCalibrator) -> str:
     """The calibration's ``diagnostics_`` when it has any: scalar items as rows, lists of
     records (ports) as tables, warnings with their cause, message and remedy (the thermal
-    record is in the calibration's table)."""
+    and wide-band records are in the calibration's table and a section of their own)."""
     diagnostics = getattr(calibration, "diagnostics_", None)
     if not diagnostics:
         return ""
@@ -412,6 +496,7 @@ def render_page(
         f"<div><h2>Calibration</h2>{_table(None, _calibration_rows(calibration, summary))}"
         "</div></div>"
         + _diagnostics_html(calibration)
+        + _wideband_html(calibration)
         + windows
         + f"<h2>Frequency error on the {html.escape(summary['evaluated_on'])} "
         f"({summary['samples']} readings)</h2>"

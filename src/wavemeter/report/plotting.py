@@ -28,7 +28,12 @@ __all__ = [
 ]
 
 #: line colour of each method, so a method looks the same in every figure
-METHOD_COLORS = {"learned": "tab:blue", "conventional": "tab:red", "thermal": "tab:purple"}
+METHOD_COLORS = {
+    "learned": "tab:blue",
+    "conventional": "tab:red",
+    "thermal": "tab:purple",
+    "wideband": "tab:green",
+}
 OTHER_COLORS = ("tab:green", "tab:orange", "tab:brown", "tab:pink")
 FIGURE_WIDTH_IN = 9.0
 FIGURE_HEIGHT_IN = 4.0
