@@ -238,3 +238,72 @@ def test_a_phase_order_too_low_warns_with_the_remedy_of_this_calibrator():
     notes = [note.message for note in caught if note.message.cause == "dispersion"]
     assert notes and "higher phase_order (this fit has 1)" in notes[0].remedy
     assert str(notes[0]).endswith(notes[0].remedy)
+
+
+def test_three_separated_fsrs_are_followed_and_read_between():
+    """Calibrated on three FSRs four apart: the fit follows the fringes across the gaps
+    (a map varying with frequency must not let the phase wander while it grows), and the
+    FSRs between are read at the bound with honest uncertainties."""
+    device = wm.Interferometer.table1(3, seed=8).with_spectral("sin", seed=3)
+    frequency = band_hz(device, fsr_count=12, per_fsr=300, every=4)[: 3 * 300]
+    cal = fitted(device, frequency)
+    assert abs(cal.fsr_hz_ / device.true_fsr_hz - 1) < 0.01
+    assert cal.map_order_ <= 1  # three FSRs tell the phase from a map of order 1 at most
+    test, truth = held_out(device, frequency[0], frequency[-1])
+    gap = (np.floor((truth - frequency[0]) / device.true_fsr_hz) % 4) != 0
+    test, truth = test[gap], truth[gap]
+    error = cal.predict(test, coarse_hz=truth) - truth
+    bound = rms(cal.crlb_hz(test, coarse_hz=truth, phase_rad=cal.model_phase_rad(truth)))
+    stated = cal.frequency_std_hz(test, coarse_hz=truth)
+    band = rms_band(truth.size)
+    assert bound * (1 - band) <= rms(error) <= rms(stated) * (1 + band)
+    assert abs(np.std(error / stated) - 1) < band
+
+
+def test_a_map_order_the_fsrs_cannot_tell_from_the_phase_is_refused():
+    device = dispersive()
+    frequency = band_hz(device, fsr_count=4, per_fsr=200)
+    readings = device.powers(frequency, POWER_W, NOISE_W, rng=1)
+    with pytest.raises(wm.InputError, match=r"map_order 3 needs readings in at least 5 FSR"):
+        wm.WidebandCalibrator(map_order=3).fit(readings, frequency)
+
+
+def test_orders_are_raised_while_every_reading_rejects_the_smaller_model():
+    """Fixed to a constant map, the phase order is raised by the sweep's F test; the test
+    record says which models were tried and taken, and the fit leaves nothing to warn."""
+    device = dispersive()
+    frequency = band_hz(device)
+    cal = fitted(device, frequency, map_order=0)
+    record = cal.diagnostics_["wideband"]["orders"]
+    assert (cal.phase_order_, cal.map_order_) == (2, 0)
+    taken = [test for test in record["sweep_tests"] if test["taken"]]
+    assert all(test["p_value"] < 1e-6 for test in taken)
+    untaken = [test for test in record["sweep_tests"] if not test["taken"]]
+    assert untaken and all(test["p_value"] >= 1e-6 for test in untaken)
+    assert all(test["map_order"] == 0 for test in record["sweep_tests"])
+
+
+def test_a_fit_that_loses_the_fringes_is_refused(monkeypatch):
+    """The FSR at the middle of the band must stay in the bracket searched: a growth that
+    lost the fringes is an error, not a calibration."""
+    import wavemeter.calibration.wideband as module
+
+    grow = module.fit_band
+    monkeypatch.setattr(module, "fit_band", lambda *a, **k: grow(*a, **k) * 0.6)
+    device = dispersive()
+    frequency = band_hz(device, fsr_count=8, per_fsr=200)
+    readings = device.powers(frequency, POWER_W, NOISE_W, rng=1)
+    with pytest.raises(wm.InputError, match="outside the bracket searched") as raised:
+        wm.WidebandCalibrator(phase_order=2, map_order=0).fit(readings, frequency)
+    assert raised.value.parameter == "fsr_hz"
+
+
+def test_a_plain_calibrator_over_a_band_of_changing_couplers_names_the_wide_band():
+    device = dataclasses.replace(
+        wm.Interferometer.table1(3, seed=6).with_spectral("sin", seed=2), dispersion_s2=0.0
+    )
+    frequency = band_hz(device, fsr_count=40, per_fsr=200)
+    readings = device.powers(frequency, POWER_W, NOISE_W, rng=1)
+    with pytest.warns(wm.CalibrationWarning) as caught:
+        wm.Calibrator().fit(readings, frequency)
+    assert any("WidebandCalibrator" in note.message.remedy for note in caught)

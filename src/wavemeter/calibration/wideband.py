@@ -46,6 +46,7 @@ from ..model.uncertainty import (
 )
 from ..validation import check_choice, check_fitted, check_per_reading, check_positive
 from .base import BaseCalibrator
+from .delay_search import frequency_text
 from .diagnostics import port_health
 from .files import state_array, state_float
 from .flags import SPAN_MARGIN_STD, ReadingFlag, off_model_threshold
@@ -60,17 +61,18 @@ from .wideband_fit import (
     band_objects,
     check_monotonic,
     fit_band,
-    fit_band_region,
     map_coefficients,
-    padded,
 )
 from .wideband_orders import (
     MAX_MAP_ORDER,
     MAX_PHASE_ORDER,
     OrderSelection,
     fsr_windows,
+    highest_map_order,
     parameter_count,
+    raise_orders,
     select_orders,
+    window_count,
 )
 
 __all__ = ["ORDER_MARGIN_FSR", "WidebandCalibrator"]
@@ -79,9 +81,8 @@ __all__ = ["ORDER_MARGIN_FSR", "WidebandCalibrator"]
 ORDER_MARGIN_FSR = 0.25
 #: readings within one design FSR of the middle start the fit: at least this many
 MIN_CENTRAL_READINGS = 16
-#: phase and map orders of the growth of the fit when they are to be chosen
+#: phase order of the growth of the fit when the order is to be chosen
 GROWTH_PHASE_ORDER = 2
-GROWTH_MAP_ORDER = 2
 
 
 def _order(name: str, value, lowest: int, highest: int) -> None:
@@ -238,6 +239,15 @@ class WidebandCalibrator(BaseCalibrator):
             affine=affine,
         )
         half = 0.5 * float(np.ptp(frequency_hz))
+        windows = window_count(frequency_hz, 1.0 / start.delay_s)
+        if self.map_order is not None and self.map_order > highest_map_order(windows):
+            raise InputError(
+                f"map_order {self.map_order} needs readings in at least {self.map_order + 2} "
+                f"FSR windows (a map of that order could rotate each of fewer windows as it "
+                f"likes, which leaves the phase undetermined); the sweep has {windows}: "
+                "give a lower map_order, or None to choose it",
+                parameter="map_order",
+            )
         radius = float(np.abs(frequency_hz[central] - center_hz).max())
         grown = fit_band(
             powers,
@@ -247,7 +257,6 @@ class WidebandCalibrator(BaseCalibrator):
             start.delay_s,
             radius,
             phase_order=self.phase_order or GROWTH_PHASE_ORDER,
-            map_order=GROWTH_MAP_ORDER if self.map_order is None else self.map_order,
             scale=scale,
             affine=affine,
         )
@@ -265,17 +274,34 @@ class WidebandCalibrator(BaseCalibrator):
             phase_order=self.phase_order,
             map_order=self.map_order,
         )
-        self._band_fit = fit_band_region(
+        self._orders, self._band_fit = raise_orders(
+            self._orders,
             powers,
             frequency_hz,
             center_hz,
             half,
-            padded(grown, self._orders.phase_order),
-            map_order=self._orders.map_order,
+            grown,
+            fsr,
             scale=scale,
             affine=affine,
+            phase_fixed=self.phase_order is not None,
+            map_fixed=self.map_order is not None,
         )
+        self._check_fsr(2.0 * np.pi * half / self._band_fit.coefficients_rad[0])
         self._sweep = (frequency_hz, scale, affine)
+
+    def _check_fsr(self, fsr_hz: float) -> None:
+        """Refuse a fitted FSR outside the bracket searched (the fit lost the fringes)."""
+        low = float(self.fsr_hz) * (1.0 - self.fsr_tolerance)
+        high = float(self.fsr_hz) * (1.0 + self.fsr_tolerance)
+        if not low <= fsr_hz <= high:
+            raise InputError(
+                f"the wide-band fit has an FSR of {frequency_text(fsr_hz)} at the middle of the "
+                f"band, outside the bracket searched ({frequency_text(low)} to "
+                f"{frequency_text(high)}): the fringes were not followed across the band; set "
+                "fsr_hz closer to the chip's FSR, or sweep FSRs nearer to each other",
+                parameter="fsr_hz",
+            )
 
     def _fit(self, powers, frequency_hz, monitor):
         fit, orders = self._band_fit, self._orders

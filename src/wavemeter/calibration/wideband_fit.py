@@ -21,8 +21,10 @@ readings within one FSR of the middle of the band; the fit then grows outwards, 
 the frequency radius it covers (:func:`fit_band`): extrapolating a fit to twice its radius
 errs by far less than the half fringe that would miscount the fringes in between, so
 sweeps with gaps (whole FSRs missing) are fitted like dense ones. On a partial radius the
-polynomials are taken in that radius' own coordinate (well conditioned) and the map is
-held constant until the radius reaches ``FULL_MAP_FRACTION`` of the band.
+polynomials are taken in that radius' own coordinate (well conditioned) and the map is held
+constant: a map that varies with frequency can rotate about the cone axis, which is a phase
+change, so with few FSRs in reach it would let the phase coefficients wander (the growth
+counts fringes; the orders of the map come after it).
 
 **Reading a frequency** (:func:`band_frequency_hz`) needs a coarse frequency within half an
 FSR: it picks the fringe order. The map is evaluated at the coarse frequency, the phase
@@ -48,7 +50,6 @@ from ..model.cone import cone_vectors, wrap_phase_rad
 __all__ = [
     "BandFit",
     "BandModel",
-    "FULL_MAP_FRACTION",
     "PREDICT_ITERATIONS",
     "band_frequency_hz",
     "band_object_derivatives",
@@ -61,9 +62,6 @@ __all__ = [
     "map_coefficients",
 ]
 
-#: the map varies with frequency (order J) once the fitted radius reaches this share of
-#: the band; below it one constant map (the variation over a small radius is negligible)
-FULL_MAP_FRACTION = 0.25
 #: each growth step of the fit multiplies the radius by this
 GROWTH = 2.0
 #: readings of a growth step, at most (evenly spaced over those in its radius)
@@ -367,7 +365,6 @@ def fit_band(
     start_radius_hz: float,
     *,
     phase_order: int,
-    map_order: int,
     scale=None,
     affine: bool = False,
     readings: int | None = GROWTH_READINGS,
@@ -376,7 +373,7 @@ def fit_band(
 
     Starting from ``t = 2 pi (f - f0) tau`` on the readings within ``start_radius_hz`` of
     ``f0`` (where ``tau = start_delay_s`` was found), each step fits the readings within
-    a radius and doubles it, up to the half span (module docstring).
+    a radius with one constant map and doubles it, up to the half span (module docstring).
 
     Parameters
     ----------
@@ -386,8 +383,8 @@ def fit_band(
         ``f0`` and ``h`` (Hz).
     start_delay_s, start_radius_hz : float
         The delay (s) found on the readings within ``start_radius_hz`` (Hz) of ``f0``.
-    phase_order, map_order : int
-        ``P`` and the final ``J``.
+    phase_order : int
+        ``P``.
     readings : int or None
         Readings per growth step, at most (None: all).
 
@@ -402,14 +399,13 @@ def fit_band(
         rows = np.flatnonzero(distance <= radius * (1.0 + 1e-12))
         if readings is not None:
             rows = evenly(rows, readings)
-        order = map_order if radius >= FULL_MAP_FRACTION * half_span_hz else 0
         fit = fit_band_region(
             powers[rows],
             frequency_hz[rows],
             center_hz,
             radius,
             coefficients,
-            map_order=order,
+            map_order=0,
             scale=None if scale is None else scale[rows],
             affine=affine,
         )

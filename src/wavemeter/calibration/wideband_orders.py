@@ -16,16 +16,28 @@ held-out mean squared error the most, as long as the lowering is significant: th
 per-reading differences of squared error have a mean above ``CV_Z`` standard errors. The
 orders stop where more parameters no longer predict held-out FSRs better: the smallest
 model the data support. Every candidate scored is kept (the cross-validation curve).
+
+Cross-validation sees a subset of the readings; the fit diagnostics see them all and would
+warn of a misfit it cannot resolve. So the orders are then raised while the whole sweep
+rejects the smaller model (:func:`raise_orders`): a nested F test of the next phase order
+and of the next map order (the residual whitened by each port's noise), taken below
+``TEST_P_VALUE``, the diagnostics' own level. A map of order ``J`` can rotate each FSR
+window it has a coefficient for, which is a phase: ``J`` stays below the number of windows
+minus one, so that the windows still tell the phase.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import stats
 
+from .residual_tests import TEST_P_VALUE
 from .wideband_fit import (
+    BandFit,
     BandModel,
     band_frequency_hz,
     band_objects,
@@ -47,6 +59,9 @@ __all__ = [
     "OrderSelection",
     "fsr_windows",
     "parameter_count",
+    "highest_map_order",
+    "window_count",
+    "raise_orders",
     "select_orders",
 ]
 
@@ -66,6 +81,15 @@ MIN_CV_WINDOWS = 2 + CV_FOLDS
 def fsr_windows(frequency_hz, low_hz: float, fsr_hz: float) -> np.ndarray:
     """Index of the FSR-wide window of each frequency (Hz), counted from ``low_hz``."""
     return np.floor((np.asarray(frequency_hz, dtype=float) - low_hz) / fsr_hz).astype(int)
+
+
+def window_count(frequency_hz, fsr_hz: float) -> int:
+    """FSRs the sweep covers: its runs of readings (split where no reading falls for half
+    an FSR) each count their span in FSRs, rounded, and at least one."""
+    distinct = np.unique(np.asarray(frequency_hz, dtype=float))
+    breaks = np.flatnonzero(np.diff(distinct) > 0.5 * fsr_hz)
+    runs = np.split(distinct, breaks + 1)
+    return int(sum(max(round(float(np.ptp(run)) / fsr_hz), 1) for run in runs))
 
 
 def parameter_count(ports: int, phase_order: int, map_order: int, affine: bool) -> int:
@@ -91,6 +115,9 @@ class OrderSelection:
         ``cv_rms_hz`` (held-out RMS frequency error) and ``chosen``.
     held_out_windows : int
         FSR windows held out in turn.
+    sweep_tests : tuple of dict
+        The F tests of :func:`raise_orders` on every reading: ``phase_order``,
+        ``map_order`` (the larger model), ``p_value`` and ``taken``.
     """
 
     phase_order: int
@@ -99,6 +126,7 @@ class OrderSelection:
     reason: str
     candidates: tuple[dict, ...]
     held_out_windows: int
+    sweep_tests: tuple[dict, ...] = ()
 
     def record(self) -> dict:
         """JSON-ready entries of ``diagnostics_["wideband"]["orders"]``."""
@@ -109,7 +137,14 @@ class OrderSelection:
             "reason": self.reason,
             "held_out_windows": self.held_out_windows,
             "candidates": [dict(candidate) for candidate in self.candidates],
+            "sweep_tests": [dict(test) for test in self.sweep_tests],
         }
+
+
+def highest_map_order(windows: int) -> int:
+    """The highest map order a sweep over ``windows`` FSR windows can tell from the phase
+    (``windows - 2``, at least 0, at most ``MAX_MAP_ORDER``)."""
+    return int(min(MAX_MAP_ORDER, max(windows - 2, 0)))
 
 
 def _folds(windows: np.ndarray) -> np.ndarray:
@@ -186,7 +221,7 @@ def select_orders(
     training_windows = present - int(
         max(np.unique(windows[folds == k]).size for k in range(CV_FOLDS))
     )
-    highest_map = min(MAX_MAP_ORDER, training_windows // 2 - 1)
+    highest_map = min(highest_map_order(training_windows), training_windows // 2 - 1)
     highest_phase = min(MAX_PHASE_ORDER, max(training_windows // 2, 1))
     y = (frequency - center_hz) / half_span_hz
 
@@ -269,3 +304,108 @@ def select_orders(
         candidates,
         held_windows,
     )
+
+
+def raise_orders(
+    selection: OrderSelection,
+    powers,
+    frequency_hz,
+    center_hz: float,
+    half_span_hz: float,
+    coefficients_rad,
+    fsr_hz: float,
+    *,
+    scale=None,
+    affine: bool = False,
+    phase_fixed: bool = False,
+    map_fixed: bool = False,
+) -> tuple[OrderSelection, BandFit]:
+    """Raise the orders while the whole sweep rejects the smaller model (module docstring).
+
+    Parameters
+    ----------
+    selection : OrderSelection
+        The orders chosen so far.
+    powers, frequency_hz, center_hz, half_span_hz, scale, affine
+        As for :func:`select_orders`, with every reading.
+    coefficients_rad : array_like
+        Phase coefficients (rad, in ``y``) to start the fits from.
+    fsr_hz : float
+        The FSR (Hz) that cuts the sweep into windows.
+    phase_fixed, map_fixed : bool
+        The phase order or the map order was given: keep it.
+
+    Returns
+    -------
+    selection : OrderSelection
+        With the raised orders, the tests in ``sweep_tests`` and the reason extended.
+    fit : BandFit
+        The fit at those orders on every reading.
+    """
+    highest_map = highest_map_order(window_count(frequency_hz, fsr_hz))
+    ports = powers.shape[1]
+
+    def fitted(orders, start):
+        return fit_band_region(
+            powers,
+            frequency_hz,
+            center_hz,
+            half_span_hz,
+            padded(start, orders[0]),
+            map_order=orders[1],
+            scale=scale,
+            affine=affine,
+        )
+
+    current = (selection.phase_order, selection.map_order)
+    fit = fitted(current, coefficients_rad)
+    tests = []
+    while True:
+        moves = []
+        if not phase_fixed and current[0] < MAX_PHASE_ORDER:
+            moves.append((current[0] + 1, current[1]))
+        if not map_fixed and current[1] < highest_map:
+            moves.append((current[0], current[1] + 1))
+        tried = []
+        for move in moves:
+            larger = fitted(move, fit.coefficients_rad)
+            record = {
+                "phase_order": move[0],
+                "map_order": move[1],
+                "p_value": _nested_p_value(fit, larger, ports, current, move, affine),
+                "taken": False,
+            }
+            tried.append((record, move, larger))
+        tests += [record for record, _, _ in tried]
+        significant = [entry for entry in tried if entry[0]["p_value"] < TEST_P_VALUE]
+        if not significant:
+            break
+        record, current, fit = min(significant, key=lambda entry: entry[0]["p_value"])
+        record["taken"] = True
+    if current == (selection.phase_order, selection.map_order):
+        return dataclasses.replace(selection, sweep_tests=tuple(tests)), fit
+    reason = (
+        f"{selection.reason}; raised to phase order {current[0]}, map order {current[1]}: "
+        f"every reading rejects the smaller model (F test, p < {TEST_P_VALUE:g})"
+    )
+    raised = dataclasses.replace(
+        selection,
+        phase_order=current[0],
+        map_order=current[1],
+        reason=reason,
+        sweep_tests=tuple(tests),
+    )
+    return raised, fit
+
+
+def _nested_p_value(smaller: BandFit, larger: BandFit, ports, small, large, affine) -> float:
+    """p-value of the F test of a fit against the larger one nesting it, the residuals
+    whitened by each port's noise (estimated from the larger fit)."""
+    noise = np.mean(np.square(larger.residual_w), axis=0)
+    noise = np.maximum(noise, np.finfo(float).tiny)
+    small_energy = float(np.sum(np.square(smaller.residual_w) / noise))
+    large_energy = float(np.sum(np.square(larger.residual_w) / noise))
+    added = parameter_count(ports, *large, affine) - parameter_count(ports, *small, affine)
+    dof = larger.residual_w.size - parameter_count(ports, *large, affine)
+    statistic = max(small_energy - large_energy, 0.0) / added / (large_energy / dof)
+    return float(stats.f.sf(statistic, added, dof))
