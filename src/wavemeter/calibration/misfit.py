@@ -247,6 +247,13 @@ MAX_PINV_VARIANCE_RATIO = 1.2**2
 ROUNDOFF_EPSILONS = 1e4
 HARMONICS = (2, 3)
 
+#: the first remedy of a misfit no cause explains on a sweep of several FSRs
+WIDE_SWEEP_REMEDY = (
+    "over a sweep of several FSRs the couplers and photodiodes change with the wavelength: "
+    "calibrate the band with WidebandCalibrator (a map smooth in frequency), or per FSR "
+    "(CalibrationSet)"
+)
+
 REMEDIES = {
     "power_drift": (
         "record the source power with a power monitor during the sweep (power_monitor_w), "
@@ -651,8 +658,8 @@ def _port_list(names, mask) -> str:
     return ", ".join(name for name, flag in zip(names, mask, strict=True) if flag)
 
 
-def _warning(cause: str, seen: str) -> CalibrationWarning:
-    remedy = REMEDIES[cause]
+def _warning(cause: str, seen: str, remedy: str | None = None) -> CalibrationWarning:
+    remedy = REMEDIES[cause] if remedy is None else remedy
     return CalibrationWarning(f"{seen}; {remedy}", cause=cause, remedy=remedy)
 
 
@@ -727,6 +734,9 @@ def _misfit_warning(structure, names, ratio, lag1, harmonic_power, span, delay, 
             f"({residual}; harmonics 2-3 of the fringe phase up to "
             f"{harmonic_power.max():.3g}x their noise level)"
         )
+        if span > DISPERSION_MIN_SPAN_FSR:
+            # over many FSRs the couplers and photodiodes change with the wavelength
+            return _warning(cause, seen, f"{WIDE_SWEEP_REMEDY}; else {REMEDIES[cause]}")
     return _warning(cause, seen)
 
 

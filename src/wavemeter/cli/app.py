@@ -205,9 +205,13 @@ OPTIONS_OF_CAUSE = {
 }
 
 
-#: a remedy that names one of these settings is done with its option, whatever the cause
-#: (a wide-band fit whose phase order is too low: ``dispersion``, remedied by its order)
-OPTIONS_OF_REMEDY_SETTING = {"phase_order": "--phase-order"}
+#: a remedy that names one of these settings or classes is done with its option, whatever
+#: the cause (a wide-band fit whose phase order is too low: ``dispersion``, remedied by its
+#: order; a misfit no cause explains over many FSRs: the wide-band calibration)
+OPTIONS_OF_REMEDY_NAME = {
+    "phase_order": "--phase-order",
+    "WidebandCalibrator": "--method wideband (or --per-fsr)",
+}
 
 
 def warning_text(warning: Warning) -> str:
@@ -215,7 +219,7 @@ def warning_text(warning: Warning) -> str:
     warning names no cause), with the options of its remedy where it has some."""
     cause = getattr(warning, "cause", "other_misfit")
     remedy = getattr(warning, "remedy", "")
-    named = [option for setting, option in OPTIONS_OF_REMEDY_SETTING.items() if setting in remedy]
+    named = [option for name, option in OPTIONS_OF_REMEDY_NAME.items() if name in remedy]
     hint = named[0] if named else OPTIONS_OF_CAUSE.get(cause)
     return f"[{cause}] {warning}" + (f" (options: {hint})" if hint else "")
 
