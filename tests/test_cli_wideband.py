@@ -301,3 +301,22 @@ def test_report_has_the_wide_band_section_and_figures(files, tmp_path, capsys):
     assert text.count("<td>chosen</td>") == sum(candidate["chosen"] for candidate in candidates)
     assert "<td>learned per FSR</td>" in text  # compared with a set fitted per FSR
     assert all(path.exists() for path in report_paths(page, files["calibration"]))
+
+
+def test_report_lists_the_comparisons_warnings_on_the_page_only(tmp_path, capsys):
+    """With coupler slopes the per-FSR set's whole-sweep fit warns: that is about the
+    comparison, not the user's calibration, so it goes to the page, not to stderr."""
+    device = dataclasses.replace(
+        wm.Interferometer.table1(3, seed=2).with_spectral("sin", seed=2), dispersion_s2=1e-26
+    )
+    frequency = device.center_hz + (np.arange(16 * 300) / 300 - 8) * device.true_fsr_hz
+    sweep = write_readings(tmp_path / "band.csv", device, frequency, 1, frequency_hz=frequency)
+    with pytest.warns(wm.CalibrationWarning) as caught:  # the comparison does warn
+        wm.CalibrationSet().fit(device.powers(frequency, POWER_W, NOISE_W, rng=1), frequency)
+    cal, page = tmp_path / "band.wmcal.json", tmp_path / "report.html"
+    assert main(shlex.split(f"calibrate {sweep} -o {cal} --method wideband --quiet")) == 0
+    code, _, err = run_cli(capsys, f"report {cal} {sweep} -o {page} --quiet")
+    assert code == 0 and "warning:" not in err, err
+    text = page.read_text(encoding="utf-8")
+    assert "fitted on the same sweep) warned:" in text
+    assert f"[{caught[0].message.cause}]" in text

@@ -463,7 +463,9 @@ def report_content(
             if not _is_learned(calibration):
                 raise
             other, comparison_error = None, str(exc)
-    if not thermal:  # a plain comparison of a thermal sweep is expected to misfit: page only
+    # page only where the comparison is expected to misfit: a plain calibration of a thermal
+    # sweep, a per-FSR set whose whole-sweep fit sees the band's dispersion
+    if not (thermal or _is_wideband(calibration)):
         for warning in comparison_warnings:
             warnings.warn(warning, stacklevel=2)
     methods = {calibration.method_label: calibration}
