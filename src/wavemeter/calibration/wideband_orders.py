@@ -33,19 +33,21 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy import linalg, stats
 
 from .residual_tests import TEST_P_VALUE
 from .wideband_fit import (
     BandFit,
     BandModel,
     band_frequency_hz,
+    band_object_derivatives,
     band_objects,
     band_phase_rad,
     evenly,
     fit_band_region,
     least_squares_map,
     map_coefficients,
+    normal_factor,
     padded,
 )
 
@@ -344,6 +346,7 @@ def raise_orders(
     """
     highest_map = highest_map_order(window_count(frequency_hz, fsr_hz))
     ports = powers.shape[1]
+    y = (frequency_hz - center_hz) / half_span_hz
 
     def fitted(orders, start):
         return fit_band_region(
@@ -358,30 +361,48 @@ def raise_orders(
         )
 
     current = (selection.phase_order, selection.map_order)
-    fit = fitted(current, coefficients_rad)
+    fit, refit = fitted(current, coefficients_rad), False
     tests = []
     while True:
-        moves = []
-        if not phase_fixed and current[0] < MAX_PHASE_ORDER:
-            moves.append((current[0] + 1, current[1]))
-        if not map_fixed and current[1] < highest_map:
-            moves.append((current[0], current[1] + 1))
+        noise = np.maximum(np.mean(np.square(fit.residual_w), axis=0), np.finfo(float).tiny)
         tried = []
-        for move in moves:
-            larger = fitted(move, fit.coefficients_rad)
+        if not phase_fixed and current[0] < MAX_PHASE_ORDER:
+            move = (current[0] + 1, current[1])
+            lowered = _phase_order_reduction(fit, y, scale, current[1], affine, noise)
+            tried.append((move, lowered, None))
+        if not map_fixed and current[1] < highest_map:
+            move = (current[0], current[1] + 1)
+            larger = _map_order_fit(fit, powers, y, scale, move[1], affine)
+            lowered = float(
+                np.sum((np.square(fit.residual_w) - np.square(larger.residual_w)) / noise)
+            )
+            tried.append((move, lowered, larger))
+        records = []
+        for move, lowered, larger in tried:
             record = {
                 "phase_order": move[0],
                 "map_order": move[1],
-                "p_value": _nested_p_value(fit, larger, ports, current, move, affine),
+                "p_value": _nested_p_value(fit, lowered, noise, ports, current, move, affine),
                 "taken": False,
             }
-            tried.append((record, move, larger))
-        tests += [record for record, _, _ in tried]
-        significant = [entry for entry in tried if entry[0]["p_value"] < TEST_P_VALUE]
+            records.append((record, move, larger))
+        tests += [record for record, _, _ in records]
+        significant = [entry for entry in records if entry[0]["p_value"] < TEST_P_VALUE]
         if not significant:
             break
-        record, current, fit = min(significant, key=lambda entry: entry[0]["p_value"])
+        record, current, larger = min(significant, key=lambda entry: entry[0]["p_value"])
         record["taken"] = True
+        # a higher map order is fitted at the phase as it is: refit the phase at the end
+        fit, refit = (
+            (fitted(current, fit.coefficients_rad), False)
+            if larger is None
+            else (
+                larger,
+                True,
+            )
+        )
+    if refit:
+        fit = fitted(current, fit.coefficients_rad)
     if current == (selection.phase_order, selection.map_order):
         return dataclasses.replace(selection, sweep_tests=tuple(tests)), fit
     reason = (
@@ -398,14 +419,45 @@ def raise_orders(
     return raised, fit
 
 
-def _nested_p_value(smaller: BandFit, larger: BandFit, ports, small, large, affine) -> float:
-    """p-value of the F test of a fit against the larger one nesting it, the residuals
-    whitened by each port's noise (estimated from the larger fit)."""
-    noise = np.mean(np.square(larger.residual_w), axis=0)
-    noise = np.maximum(noise, np.finfo(float).tiny)
-    small_energy = float(np.sum(np.square(smaller.residual_w) / noise))
-    large_energy = float(np.sum(np.square(larger.residual_w) / noise))
+def _nested_p_value(fit: BandFit, lowered, noise, ports, small, large, affine) -> float:
+    """p-value of the F test of ``fit`` against a larger model nesting it that lowers the
+    residual energy (whitened by each port's ``noise`` variance) by ``lowered``."""
+    energy = float(np.sum(np.square(fit.residual_w) / noise)) - lowered
     added = parameter_count(ports, *large, affine) - parameter_count(ports, *small, affine)
-    dof = larger.residual_w.size - parameter_count(ports, *large, affine)
-    statistic = max(small_energy - large_energy, 0.0) / added / (large_energy / dof)
+    dof = fit.residual_w.size - parameter_count(ports, *large, affine)
+    statistic = max(lowered, 0.0) / added / (max(energy, np.finfo(float).tiny) / dof)
     return float(stats.f.sf(statistic, added, dof))
+
+
+def _map_order_fit(fit: BandFit, powers, y, scale, map_order: int, affine: bool) -> BandFit:
+    """The map of order ``map_order`` fitted at the phase of ``fit`` (linear least squares:
+    the larger model's fit with the phase held, so its lowering is not overstated)."""
+    objects = band_objects(y, fit.phase_rad, scale, map_order, affine)
+    matrix = least_squares_map(objects, powers)
+    residual = powers - objects @ matrix
+    return dataclasses.replace(
+        fit,
+        matrix=matrix,
+        cost=float(np.einsum("ij,ij->", residual, residual) / powers.shape[0]),
+        residual_w=residual,
+    )
+
+
+def _phase_order_reduction(fit: BandFit, y, scale, map_order, affine, noise) -> float:
+    """The whitened residual energy one more phase order removes, to first order (the score
+    test): the residual along the new order's direction once the map and the present phase
+    orders are projected out of it."""
+    order = fit.coefficients_rad.size
+    objects = band_objects(y, fit.phase_rad, scale, map_order, affine)
+    factor = normal_factor(objects)
+    derivatives = band_object_derivatives(y, fit.phase_rad, scale, map_order, affine, order + 1)
+    scale_w = 1.0 / np.sqrt(noise)
+    columns = []
+    for derivative in derivatives:
+        image = (derivative @ fit.matrix) * scale_w
+        image = image - objects @ linalg.cho_solve(factor, objects.T @ image)
+        columns.append(image.ravel())
+    present, new = np.column_stack(columns[:-1]), columns[-1]
+    new = new - present @ np.linalg.lstsq(present, new, rcond=None)[0]
+    along = float(new @ (fit.residual_w * scale_w).ravel())
+    return along**2 / max(float(new @ new), np.finfo(float).tiny)
