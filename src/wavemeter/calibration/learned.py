@@ -421,10 +421,9 @@ class Calibrator(BaseCalibrator):
 
     def _use_misfit_report(self, report: MisfitReport) -> None:
         """With a misfit, weight and state uncertainties with the model-free noise."""
-        model_free = np.asarray(report.noise_std_w, dtype=float)
-        if report.misfit and np.all(np.isfinite(model_free) & (model_free > 0)):
-            self.port_noise_std_w_ = model_free
-            self.noise_dof_ = float(report.noise_dof)
+        noise = report.misfit_noise()
+        if noise is not None:
+            self.port_noise_std_w_, self.noise_dof_ = noise
             self._set_covariance()
         del self._sweep
 

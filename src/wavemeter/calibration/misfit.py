@@ -352,6 +352,15 @@ class MisfitReport:
         """True when any check failed (``warnings`` is not empty)."""
         return bool(self.warnings)
 
+    def misfit_noise(self) -> tuple[np.ndarray, float] | None:
+        """The model-free noise per port (W) and its degrees of freedom, to weight and state
+        uncertainties with, when a check failed (a misfit is then reported by its warning,
+        not counted as noise); None when none failed or the estimate is not usable."""
+        model_free = np.asarray(self.noise_std_w, dtype=float)
+        if self.misfit and np.all(np.isfinite(model_free) & (model_free > 0)):
+            return model_free, float(self.noise_dof)
+        return None
+
     @property
     def causes(self) -> tuple[str, ...]:
         """The causes of ``warnings``, in order."""
