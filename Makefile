@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench trust thermal peers fuzz clean
+.PHONY: demo test lint bench trust thermal wideband peers fuzz clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -42,6 +42,10 @@ trust: $(BIN)/wavemeter
 # and re-anchored plain calibrations; writes docs/figures/thermal_error_vs_temperature.png
 thermal: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/thermal.py
+
+# the wide-band calibration of issue 11 over the C band; writes docs/figures/wideband_residual_phase.png
+wideband: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/wideband.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'
