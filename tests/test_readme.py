@@ -71,3 +71,23 @@ def test_the_python_example_runs(tmp_path, monkeypatch):
     exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102 - the README's own code
     assert namespace["cal"].fsr_hz_ == pytest.approx(namespace["dev"].true_fsr_hz, rel=1e-4)
     assert (tmp_path / "chip.wmcal.json").is_file()
+
+
+def test_the_wide_band_example_chooses_the_orders_the_readme_states(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    section = README[README.index("### Wide band") : README.index("## Using your own data")]
+    commands = [
+        " ".join(match.split())
+        for match in re.findall(r"^    (wavemeter (?:[^\n]*\\\n)*[^\n]*)", section, re.M)
+    ]
+    simulate, calibrate = (command.replace("\\", "") for command in commands[:2])
+    run(simulate, capsys)
+    run(calibrate.split("#")[0], capsys)
+    orders = re.search(r"chose phase order (\d) and map order (\d)", " ".join(section.split()))
+    info = "\n".join(run("wavemeter info band.wmcal.json", capsys))
+    assert f"phase_order      {orders.group(1)}" in info
+    assert f"map_order        {orders.group(2)}" in info
+    printed = run("wavemeter evaluate band.wmcal.json band-test.csv", capsys)
+    row = next(line for line in printed if line.startswith("wideband "))
+    # 3000 test readings: the RMS over the bound is 1 within 4 / sqrt(2 x 3000) = 0.05
+    assert abs(float(row.split()[-1]) - 1.0) < 0.05
