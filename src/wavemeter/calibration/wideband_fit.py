@@ -50,16 +50,24 @@ from ..model.cone import cone_vectors, wrap_phase_rad
 __all__ = [
     "BandFit",
     "BandModel",
+    "GROWTH",
+    "GROWTH_READINGS",
+    "NEWTON_STEPS",
     "PREDICT_ITERATIONS",
     "band_frequency_hz",
     "band_object_derivatives",
     "band_objects",
     "band_phase_rad",
+    "band_phase_slope",
+    "check_monotonic",
+    "evenly",
     "fit_band",
     "fit_band_region",
     "least_squares_map",
-    "normal_factor",
     "map_coefficients",
+    "normal_factor",
+    "padded",
+    "rescaled",
 ]
 
 #: each growth step of the fit multiplies the radius by this
