@@ -22,34 +22,20 @@ says what it knows of each reading:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
 
 from ..exceptions import CalibrationWarning, InputError
-from ..model.cone import cone_vectors, wrap_phase_rad
-from ..model.limits import crlb_frequency_std
-from ..model.retrieval import (
-    cone_ml_phase_rad,
-    pinv_phase_rad,
-    source_power_ratio,
-    stacked_pinv,
-)
-from ..model.uncertainty import (
-    calibration_variance_hz2,
-    fit_parameter_covariance,
-    map_frequency_gradient_hz,
-    ml_phase_gradient,
-    phase_std_rad,
-    pinv_phase_gradient,
-    student_factor,
-)
+from ..model.cone import wrap_phase_rad
+from ..model.uncertainty import fit_parameter_covariance, student_factor
 from ..validation import check_choice, check_fitted, check_per_reading, check_positive
 from .base import BaseCalibrator
 from .delay_search import frequency_text
 from .diagnostics import port_health
 from .files import state_array, state_float
-from .flags import SPAN_MARGIN_STD, ReadingFlag, off_model_threshold
+from .flags import SPAN_MARGIN_STD, ReadingFlag
 from .fsr_guard import check_design_fsr
 from .learned import AFFINE_MIN_POWER_SPREAD, RETRIEVALS, fit_learned_map, port_noise_std_w
 from .misfit import misfit_report
@@ -67,12 +53,18 @@ from .wideband_orders import (
     MAX_MAP_ORDER,
     MAX_PHASE_ORDER,
     OrderSelection,
-    fsr_windows,
     highest_map_order,
     parameter_count,
     raise_orders,
     select_orders,
     window_count,
+)
+from .wideband_reading import (
+    band_crlb_hz,
+    band_frequency_variance_hz2,
+    band_off_model,
+    band_phase_rad,
+    residual_phase_by_window,
 )
 
 __all__ = ["ORDER_MARGIN_FSR", "WidebandCalibrator"]
@@ -268,7 +260,7 @@ class WidebandCalibrator(BaseCalibrator):
             half,
             grown,
             fsr,
-            _pinv_retrieve,
+            functools.partial(band_phase_rad, retrieval="pinv", noise_std_w=None),
             scale=scale,
             affine=affine,
             phase_order=self.phase_order,
@@ -444,20 +436,7 @@ class WidebandCalibrator(BaseCalibrator):
         residual = wrap_phase_rad(
             self._retrieve(readings, maps) - self.band_model_.phase_rad(frequency_hz)
         )
-        windows = fsr_windows(frequency_hz, self.span_hz_[0], self.fsr_hz_)
-        rows = []
-        for window in np.unique(windows):
-            members = windows == window
-            values = residual[members]
-            rows.append(
-                {
-                    "center_hz": float(frequency_hz[members].mean()),
-                    "readings": int(members.sum()),
-                    "mean_rad": float(values.mean()),
-                    "rms_rad": float(np.sqrt(np.mean(values**2))),
-                }
-            )
-        return rows
+        return residual_phase_by_window(frequency_hz, residual, self.span_hz_[0], self.fsr_hz_)
 
     def _sweep_error_hz(self, readings, frequency_hz, temperature_k):
         """Frequency error (Hz) of the sweep read back with its true frequencies as coarse
@@ -483,9 +462,7 @@ class WidebandCalibrator(BaseCalibrator):
     # ------------------------------------------------------------------ retrieval
     def _retrieve(self, readings, maps) -> np.ndarray:
         """Phase (rad) of each reading under its own map, by the retrieval set."""
-        if self.retrieval == "ml":
-            return cone_ml_phase_rad(readings, maps, noise_std_w=self.port_noise_std_w_)
-        return _pinv_retrieve(readings, maps)
+        return band_phase_rad(readings, maps, self.retrieval, self.port_noise_std_w_)
 
     def _frequency_checked(self, readings, coarse_hz):
         """:func:`band_frequency_hz` of validated, offset-corrected readings."""
@@ -563,14 +540,6 @@ class WidebandCalibrator(BaseCalibrator):
         check_fitted(self)
         return 2.0 * np.pi / self.band_model_.phase_slope_rad_per_hz(frequency_hz)
 
-    def _phase_gradient(self, readings, maps, phase) -> np.ndarray:
-        """``dt / dp`` (N, n) of the retrieval used, under each reading's map."""
-        if self.retrieval == "ml":
-            noise = self.port_noise_std_w_
-            power = source_power_ratio(readings, maps, phase, noise)
-            return ml_phase_gradient(maps, phase, power, noise)
-        return pinv_phase_gradient(readings, stacked_pinv(maps))
-
     def frequency_std_hz(
         self, powers, *, coarse_hz=None, temperature_k=None, include_calibration=True
     ) -> np.ndarray:
@@ -595,19 +564,17 @@ class WidebandCalibrator(BaseCalibrator):
 
     def _frequency_std_checked(self, readings, coarse_hz, include_calibration=True):
         frequency, phase, maps = self._frequency_checked(readings, coarse_hz)
-        gradient = self._phase_gradient(readings, maps, phase)
-        per_rad = 1.0 / self.band_model_.phase_slope_rad_per_hz(frequency)
-        variance = (phase_std_rad(gradient, self.port_noise_std_w_) * per_rad) ** 2
-        if include_calibration and self.parameter_covariance_ is not None:
-            power = source_power_ratio(readings, maps, phase, self.port_noise_std_w_)
-            y = self.band_model_.normalized(frequency)
-            objects = band_objects(y, phase, power, self.map_order_, self._affine())
-            along_phase = -np.power.outer(y, np.arange(1, self.phase_order_ + 1)) * per_rad[:, None]
-            variance = variance + calibration_variance_hz2(
-                map_frequency_gradient_hz(gradient, objects, per_rad),
-                along_phase,
-                self.parameter_covariance_,
-            )
+        variance = band_frequency_variance_hz2(
+            self.band_model_,
+            readings,
+            frequency,
+            phase,
+            maps,
+            retrieval=self.retrieval,
+            noise_std_w=self.port_noise_std_w_,
+            covariance=self.parameter_covariance_ if include_calibration else None,
+            affine=self._affine(),
+        )
         if self.noise_dof_ <= 2:
             return np.full(readings.shape[0], np.inf)
         return np.sqrt(variance) * student_factor(self.noise_dof_)
@@ -632,11 +599,7 @@ class WidebandCalibrator(BaseCalibrator):
             reference = self.band_model_.phase_rad(coarse)
             target = reference + wrap_phase_rad(phase - reference)
             frequency = self.band_model_.frequency_of_phase_hz(target, coarse)
-        maps = self.band_model_.maps_at(frequency)
-        noise = self.port_noise_std_w_
-        power = source_power_ratio(readings, maps, phase, noise)
-        bound = crlb_frequency_std(maps, phase, power, noise, 2.0 * np.pi)
-        return bound / self.band_model_.phase_slope_rad_per_hz(frequency)
+        return band_crlb_hz(self.band_model_, readings, frequency, phase, self.port_noise_std_w_)
 
     def _model_flags(self, readings, coarse_hz, temperature_k) -> np.ndarray:
         """``OUTSIDE_SPAN`` (a frequency outside the band by more than ``SPAN_MARGIN_STD``
@@ -660,19 +623,10 @@ class WidebandCalibrator(BaseCalibrator):
         bits[np.abs(frequency - coarse) > ORDER_MARGIN_FSR * local_fsr] |= (
             ReadingFlag.ORDER_AMBIGUOUS
         )
-        bits[self._off_model(rows, maps)] |= ReadingFlag.OFF_MODEL
+        off_model = band_off_model(rows, maps, self.port_noise_std_w_, self.noise_dof_)
+        bits[off_model] |= ReadingFlag.OFF_MODEL
         flags[inside] |= bits
         return flags
-
-    def _off_model(self, readings, maps) -> np.ndarray:
-        """Weighted squared distance of each reading to its map's cone, tested."""
-        noise = self.port_noise_std_w_
-        phase = cone_ml_phase_rad(readings, maps, noise_std_w=noise)
-        power = source_power_ratio(readings, maps, phase, noise)
-        image = np.einsum("knc,kc->kn", maps, cone_vectors(phase, power))
-        residual = (readings - image) / noise
-        distance = np.einsum("ij,ij->i", residual, residual)
-        return distance > off_model_threshold(self.n_ports_, self.noise_dof_)
 
     # ------------------------------------------------------------------ reporting
     def _fsr_std_hz(self) -> float | None:
@@ -746,8 +700,3 @@ class WidebandCalibrator(BaseCalibrator):
                 f"got shape {self.parameter_covariance_.shape}"
             )
         self.n_parameters_ = parameter_count(ports, phase_order, map_order, self._affine())
-
-
-def _pinv_retrieve(readings: np.ndarray, maps: np.ndarray) -> np.ndarray:
-    """The pseudo-inverse phase of each reading under its own map."""
-    return pinv_phase_rad(readings, stacked_pinv(maps))
