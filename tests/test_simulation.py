@@ -9,7 +9,7 @@ import pytest
 
 import wavemeter as wm
 from wavemeter.model.couplers import mmi_matrix
-from wavemeter.simulation.interferometer import _symmetry_classes
+from wavemeter.simulation.coupler_draws import symmetry_classes
 
 from .conftest import NOISE_W, POWER_W
 
@@ -54,7 +54,7 @@ def test_ideal_3x3_matches_eq27():
 
 def test_symmetry_classes_group_equal_entries():
     for n in (3, 4, 5, 8):
-        matrix, labels = mmi_matrix(n), _symmetry_classes(n)
+        matrix, labels = mmi_matrix(n), symmetry_classes(n)
         for label in np.unique(labels):
             values = matrix[labels == label]
             np.testing.assert_allclose(values, values[0], atol=1e-12)

@@ -12,7 +12,7 @@ import wavemeter as wm
 from wavemeter.cli.simulate import _SPECTRAL_STREAM, SPECTRAL_PLATFORMS
 from wavemeter.io import ColumnRequest, read_table
 from wavemeter.simulation import SPECTRAL_PRESETS, Interferometer, SpectralPreset
-from wavemeter.simulation.interferometer import _symmetry_classes
+from wavemeter.simulation.coupler_draws import symmetry_classes
 
 from .conftest import NOISE_W, POWER_W, one_error, run_cli
 
@@ -214,7 +214,7 @@ def test_coupler_slopes_follow_the_mmi_symmetry_and_their_sigmas():
     """
     ports, seeds = 16, range(10)
     device = Interferometer.table1(ports, seed=1)
-    labels = _symmetry_classes(ports)
+    labels = symmetry_classes(ports)
     first = np.unique(labels, return_index=True)[1]  # one entry of each orbit
     symmetric = SpectralPreset(0.0, 0.03, 0.0, 0.0)
     shared = []

@@ -222,7 +222,7 @@ def _spectral(device, options):
         What the slopes were drawn with (from a stream of the seed); None when neither
         ``--spectral`` nor a slope option is given (then only ``--dispersion`` applies).
     """
-    from ..simulation.interferometer import SPECTRAL_PRESETS, SpectralPreset
+    from ..simulation.spectral_presets import SPECTRAL_PRESETS, SpectralPreset
 
     given = {
         field: options[name]

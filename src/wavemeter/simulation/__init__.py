@@ -1,13 +1,9 @@
 """Simulated interferometers with the impairments of the paper's Table 1 and hardware faults."""
 
 from .drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
-from .interferometer import (
-    SPECTRAL_PRESETS,
-    THERMAL_PRESETS,
-    Interferometer,
-    SpectralPreset,
-    ThermalPreset,
-)
+from .interferometer import Interferometer
+from .spectral_presets import SPECTRAL_PRESETS, SpectralPreset
+from .thermal_presets import THERMAL_PRESETS, ThermalPreset
 
 __all__ = [
     "Interferometer",

@@ -4,19 +4,19 @@ Beyond Table 1 the device can carry hardware faults a real chip has: per-port de
 (ADC) offsets, group-delay dispersion of the delay imbalance, unequal detector noise per port
 and a bias phase that drifts during a sweep (see :mod:`wavemeter.simulation.drift` for
 per-sample drift series). Temperature moves both the bias phase and the delay imbalance;
-:data:`THERMAL_PRESETS` holds the thermal coefficients of two photonic platforms.
+:data:`THERMAL_PRESETS` (:mod:`wavemeter.simulation.thermal_presets`) holds the thermal
+coefficients of two photonic platforms.
 
 Across a wide band (the C band is about 88 FSRs of 50 GHz) the output coupler and the
 receivers change slowly with frequency: linear slopes per THz of each coupler entry and of
-each responsivity, drawn like Table 1's static spread. :data:`SPECTRAL_PRESETS` holds
-realistic dispersion and slopes of a silicon-nitride chip (see
-:meth:`Interferometer.with_spectral`).
+each responsivity, drawn like Table 1's static spread. :data:`SPECTRAL_PRESETS`
+(:mod:`wavemeter.simulation.spectral_presets`) holds realistic dispersion and slopes of a
+silicon-nitride chip (see :meth:`Interferometer.with_spectral`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from types import MappingProxyType
 
 import numpy as np
 
@@ -24,126 +24,17 @@ from ..exceptions import InputError
 from ..model.cone import delay_phase_rad
 from ..model.couplers import mmi_2x2, mmi_matrix, port_phases_rad, y_junction
 from ..validation import as_rng
+from .coupler_draws import perturb_coupler
+from .spectral_presets import SPECTRAL_PRESETS, SpectralPreset, draw_spectral_slopes
+from .thermal_presets import THERMAL_PRESETS
 
-__all__ = [
-    "Interferometer",
-    "ThermalPreset",
-    "THERMAL_PRESETS",
-    "SpectralPreset",
-    "SPECTRAL_PRESETS",
-]
+__all__ = ["Interferometer"]
 
 DEFAULT_FSR_HZ = 50e9
 DEFAULT_CENTER_HZ = 193.4e12
 #: the unit of the spectral slopes: relative change per THz of detuning from ``center_hz``
 TERAHERTZ_HZ = 1e12
 SPLITTERS = ("mmi", "y")
-
-#: thermo-optic coefficient of crystalline silicon near 1550 nm (1/K)
-SILICON_DN_DT_PER_K = 1.8e-4
-#: group index of a silicon-on-insulator strip waveguide near 1550 nm
-SOI_GROUP_INDEX = 4.2
-
-
-@dataclass(frozen=True)
-class ThermalPreset:
-    """Thermal coefficients of a photonic platform, see :meth:`Interferometer.with_thermal`.
-
-    Parameters
-    ----------
-    fringe_shift_hz_per_k : float
-        How far (Hz) a fringe moves per kelvin of heating, to lower frequency (red shift)
-        for a positive value.
-    delay_per_k : float
-        Relative change of the delay imbalance per kelvin (1/K): ``d tau / (tau dT)``.
-    """
-
-    fringe_shift_hz_per_k: float
-    delay_per_k: float
-
-
-#: Thermal coefficients by platform. ``"sin"``: silicon nitride, fringes move 2.6 GHz/K and
-#: the delay 1.35e-5 /K. ``"soi"``: silicon on insulator, fringes move 10 GHz/K; the delay
-#: rate is the thermo-optic coefficient of silicon over the group index, ``1.8e-4 / 4.2``
-#: (about 4.3e-5 /K; the dispersion of dn/dT is neglected).
-THERMAL_PRESETS = MappingProxyType(
-    {
-        "sin": ThermalPreset(fringe_shift_hz_per_k=2.6e9, delay_per_k=1.35e-5),
-        "soi": ThermalPreset(
-            fringe_shift_hz_per_k=10e9, delay_per_k=SILICON_DN_DT_PER_K / SOI_GROUP_INDEX
-        ),
-    }
-)
-
-
-@dataclass(frozen=True)
-class SpectralPreset:
-    """Dispersion and spectral slopes of a photonic platform, see
-    :meth:`Interferometer.with_spectral`.
-
-    Parameters
-    ----------
-    dispersion_s2 : float
-        Group-delay dispersion of the delay imbalance (s^2), see
-        :attr:`Interferometer.dispersion_s2`.
-    coupler_slope_sigma_per_thz : float
-        Standard deviation (1/THz) of the relative slope of the real and imaginary parts of
-        the output-coupler entries, shared by the entries the MMI symmetry makes equal.
-    coupler_breaking_sigma_per_thz : float
-        Standard deviation (1/THz) of the symmetry-breaking slope, drawn per entry.
-    responsivity_slope_sigma_per_thz : float
-        Standard deviation (1/THz) of the relative slope of each receiver's responsivity.
-    """
-
-    dispersion_s2: float
-    coupler_slope_sigma_per_thz: float
-    coupler_breaking_sigma_per_thz: float
-    responsivity_slope_sigma_per_thz: float
-
-    def __post_init__(self):
-        if not np.isfinite(self.dispersion_s2):
-            raise InputError(
-                f"dispersion_s2 must be a finite number (s^2), got {self.dispersion_s2}",
-                parameter="dispersion_s2",
-            )
-        for name in (
-            "coupler_slope_sigma_per_thz",
-            "coupler_breaking_sigma_per_thz",
-            "responsivity_slope_sigma_per_thz",
-        ):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0):
-                raise InputError(
-                    f"{name} must be a finite number >= 0 (1/THz), got {value}", parameter=name
-                )
-
-
-#: Dispersion and spectral slopes by platform; ``"sin"``: silicon nitride near 1550 nm.
-#:
-#: - ``dispersion_s2`` 4e-28 s^2: a SiN strip waveguide has a group-velocity dispersion
-#:   ``beta_2`` of about 1.2e-25 s^2/m (120 ps^2/km, normal); a 20 ps (50 GHz) imbalance
-#:   is ``c tau / n_g`` = 3.3 mm of it at group index 1.8 (SiN's dn/dT, 2.45e-5 /K, over
-#:   the delay rate 1.35e-5 /K of the SiN thermal preset), and ``beta_2 L`` = 4e-28 s^2. The
-#:   local FSR then moves by 2.7e-4 of itself 2.2 THz from the centre (the C band's edge).
-#: - ``coupler_slope_sigma_per_thz`` 0.01: a SiN MMI's self-imaging length scales with the
-#:   wavelength, so its entries change by a few percent across the C band (4.4 THz): about
-#:   1 %/THz, the same for the entries its symmetry makes equal (as Table 1's spread).
-#: - ``coupler_breaking_sigma_per_thz`` 0.002: fabrication asymmetry breaks that symmetry
-#:   by a fifth of it, 0.2 %/THz per entry.
-#: - ``responsivity_slope_sigma_per_thz`` 0.005: an InGaAs photodiode's responsivity
-#:   ``eta e / (h f)`` falls by ``1/f`` = 0.5 %/THz at 193 THz. That common slope scales all
-#:   ports as the source power does; the ports differ by as much through their quantum
-#:   efficiencies and the couplers to the detectors, 0.5 %/THz per port.
-SPECTRAL_PRESETS = MappingProxyType(
-    {
-        "sin": SpectralPreset(
-            dispersion_s2=4e-28,
-            coupler_slope_sigma_per_thz=0.01,
-            coupler_breaking_sigma_per_thz=0.002,
-            responsivity_slope_sigma_per_thz=0.005,
-        ),
-    }
-)
 
 
 def _splitter_amplitudes(splitter: str) -> np.ndarray:
@@ -152,63 +43,6 @@ def _splitter_amplitudes(splitter: str) -> np.ndarray:
     if splitter == "y":
         return y_junction()[:, 0]
     raise InputError(f"splitter must be one of {SPLITTERS}, got {splitter!r}")
-
-
-def _symmetry_classes(n: int) -> np.ndarray:
-    """Label each entry of an ``n x n`` MMI matrix by its orbit under the MMI symmetries.
-
-    A general-interference MMI is reciprocal (``M[j, i] == M[i, j]``) and mirror symmetric
-    about its centre (``M[j, i] == M[n-1-j, n-1-i]``); entries one of these maps onto
-    another are equal, and share the symmetry-preserving perturbation.
-    """
-    labels = -np.ones((n, n), dtype=int)
-    next_label = 0
-    for j in range(n):
-        for i in range(n):
-            if labels[j, i] >= 0:
-                continue
-            orbit = {(j, i), (i, j), (n - 1 - j, n - 1 - i), (n - 1 - i, n - 1 - j)}
-            for a, b in orbit:
-                labels[a, b] = next_label
-            next_label += 1
-    return labels
-
-
-def _orbit_changes(
-    n: int, rng: np.random.Generator, symmetric_sigma: float, breaking_sigma: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Gaussian relative changes of the real and imaginary parts of an ``n x n`` MMI matrix.
-
-    Returns
-    -------
-    shared : ndarray of complex, shape (n, n)
-        ``g_re + 1j g_im``, sigma ``symmetric_sigma`` each, shared by the entries of one
-        symmetry orbit (see :func:`_symmetry_classes`).
-    own : ndarray of complex, shape (n, n)
-        ``e_re + 1j e_im``, sigma ``breaking_sigma`` each, drawn per entry.
-    """
-    labels = _symmetry_classes(n)
-    classes = labels.max() + 1
-    shared_re = rng.normal(0.0, symmetric_sigma, classes)[labels]
-    shared_im = rng.normal(0.0, symmetric_sigma, classes)[labels]
-    own_re = rng.normal(0.0, breaking_sigma, (n, n))
-    own_im = rng.normal(0.0, breaking_sigma, (n, n))
-    return shared_re + 1j * shared_im, own_re + 1j * own_im
-
-
-def _perturb_coupler(
-    matrix: np.ndarray, rng: np.random.Generator, symmetric_sigma: float, breaking_sigma: float
-) -> np.ndarray:
-    """Scale real and imaginary parts by Gaussian factors (Table 1).
-
-    Factor ``1 + g + e``: ``g`` (sigma ``symmetric_sigma``) is shared by the entries of one
-    symmetry orbit, ``e`` (sigma ``breaking_sigma``) is drawn per entry
-    (:func:`_orbit_changes`).
-    """
-    shared, own = _orbit_changes(matrix.shape[0], rng, symmetric_sigma, breaking_sigma)
-    return matrix.real * (1.0 + shared.real + own.real) + 1j * matrix.imag * (
-        1.0 + shared.imag + own.imag
-    )
 
 
 @dataclass(frozen=True)
@@ -423,9 +257,9 @@ class Interferometer:
         ideal = cls.ideal(
             ports, fsr_hz=fsr_hz, center_hz=center_hz, splitter=splitter, inputs=inputs
         )
-        coupler = _perturb_coupler(ideal.output_coupler, rng, symmetric_sigma, breaking_sigma)
+        coupler = perturb_coupler(ideal.output_coupler, rng, symmetric_sigma, breaking_sigma)
         if splitter == "mmi":
-            split = _perturb_coupler(mmi_2x2(), rng, symmetric_sigma, breaking_sigma)[:, 0]
+            split = perturb_coupler(mmi_2x2(), rng, symmetric_sigma, breaking_sigma)[:, 0]
         else:
             split = ideal.splitter_amplitudes * (1.0 + rng.normal(0.0, breaking_sigma, 2))
         delay_s = (1.0 + rng.normal(0.0, delay_sigma)) / fsr_hz
@@ -478,11 +312,11 @@ class Interferometer:
         The dispersion is the preset's, for the delay the preset names (``beta_2 L`` grows
         with the imbalance length: scale it for another delay with a preset of your own).
         Coupler slopes are drawn as Table 1 draws the coupler's spread
-        (:func:`_orbit_changes`): a relative slope of the real and of the imaginary part of
-        each entry, ``g + e`` with ``g ~ N(0, coupler_slope_sigma_per_thz)`` shared by the
-        entries the MMI symmetry makes equal and ``e ~ N(0, coupler_breaking_sigma_per_thz)``
-        per entry; then one responsivity slope per port, ``N(0,
-        responsivity_slope_sigma_per_thz)``. Everything else is kept.
+        (:func:`~wavemeter.simulation.spectral_presets.draw_spectral_slopes`): a relative
+        slope of the real and of the imaginary part of each entry, ``g + e`` with ``g ~ N(0,
+        coupler_slope_sigma_per_thz)`` shared by the entries the MMI symmetry makes equal
+        and ``e ~ N(0, coupler_breaking_sigma_per_thz)`` per entry; then one responsivity
+        slope per port, ``N(0, responsivity_slope_sigma_per_thz)``. Everything else is kept.
 
         Parameters
         ----------
@@ -508,20 +342,12 @@ class Interferometer:
                 f"got {platform!r}",
                 parameter="platform",
             )
-        rng = as_rng(seed)
-        shared, own = _orbit_changes(
-            self.ports,
-            rng,
-            preset.coupler_slope_sigma_per_thz,
-            preset.coupler_breaking_sigma_per_thz,
-        )
+        coupler_slope, responsivity_slope = draw_spectral_slopes(self.ports, preset, as_rng(seed))
         return replace(
             self,
             dispersion_s2=preset.dispersion_s2,
-            coupler_slope_per_thz=shared + own,
-            responsivity_slope_per_thz=rng.normal(
-                0.0, preset.responsivity_slope_sigma_per_thz, self.ports
-            ),
+            coupler_slope_per_thz=coupler_slope,
+            responsivity_slope_per_thz=responsivity_slope,
         )
 
     # ------------------------------------------------------------------ properties
