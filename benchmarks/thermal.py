@@ -46,10 +46,6 @@ Usage: ``python benchmarks/thermal.py [--devices 5] [--test 2000] [--grid-test 5
 
 from __future__ import annotations
 
-import argparse
-import errno
-import io
-import os
 import statistics
 import sys
 import zlib
@@ -59,6 +55,7 @@ from pathlib import Path
 
 import numpy as np
 from _montecarlo import DESIGN_FSR_HZ, NOISE_W, POWER_W, make_device, markdown_table, progress
+from _script import Parser, check_writable, positive_int, save_png
 
 import wavemeter as wm
 from wavemeter.exceptions import recorded_calibration_warnings
@@ -803,21 +800,6 @@ def verdict(results: list[DeviceResult]) -> list[str]:
 
 
 # ---------------------------------------------------------------------- figure
-def temporary_path(path: Path) -> Path:
-    """A hidden name next to ``path`` for writing it before renaming."""
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
-def check_writable(path: Path) -> None:
-    """Create the folder of ``path`` and probe it with a temporary file; raises OSError."""
-    if path.is_dir():
-        raise IsADirectoryError(errno.EISDIR, "is a folder", str(path))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    probe = temporary_path(path)
-    probe.touch()
-    probe.unlink()
-
-
 def write_figure(results: list[DeviceResult], path: Path) -> None:
     """Error vs temperature (median over devices) as a 256-colour PNG at ``path``.
 
@@ -826,8 +808,6 @@ def write_figure(results: list[DeviceResult], path: Path) -> None:
     target. The file is written to a temporary name in the same folder and renamed, so a
     failure leaves no partial figure.
     """
-    from PIL import Image
-
     from wavemeter.report.plotting import legend_outside, new_figure
 
     columns = grid_medians(results)
@@ -870,37 +850,10 @@ def write_figure(results: list[DeviceResult], path: Path) -> None:
     ratios.set_xlabel("chip temperature (K)")
     ratios.set_ylabel("RMS error / bound")
     legend_outside(ratios)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=120)
-    buffer.seek(0)
-    image = Image.open(buffer).convert("RGB").quantize(256)
-    temporary = temporary_path(path)
-    try:
-        image.save(temporary, format="PNG", optimize=True)
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
+    save_png(figure, path)
 
 
 # ---------------------------------------------------------------------- command line
-class Parser(argparse.ArgumentParser):
-    """Argument parser that reports bad input as one ``error:`` line and exit code 2."""
-
-    def error(self, message: str):
-        self.exit(2, f"error: {message}\n")
-
-
-def positive_int(text: str) -> int:
-    """An integer >= 1 (argparse type)."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return value
-
-
 DEFAULT_FIGURE = (
     Path(__file__).resolve().parents[1] / "docs" / "figures" / "thermal_error_vs_temperature.png"
 )

@@ -43,10 +43,7 @@ the smoke test).
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import errno
-import io
 import os
 import statistics
 import sys
@@ -66,6 +63,7 @@ from _montecarlo import (
     markdown_table,
     progress,
 )
+from _script import Parser, check_writable, positive_int, save_png
 
 import wavemeter as wm
 from wavemeter.exceptions import recorded_calibration_warnings
@@ -907,21 +905,6 @@ def targets_table(outcomes: list[Outcome]) -> str:
 
 
 # ---------------------------------------------------------------------- figure
-def temporary_path(path: Path) -> Path:
-    """A hidden name next to ``path`` for writing it before renaming."""
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
-
-
-def check_writable(path: Path) -> None:
-    """Create the folder of ``path`` and probe it with a temporary file; raises OSError."""
-    if path.is_dir():
-        raise IsADirectoryError(errno.EISDIR, "is a folder", str(path))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    probe = temporary_path(path)
-    probe.touch()
-    probe.unlink()
-
-
 CASE_STYLES = {"realistic": "-", "strong": "--"}
 
 
@@ -933,8 +916,6 @@ def write_figure(outcomes: list[Outcome], path: Path) -> None:
     Written to a temporary name in the same folder and renamed: a failure leaves no partial
     figure.
     """
-    from PIL import Image
-
     from wavemeter.report.plotting import legend_outside, new_figure, port_color
 
     figure, (plain_axes, wide_axes) = new_figure(rows=2, height_in=6.5)
@@ -966,37 +947,10 @@ def write_figure(outcomes: list[Outcome], path: Path) -> None:
         axes.set_title(title, fontsize="medium")
         legend_outside(axes)
     wide_axes.set_xlabel("frequency (THz): FSR window of the calibration sweep")
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=120)
-    buffer.seek(0)
-    image = Image.open(buffer).convert("RGB").quantize(256)
-    temporary = temporary_path(path)
-    try:
-        image.save(temporary, format="PNG", optimize=True)
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
+    save_png(figure, path)
 
 
 # ---------------------------------------------------------------------- command line
-class Parser(argparse.ArgumentParser):
-    """Argument parser that reports bad input as one ``error:`` line and exit code 2."""
-
-    def error(self, message: str):
-        self.exit(2, f"error: {message}\n")
-
-
-def positive_int(text: str) -> int:
-    """An integer >= 1 (argparse type)."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return value
-
-
 DEFAULT_FIGURE = (
     Path(__file__).resolve().parents[1] / "docs" / "figures" / "wideband_residual_phase.png"
 )
