@@ -7,6 +7,7 @@ example runs as it stands.
 
 from __future__ import annotations
 
+import json
 import re
 import shlex
 from pathlib import Path
@@ -87,6 +88,16 @@ def test_the_wide_band_example_chooses_the_orders_the_readme_states(tmp_path, mo
     info = "\n".join(run("wavemeter info band.wmcal.json", capsys))
     assert f"phase_order      {orders.group(1)}" in info
     assert f"map_order        {orders.group(2)}" in info
+    stated = re.search(r"fell from (\S+) MHz .*? to (\S+) MHz", " ".join(section.split()))
+    candidates = {
+        (candidate["phase_order"], candidate["map_order"]): candidate["cv_rms_hz"] / 1e6
+        for candidate in json.loads(Path("band.wmcal.json").read_text())["diagnostics"]["wideband"][
+            "orders"
+        ]["candidates"]
+    }
+    chosen = (int(orders.group(1)), int(orders.group(2)))
+    assert f"{candidates[(1, 0)]:.3g}" == stated.group(1)
+    assert f"{candidates[chosen]:.3g}" == stated.group(2)
     printed = run("wavemeter evaluate band.wmcal.json band-test.csv", capsys)
     row = next(line for line in printed if line.startswith("wideband "))
     # 3000 test readings: the RMS over the bound is 1 within 4 / sqrt(2 x 3000) = 0.05
