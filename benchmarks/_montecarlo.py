@@ -3,7 +3,9 @@
 One place for what every benchmark needs: the simulation regimes (device impairments,
 noise, training sweep and test conditions), seeded device and data generation, the
 Cramer-Rao bound of each device's test set, wall-clock timing as a median of several runs,
-markdown tables on stdout and a progress line on stderr.
+a fit that records its warnings and refusal instead of raising, the cells of the tables
+(RMS, median, PASS/FAIL, warned-or-refused counts), markdown tables on stdout and a
+progress line on stderr.
 
 Seeding: device ``k`` with ``ports`` ports is drawn from ``SeedSequence([seed, ports, k])``
 in every regime, so the regimes that only rescale an impairment see the same devices (the
@@ -17,12 +19,14 @@ import statistics
 import sys
 import time
 import zlib
+from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 import wavemeter as wm
+from wavemeter.exceptions import recorded_calibration_warnings
 
 __all__ = [
     "DESIGN_FSR_HZ",
@@ -32,12 +36,18 @@ __all__ = [
     "TEST_SAMPLES",
     "Regime",
     "Trial",
+    "Fit",
+    "causes_cell",
     "crlb_rms_hz",
+    "fit_recorded",
     "make_device",
     "make_trial",
     "markdown_table",
+    "median",
     "median_time_s",
     "progress",
+    "rms",
+    "status",
     "trials",
 ]
 
@@ -240,3 +250,63 @@ def progress(message: str) -> None:
     """Overwrite the progress line on stderr (stdout carries only the tables)."""
     sys.stderr.write("\r" + message.ljust(100))
     sys.stderr.flush()
+
+
+def rms(values) -> float:
+    return float(np.sqrt(np.mean(np.square(values))))
+
+
+def median(values) -> float:
+    return float(statistics.median(values))
+
+
+def status(ok: bool) -> str:
+    return "PASS" if ok else "FAIL"
+
+
+@dataclass(frozen=True)
+class Fit:
+    """One calibration: the fitted calibrator or why it refused, its warnings and time.
+
+    Attributes
+    ----------
+    calibrator : object or None
+        The fitted calibrator; None when the fit refused the data.
+    refused : str or None
+        ``"ExceptionName: message"`` of the refusal.
+    causes : tuple of str
+        Causes of the ``CalibrationWarning`` s the fit emitted, sorted, one per cause.
+    seconds : float
+        Wall-clock fit time (s).
+    """
+
+    calibrator: object | None
+    refused: str | None
+    causes: tuple[str, ...]
+    seconds: float
+
+
+def fit_recorded(calibrator, powers_w, frequency_hz, **fit_inputs) -> Fit:
+    """Fit ``calibrator`` timed, recording its warnings; a refusal is recorded, not raised."""
+    with recorded_calibration_warnings() as notes:
+        start = time.perf_counter()
+        try:
+            calibrator.fit(powers_w, frequency_hz, **fit_inputs)
+        except wm.WavemeterError as error:
+            refused = f"{type(error).__name__}: {error}"
+        else:
+            refused = None
+        seconds = time.perf_counter() - start
+    if refused is not None:
+        return Fit(None, refused, (), seconds)
+    return Fit(calibrator, None, tuple(sorted({note.cause for note in notes})), seconds)
+
+
+def causes_cell(fits: Sequence[Fit]) -> str:
+    """How many fits warned or refused, with the causes (and refusals, by exception) named
+    and counted."""
+    counts = Counter(cause for fit in fits for cause in fit.causes)
+    counts.update(f"refused ({fit.refused.split(':')[0]})" for fit in fits if fit.refused)
+    warned = sum(bool(fit.causes or fit.refused) for fit in fits)
+    named = ", ".join(f"{cause} {count}" for cause, count in counts.most_common())
+    return f"{warned}/{len(fits)}" + (f": {named}" if named else "")

@@ -46,19 +46,29 @@ Usage: ``python benchmarks/thermal.py [--devices 5] [--test 2000] [--grid-test 5
 
 from __future__ import annotations
 
-import statistics
 import sys
 import zlib
-from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from _montecarlo import DESIGN_FSR_HZ, NOISE_W, POWER_W, make_device, markdown_table, progress
+from _montecarlo import (
+    DESIGN_FSR_HZ,
+    NOISE_W,
+    POWER_W,
+    Fit,
+    causes_cell,
+    fit_recorded,
+    make_device,
+    markdown_table,
+    median,
+    progress,
+    rms,
+    status,
+)
 from _script import Parser, check_writable, positive_int, save_png
 
 import wavemeter as wm
-from wavemeter.exceptions import recorded_calibration_warnings
 
 PORTS = (3, 4, 5)
 #: samples of one one-FSR calibration sweep
@@ -140,39 +150,6 @@ SCENARIOS = (
 )
 
 
-@dataclass(frozen=True)
-class Fit:
-    """One calibration: the fitted calibrator or why it refused, and its warning causes.
-
-    Attributes
-    ----------
-    calibrator : object or None
-        The fitted calibrator; None when the fit refused the data.
-    refused : str or None
-        Name of the exception that refused the data.
-    causes : tuple of str
-        Causes of the ``CalibrationWarning`` s the fit emitted, sorted.
-    """
-
-    calibrator: object | None
-    refused: str | None
-    causes: tuple[str, ...]
-
-
-def fit_recorded(calibrator, powers_w, frequency_hz, **temperature) -> Fit:
-    """Fit ``calibrator``, recording its warnings; a refusal is recorded, not raised."""
-    with recorded_calibration_warnings() as notes:
-        try:
-            calibrator.fit(powers_w, frequency_hz, **temperature)
-        except wm.WavemeterError as error:
-            refused = type(error).__name__
-        else:
-            refused = None
-    if refused is not None:
-        return Fit(None, refused, ())
-    return Fit(calibrator, None, tuple(sorted({note.cause for note in notes})))
-
-
 # ---------------------------------------------------------------------- the truth
 def fringe_rate_hz_per_k(device: wm.Interferometer, frequency_hz, temperature_k) -> np.ndarray:
     """True fringe shift ``df/dT`` (Hz/K) at each reading: ``-(dt/dT) / (dt/df)``.
@@ -239,10 +216,6 @@ def bound_hz(device: wm.Interferometer, frequency_hz, temperature_k, sensor_std_
     """``sqrt(CRLB^2 + (rate x sensor_std_k)^2)`` (Hz) per reading, see :func:`crlb_hz`."""
     rate = fringe_rate_hz_per_k(device, frequency_hz, temperature_k)
     return np.hypot(crlb_hz(device, frequency_hz, temperature_k), rate * sensor_std_k)
-
-
-def rms(values) -> float:
-    return float(np.sqrt(np.mean(np.square(values))))
 
 
 # ---------------------------------------------------------------------- one device
@@ -550,28 +523,11 @@ def evaluate_device(
 
 
 # ---------------------------------------------------------------------- tables
-def status(ok: bool) -> str:
-    return "PASS" if ok else "FAIL"
-
-
-def median(values) -> float:
-    return float(statistics.median(values))
-
-
 def plain_cell(outcomes: list[Outcome], label: str) -> str:
     """Median RMS (GHz) of a plain calibration over the devices it fitted; who warned/refused."""
     errors = [o.plain_error_hz[label] for o in outcomes if o.plain_error_hz[label] is not None]
     cell = f"{median([rms(e) for e in errors]) / 1e9:.3g}" if errors else "-"
     return f"{cell}; {causes_cell([o.plain[label] for o in outcomes])}"
-
-
-def causes_cell(fits: list[Fit]) -> str:
-    """How many fits warned or refused, with the causes (and refusals) named and counted."""
-    counts = Counter(cause for fit in fits for cause in fit.causes)
-    counts.update(f"refused ({fit.refused})" for fit in fits if fit.refused)
-    warned = sum(bool(fit.causes or fit.refused) for fit in fits)
-    named = ", ".join(f"{cause} {count}" for cause, count in counts.most_common())
-    return f"{warned}/{len(fits)}" + (f": {named}" if named else "")
 
 
 def flagged_cell(outcomes: list[Outcome]) -> str:

@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import statistics
 import sys
 import time
 import zlib
@@ -58,15 +57,20 @@ from _montecarlo import (
     DESIGN_FSR_HZ,
     NOISE_W,
     POWER_W,
+    Fit,
     Regime,
+    causes_cell,
+    fit_recorded,
     make_device,
     markdown_table,
+    median,
     progress,
+    rms,
+    status,
 )
 from _script import Parser, check_writable, positive_int, save_png
 
 import wavemeter as wm
-from wavemeter.exceptions import recorded_calibration_warnings
 
 PORTS = (3, 4, 5)
 #: middle of the C band (Hz)
@@ -183,44 +187,6 @@ QUICK_BAND = Band(QUICK_FSR_COUNT, QUICK_SAMPLES_PER_FSR, QUICK_SPARSE_SAMPLES_P
 
 
 # ---------------------------------------------------------------------- fits
-@dataclass(frozen=True)
-class Fit:
-    """One calibration: the fitted calibrator or why it refused, its warnings and time.
-
-    Attributes
-    ----------
-    calibrator : object or None
-        The fitted calibrator; None when the fit refused the data.
-    refused : str or None
-        ``"ExceptionName: message"`` of the refusal.
-    causes : tuple of str
-        Causes of the ``CalibrationWarning`` s the fit emitted, sorted, one per cause.
-    seconds : float
-        Wall-clock fit time (s).
-    """
-
-    calibrator: object | None
-    refused: str | None
-    causes: tuple[str, ...]
-    seconds: float
-
-
-def fit_recorded(calibrator, powers_w, frequency_hz) -> Fit:
-    """Fit ``calibrator`` timed, recording its warnings; a refusal is recorded, not raised."""
-    with recorded_calibration_warnings() as notes:
-        start = time.perf_counter()
-        try:
-            calibrator.fit(powers_w, frequency_hz)
-        except wm.WavemeterError as error:
-            refused = f"{type(error).__name__}: {error}"
-        else:
-            refused = None
-        seconds = time.perf_counter() - start
-    if refused is not None:
-        return Fit(None, refused, (), seconds)
-    return Fit(calibrator, None, tuple(sorted({note.cause for note in notes})), seconds)
-
-
 def set_parameters(calibration_set) -> int:
     """Fitted numbers of a CalibrationSet: ``3 n + 1`` per window (a Calibrator each)."""
     return len(calibration_set.windows_) * (3 * calibration_set.n_ports_ + 1)
@@ -251,10 +217,6 @@ def crlb_hz(device: wm.Interferometer, frequency_hz) -> np.ndarray:
         2.0 * np.pi,
     )
     return phase_bound_rad / (2.0 * np.pi * device.group_delay_s(frequency_hz))
-
-
-def rms(values) -> float:
-    return float(np.sqrt(np.mean(np.square(values))))
 
 
 # ---------------------------------------------------------------------- one device
@@ -562,29 +524,12 @@ def evaluate_device(
 
 
 # ---------------------------------------------------------------------- tables
-def status(ok: bool) -> str:
-    return "PASS" if ok else "FAIL"
-
-
-def median(values) -> float:
-    return float(statistics.median(values))
-
-
 def port_counts(outcomes: list[Outcome]) -> list[int]:
     return [p for p in PORTS if any(o.ports == p for o in outcomes)]
 
 
 def chosen(outcomes: list[Outcome], case: Case, ports: int) -> list[Outcome]:
     return [o for o in outcomes if o.case is case and o.ports == ports]
-
-
-def causes_cell(fits: list[Fit]) -> str:
-    """How many fits warned or refused, with the causes (and refusals) named and counted."""
-    counts = Counter(cause for fit in fits for cause in fit.causes)
-    counts.update(f"refused ({fit.refused.split(':')[0]})" for fit in fits if fit.refused)
-    warned = sum(bool(fit.causes or fit.refused) for fit in fits)
-    named = ", ".join(f"{cause} {count}" for cause, count in counts.most_common())
-    return f"{warned}/{len(fits)}" + (f": {named}" if named else "")
 
 
 def counted_cell(values: list[str]) -> str:
