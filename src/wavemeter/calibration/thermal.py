@@ -36,7 +36,6 @@ from .delay_search import frequency_text
 from .diagnostics import port_health
 from .files import state_array, state_float
 from .flags import temperature_flags
-from .fsr_guard import check_design_fsr
 from .learned import AFFINE_MIN_POWER_SPREAD, RETRIEVALS, Calibrator, port_noise_std_w
 from .misfit import detector_noise_w, phase_noise_variance_w2
 from .reanchor import check_reference_readings, fit_reanchor, reanchored_copy
@@ -140,12 +139,8 @@ class ThermalCalibrator(Calibrator):
         rows = self._layout.largest_cluster
         if np.count_nonzero(rows) < MIN_CLUSTER_READINGS:
             rows = np.ones_like(rows)
-        return check_design_fsr(
-            powers[rows],
-            frequency_hz[rows],
-            fsr_hz=float(self.fsr_hz),
-            fsr_tolerance=self.fsr_tolerance,
-            scale=None if scale is None else scale[rows],
+        return super()._check_sweep(
+            powers[rows], frequency_hz[rows], None if scale is None else scale[rows], None
         )
 
     def _port_health(self, powers, frequency_hz, center_hz, delay_s, names, scale):

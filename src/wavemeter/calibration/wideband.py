@@ -36,7 +36,6 @@ from .delay_search import frequency_text
 from .diagnostics import port_health
 from .files import state_array, state_float
 from .flags import SPAN_MARGIN_STD, ReadingFlag
-from .fsr_guard import check_design_fsr
 from .learned import AFFINE_MIN_POWER_SPREAD, RETRIEVALS, fit_learned_map, port_noise_std_w
 from .misfit import misfit_report
 from .summary import FitValue
@@ -191,12 +190,8 @@ class WidebandCalibrator(BaseCalibrator):
         if np.count_nonzero(rows) < MIN_CENTRAL_READINGS:
             rows = distance <= np.sort(distance)[min(MIN_CENTRAL_READINGS, distance.size) - 1]
         self._central = rows
-        return check_design_fsr(
-            powers[rows],
-            frequency_hz[rows],
-            fsr_hz=float(self.fsr_hz),
-            fsr_tolerance=self.fsr_tolerance,
-            scale=None if scale is None else scale[rows],
+        return super()._check_sweep(
+            powers[rows], frequency_hz[rows], None if scale is None else scale[rows], None
         )
 
     def _port_health(self, powers, frequency_hz, center_hz, delay_s, names, scale):
