@@ -16,6 +16,7 @@ __all__ = [
     "check_frequency",
     "check_monitor",
     "check_per_reading",
+    "check_coarse_inside",
     "check_positive",
     "check_choice",
     "check_fitted",
@@ -168,4 +169,21 @@ def check_fitted(estimator, attribute: str = "fsr_hz_") -> None:
         raise NotFittedError(
             f"this {type(estimator).__name__} is not fitted yet: call fit(powers, frequency_hz) "
             "or load a calibration file first"
+        )
+
+
+def check_coarse_inside(
+    coarse_hz: np.ndarray, inside: np.ndarray, outside_text: str, parameter: str | None = None
+) -> None:
+    """Raise for the first coarse frequency (Hz) not ``inside`` (bool per reading): its value,
+    its row (zero-based) and how many in all are ``outside_text`` (where the calibration has
+    no map), and what to do."""
+    outside = ~np.asarray(inside, dtype=bool)
+    if outside.any():
+        first = int(np.flatnonzero(outside)[0])
+        raise InputError(
+            f"coarse_hz {coarse_hz[first]!r} Hz (reading {first}, zero-based; "
+            f"{int(outside.sum())} in all) is {outside_text}; calibrate over a sweep that "
+            "covers it",
+            parameter=parameter,
         )

@@ -30,6 +30,7 @@ from ..exceptions import CalibrationWarning, InputError, recorded_calibration_wa
 from ..model.cone import wrap_to_period
 from ..validation import (
     MIN_SAMPLES,
+    check_coarse_inside,
     check_fitted,
     check_frequency,
     check_monitor,
@@ -322,15 +323,12 @@ class CalibrationSet(BaseCalibrator):
         check_fitted(self)
         coarse = check_per_reading("coarse_hz", coarse_hz, np.size(coarse_hz))
         low, high = self.covered_hz()
-        outside = (coarse < low) | (coarse > high)
-        if outside.any():
-            first = int(np.flatnonzero(outside)[0])
-            raise InputError(
-                f"coarse_hz {coarse[first]!r} Hz (reading {first}, zero-based; "
-                f"{int(outside.sum())} in all) is outside the calibrated span "
-                f"{low / 1e12:.6f} to {high / 1e12:.6f} THz: no window has a map there; "
-                "calibrate over a sweep that covers it"
-            )
+        check_coarse_inside(
+            coarse,
+            (coarse >= low) & (coarse <= high),
+            f"outside the calibrated span {low / 1e12:.6f} to {high / 1e12:.6f} THz: no window "
+            "has a map there",
+        )
         position = np.floor((coarse - self.window_edges_hz_[0]) / self.fsr_hz_)
         return np.clip(position, 0, len(self.windows_) - 1).astype(int)
 

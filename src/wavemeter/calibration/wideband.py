@@ -30,7 +30,13 @@ import numpy as np
 from ..exceptions import CalibrationWarning, InputError
 from ..model.cone import wrap_phase_rad
 from ..model.uncertainty import fit_parameter_covariance, student_factor
-from ..validation import check_choice, check_fitted, check_per_reading, check_positive
+from ..validation import (
+    check_choice,
+    check_coarse_inside,
+    check_fitted,
+    check_per_reading,
+    check_positive,
+)
 from .base import BaseCalibrator
 from .delay_search import frequency_text
 from .diagnostics import port_health
@@ -472,17 +478,14 @@ class WidebandCalibrator(BaseCalibrator):
     def _readings_and_coarse(self, powers, coarse_hz, temperature_k):
         readings, inputs = self._check_reading_data(powers, coarse_hz, temperature_k)
         coarse = inputs["coarse_hz"]
-        outside = ~self._coarse_inside(coarse)
-        if outside.any():
-            first = int(np.flatnonzero(outside)[0])
-            low, high = self.span_hz_
-            raise InputError(
-                f"coarse_hz {coarse[first]!r} Hz (reading {first}, zero-based; "
-                f"{int(outside.sum())} in all) is more than half an FSR outside the calibrated "
-                f"band {low / 1e12:.6f} to {high / 1e12:.6f} THz: the calibration has no map "
-                "there; calibrate over a sweep that covers it",
-                parameter="coarse_hz",
-            )
+        low, high = self.span_hz_
+        check_coarse_inside(
+            coarse,
+            self._coarse_inside(coarse),
+            f"more than half an FSR outside the calibrated band {low / 1e12:.6f} to "
+            f"{high / 1e12:.6f} THz: the calibration has no map there",
+            parameter="coarse_hz",
+        )
         return readings, coarse
 
     def predict(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
