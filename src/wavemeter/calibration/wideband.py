@@ -558,10 +558,12 @@ class WidebandCalibrator(BaseCalibrator):
         ndarray, shape (N,), Hz
         """
         readings, coarse = self._readings_and_coarse(powers, coarse_hz, temperature_k)
-        return self._frequency_std_checked(readings, coarse, include_calibration)
+        read = self._frequency_checked(readings, coarse)
+        return self._frequency_std_of(readings, *read, include_calibration)
 
-    def _frequency_std_checked(self, readings, coarse_hz, include_calibration=True):
-        frequency, phase, maps = self._frequency_checked(readings, coarse_hz)
+    def _frequency_std_of(self, readings, frequency, phase, maps, include_calibration=True):
+        """Standard deviation (Hz) of readings already read: their frequency (Hz), phase
+        (rad) and maps, as :func:`band_frequency_hz` returns them."""
         variance = band_frequency_variance_hz2(
             self.band_model_,
             readings,
@@ -610,7 +612,7 @@ class WidebandCalibrator(BaseCalibrator):
             return flags
         rows, coarse = readings[inside], coarse_hz[inside]
         frequency, phase, maps = self._frequency_checked(rows, coarse)
-        margin = SPAN_MARGIN_STD * self._frequency_std_checked(rows, coarse)
+        margin = SPAN_MARGIN_STD * self._frequency_std_of(rows, frequency, phase, maps)
         low, high = self.span_hz_
         bits = np.where(
             (frequency < low - margin) | (frequency > high + margin),
