@@ -18,8 +18,9 @@ from .conftest import NOISE_W, POWER_W, one_error, run_cli
 
 EPS = np.finfo(float).eps
 #: the issue's silicon-nitride numbers: dispersion (s^2), coupler slope sigma (symmetric,
-#: breaking) and responsivity slope sigma (1/THz)
-ISSUE_SIN = (4e-28, 0.01, 0.002, 0.005)
+#: breaking) and responsivity slope sigma (1/THz), and the delay the dispersion is of (s:
+#: 50 GHz)
+ISSUE_SIN = (4e-28, 0.01, 0.002, 0.005, 20e-12)
 #: half the C band (Hz): 88 FSRs of 50 GHz about the centre
 HALF_BAND_HZ = 2.2e12
 SEED = 3

@@ -1,5 +1,6 @@
 """Simulated interferometers with the impairments of the paper's Table 1 and hardware faults."""
 
+from .cascade import ISSUE_CASCADE_FSRS_HZ, CascadeInterferometer
 from .drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
 from .interferometer import Interferometer
 from .spectral_presets import SPECTRAL_PRESETS, SpectralPreset
@@ -7,6 +8,8 @@ from .thermal_presets import THERMAL_PRESETS, ThermalPreset
 
 __all__ = [
     "Interferometer",
+    "CascadeInterferometer",
+    "ISSUE_CASCADE_FSRS_HZ",
     "ThermalPreset",
     "THERMAL_PRESETS",
     "SpectralPreset",

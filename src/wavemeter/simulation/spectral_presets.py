@@ -37,12 +37,17 @@ class SpectralPreset:
         Standard deviation (1/THz) of the symmetry-breaking slope, drawn per entry.
     responsivity_slope_sigma_per_thz : float
         Standard deviation (1/THz) of the relative slope of each receiver's responsivity.
+    reference_delay_s : float
+        The delay imbalance (s) ``dispersion_s2`` is that of: ``beta_2 L`` grows with the
+        imbalance length, so a device of delay ``tau`` has ``dispersion_s2 tau /
+        reference_delay_s`` (as :meth:`CascadeInterferometer.table1` scales it).
     """
 
     dispersion_s2: float
     coupler_slope_sigma_per_thz: float
     coupler_breaking_sigma_per_thz: float
     responsivity_slope_sigma_per_thz: float
+    reference_delay_s: float = 20e-12
 
     def __post_init__(self):
         if not np.isfinite(self.dispersion_s2):
@@ -60,6 +65,11 @@ class SpectralPreset:
                 raise InputError(
                     f"{name} must be a finite number >= 0 (1/THz), got {value}", parameter=name
                 )
+        if not (np.isfinite(self.reference_delay_s) and self.reference_delay_s > 0):
+            raise InputError(
+                f"reference_delay_s must be a finite number > 0 (s), got {self.reference_delay_s}",
+                parameter="reference_delay_s",
+            )
 
 
 #: Dispersion and spectral slopes by platform; ``"sin"``: silicon nitride near 1550 nm.
