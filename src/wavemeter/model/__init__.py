@@ -10,6 +10,13 @@ from .cone import (
 )
 from .couplers import fourier_matrix, mmi_matrix, orthonormal_map
 from .limits import check_noise_std, crlb_frequency_std, crlb_ideal_frequency_std
+from .orders import (
+    any_error_probability,
+    edge_error_probability,
+    handover_error_probability,
+    handover_error_rate,
+    wrap_error_probability,
+)
 from .retrieval import cone_ml_phase_rad, source_power_ratio
 from .uncertainty import (
     calibration_frequency_variance_hz2,
@@ -40,4 +47,9 @@ __all__ = [
     "fit_parameter_covariance",
     "calibration_frequency_variance_hz2",
     "student_factor",
+    "handover_error_probability",
+    "handover_error_rate",
+    "edge_error_probability",
+    "any_error_probability",
+    "wrap_error_probability",
 ]
