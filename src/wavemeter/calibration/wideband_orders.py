@@ -76,6 +76,10 @@ CV_FOLDS = 3
 CV_READINGS = 20000
 #: a higher order is taken when it lowers the held-out error by this many standard errors
 CV_Z = 3.0
+#: relative resolution of float64 arithmetic on the model (64 ulp): improvements below it,
+#: in the frequencies held out or in the powers fitted, are rounding, not evidence (a
+#: noiseless sweep keeps the orders its model has)
+ROUNDING_RESOLUTION = 64 * float(np.finfo(float).eps)
 #: FSR windows a sweep needs for the orders to be chosen (else the paper's (1, 0))
 MIN_CV_WINDOWS = 2 + CV_FOLDS
 
@@ -270,6 +274,7 @@ def select_orders(
         )
 
     current = (phase_order or 1, map_order or 0)
+    rounding_hz2 = (ROUNDING_RESOLUTION * abs(center_hz)) ** 2
     while True:
         best = None
         for step in (1, 2):
@@ -277,7 +282,8 @@ def select_orders(
             for move in filter(allowed, moves):
                 lowered = score(current) - score(move)
                 spread = lowered.std(ddof=1) / np.sqrt(lowered.size)
-                if lowered.mean() > CV_Z * spread and (best is None or lowered.mean() > best[0]):
+                enough = lowered.mean() > max(CV_Z * spread, rounding_hz2)
+                if enough and (best is None or lowered.mean() > best[0]):
                     best = (float(lowered.mean()), move)
             if best is not None:
                 break
@@ -362,9 +368,15 @@ def raise_orders(
 
     current = (selection.phase_order, selection.map_order)
     fit, refit = fitted(current, coefficients_rad), False
+    rounding_w2 = max(
+        (ROUNDING_RESOLUTION * float(np.abs(powers).max())) ** 2, np.finfo(float).tiny
+    )
     tests = []
     while True:
-        noise = np.maximum(np.mean(np.square(fit.residual_w), axis=0), np.finfo(float).tiny)
+        noise = np.mean(np.square(fit.residual_w), axis=0)
+        if np.all(noise <= rounding_w2):
+            break  # a residual at float64 rounding: nothing left for a larger model
+        noise = np.maximum(noise, np.finfo(float).tiny)
         tried = []
         if not phase_fixed and current[0] < MAX_PHASE_ORDER:
             move = (current[0] + 1, current[1])
