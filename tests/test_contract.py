@@ -128,6 +128,8 @@ class CalibratorContract:
     used_ports = None
     #: the method assumes the calibration source power (offsets or a fixed ellipse)
     known_power = False
+    #: predictions lie within half an FSR of the centre (False: anywhere in the band)
+    wraps_to_one_fsr = True
 
     def data(self, kind: str, noise_w: float):
         """:func:`simulated` for this class (thermal when it requires the temperature)."""
@@ -138,6 +140,18 @@ class CalibratorContract:
         device, sweep, sweep_hz, test, test_hz, inputs = self.data(kind, noise_w)
         return self.make().fit(sweep, sweep_hz, **inputs), device, test, test_hz
 
+    def error_hz(self, predicted_hz, truth_hz, fsr_hz):
+        """Frequency error (Hz): modulo the FSR for a method that reads within one FSR,
+        absolute for one that reads across a band."""
+        if self.wraps_to_one_fsr:
+            return wm.frequency_error_hz(predicted_hz, truth_hz, fsr_hz)
+        return predicted_hz - truth_hz
+
+    def bound_rms(self, device, test_hz) -> float:
+        """RMS of the Cramer-Rao bound (Hz) of the information the method uses."""
+        used = range(self.ports) if self.used_ports is None else self.used_ports
+        return bound_rms_hz(device, test_hz, used, self.known_power)
+
     def estimator_excess(self, device, test_hz) -> float:
         """Ratio of the estimator's first-order noise to the bound (1: efficient)."""
         return 1.0
@@ -146,16 +160,15 @@ class CalibratorContract:
     def test_recovers_exact_device_without_noise(self):
         cal, device, test, test_hz = self.fitted(self.exact_device, 0.0)
         predicted = cal.predict(test, **reading_inputs(cal, test_hz))
-        error = wm.frequency_error_hz(predicted, test_hz, device.true_fsr_hz)
+        error = self.error_hz(predicted, test_hz, device.true_fsr_hz)
         assert np.max(np.abs(error)) <= NOISELESS_HZ
         assert abs(cal.fsr_hz_ / device.true_fsr_hz - 1) < 1e-12
 
     def test_noise_limited_on_efficient_device(self):
         cal, device, test, test_hz = self.fitted(self.efficient_device, NOISE_W)
         predicted = cal.predict(test, **reading_inputs(cal, test_hz))
-        error = wm.frequency_error_hz(predicted, test_hz, device.true_fsr_hz)
-        used = range(self.ports) if self.used_ports is None else self.used_ports
-        bound = bound_rms_hz(device, test_hz, used, self.known_power)
+        error = self.error_hz(predicted, test_hz, device.true_fsr_hz)
+        bound = self.bound_rms(device, test_hz)
         excess = self.estimator_excess(device, test_hz)
         assert rms(error) <= bound * excess * CALIBRATION_EXCESS * (1 + RMS_STATISTICS)
         assert rms(error) >= bound * (1 - RMS_STATISTICS)  # nothing beats the bound
@@ -168,7 +181,13 @@ class CalibratorContract:
         first = reading_inputs(cal, test_hz[:7])
         predicted = cal.predict(test[:7], **first)
         assert predicted.shape == (7,)
-        assert np.all(np.abs(predicted - cal.center_hz_) <= cal.fsr_hz_ / 2)
+        if self.wraps_to_one_fsr:
+            assert np.all(np.abs(predicted - cal.center_hz_) <= cal.fsr_hz_ / 2)
+        else:
+            low, high = cal.span_hz_
+            assert np.all(
+                (predicted >= low - cal.fsr_hz_ / 2) & (predicted <= high + cal.fsr_hz_ / 2)
+            )
         assert cal.predict(test[0], **reading_inputs(cal, test_hz[0])).shape == (1,)
         assert cal.phase(test[:7], **first).shape == (7,)
 
@@ -275,7 +294,7 @@ class CalibratorContract:
     def test_score_is_minus_the_rms_error(self):
         cal, device, test, test_hz = self.fitted("table1", NOISE_W)
         inputs = reading_inputs(cal, test_hz)
-        error = wm.frequency_error_hz(cal.predict(test, **inputs), test_hz, cal.fsr_hz_)
+        error = self.error_hz(cal.predict(test, **inputs), test_hz, cal.fsr_hz_)
         assert cal.score(test, test_hz, **inputs) == pytest.approx(-rms(error), rel=1e-12)
 
     def test_set_params_changes_a_setting_and_names_unknown_ones(self):
@@ -294,6 +313,37 @@ def pinv_excess(self, device, test_hz):
     pinv_std = np.linalg.norm(tangent @ np.linalg.pinv(matrix), axis=1) * NOISE_W / POWER_W
     first_order = rms(pinv_std) * device.true_fsr_hz / (2 * np.pi)
     return first_order / bound_rms_hz(device, test_hz, range(self.ports), False)
+
+
+#: a two-stage cascade for the contract: a coarse stage whose FSR exceeds the 800 GHz band
+#: and a fine one of 8 FSRs across it; equal power shares
+CASCADE_FSRS_HZ = (1e12, 100e9)
+CASCADE_BAND_HZ = 0.8e12
+
+
+@functools.cache
+def simulated_cascade(kind: str, noise_w: float):
+    """:func:`simulated` for a cascade over ``CASCADE_BAND_HZ``: its finest stage stands for
+    the device (the FSR and the bound are that stage's)."""
+    if kind == "ideal":
+        stages = tuple(wm.Interferometer.ideal(3, fsr_hz=fsr) for fsr in CASCADE_FSRS_HZ)
+        device = wm.CascadeInterferometer(stages)
+    else:
+        device = wm.CascadeInterferometer.table1(CASCADE_FSRS_HZ, ports=3, seed=7, spectral=None)
+    step = CASCADE_BAND_HZ / SWEEP_SAMPLES
+    sweep_hz = device.center_hz - CASCADE_BAND_HZ / 2 + step * np.arange(SWEEP_SAMPLES)
+    test_hz = np.random.default_rng(13).uniform(sweep_hz[0], sweep_hz[-1], TEST_SAMPLES)
+    sweep = device.powers(sweep_hz, POWER_W, noise_w, rng=11)
+    test = device.powers(test_hz, POWER_W, noise_w, rng=12)
+    for array in (sweep_hz, test_hz, sweep, test):
+        array.setflags(write=False)
+    return device.stages[-1], sweep, sweep_hz, test, test_hz, {}
+
+
+def cascade_bound(self, device, test_hz):
+    """The finest stage's bound at its share of the source power (the bound scales as
+    ``1 / power``)."""
+    return bound_rms_hz(device, test_hz, range(3), False) * len(CASCADE_FSRS_HZ)
 
 
 #: per file tag: (case name, settings that differ from CalibratorContract's); a registered
@@ -319,6 +369,21 @@ CASES = {
     "thermal": [("", {"efficient_device": "table1", "estimator_excess": pinv_excess})],
     # a one-FSR sweep: the paper's orders (1, 0), the learned map's contract via coarse_hz
     "wideband": [("", {"efficient_device": "table1", "estimator_excess": pinv_excess})],
+    # absolute frequency across a band from two stages; the finest stage's bound
+    "cascade": [
+        (
+            "",
+            {
+                "make": staticmethod(
+                    functools.partial(wm.CascadeCalibrator, fsr_hz=CASCADE_FSRS_HZ)
+                ),
+                "ports": 2 * 3,
+                "wraps_to_one_fsr": False,
+                "data": lambda self, kind, noise_w: simulated_cascade(kind, noise_w),
+                "bound_rms": cascade_bound,
+            },
+        )
+    ],
     # the sum of port powers is the source power only when ideal
     "nonlinear_fit": [("", {"exact_device": "ideal"})],
     # in quadrature on a 90-degree hybrid: a circle, Heydemann efficient; a fixed ellipse

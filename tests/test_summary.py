@@ -112,7 +112,14 @@ def test_every_calibrator_has_a_summary(sweep, tag, tmp_path):
             device.with_thermal("sin"), 1000, NOISE_W, rng=2
         )
         inputs = {"temperature_k": temperature}
-    cal = cls(fsr_hz=50e9).fit(readings, frequency, **inputs)
+    settings = {"fsr_hz": 50e9}
+    if tag == "cascade":
+        # a two-stage cascade over 4 FSRs of its finest stage
+        cascade = wm.CascadeInterferometer.table1((400e9, 50e9), seed=2, spectral=None)
+        frequency = cascade.center_hz + np.linspace(-100e9, 100e9, 2001)
+        readings = cascade.powers(frequency, POWER_W, NOISE_W, rng=2)
+        settings = {"fsr_hz": (400e9, 50e9)}
+    cal = cls(**settings).fit(readings, frequency, **inputs)
     report = cal.summary()
     assert report.method == tag and report["fsr_hz"].value == cal.fsr_hz_
     assert "FSR" in report.text and "fitted: FSR" in repr(cal)
@@ -122,6 +129,9 @@ def test_every_calibrator_has_a_summary(sweep, tag, tmp_path):
     assert loaded.summary().as_dict() == report.as_dict()
     if tag == "calibration_set":
         assert len(report.windows) == 2 and "windows" in report.text
+    if tag == "cascade":
+        assert len(report.windows) == 2 and "handover_1_2_margin_std" in report.text
+        assert report.windows_are == "stages" and "\n  2 " in report.text
 
 
 def test_summary_before_fit_raises():

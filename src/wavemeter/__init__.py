@@ -18,6 +18,7 @@ from ._version import __version__
 _WHERE = {
     "Calibrator": "calibration",
     "CalibrationSet": "calibration",
+    "CascadeCalibrator": "calibration",
     "ConventionalCalibrator": "calibration",
     "EllipseCalibrator": "calibration",
     "ExtendedConventionalCalibrator": "calibration",
@@ -31,6 +32,7 @@ _WHERE = {
     "retrieve_phase_rad": "calibration",
     "ReadingFlag": "calibration",
     "Interferometer": "simulation",
+    "CascadeInterferometer": "simulation",
     "cone_vectors": "model",
     "phase_to_frequency_hz": "model",
     "wrap_phase_rad": "model",

@@ -12,6 +12,7 @@ from .baselines import (
     NonlinearFitCalibrator,
     PlaneEllipseCalibrator,
 )
+from .cascade import CascadeCalibrator
 from .files import load_calibration, save_calibration
 from .flags import ReadingFlag
 from .learned import Calibrator, predict_frequency_hz, retrieve_phase_rad
@@ -24,6 +25,7 @@ __all__ = [
     "BaseCalibrator",
     "Calibrator",
     "CalibrationSet",
+    "CascadeCalibrator",
     "ConventionalCalibrator",
     "EllipseCalibrator",
     "ExtendedConventionalCalibrator",

@@ -65,6 +65,8 @@ class BaseCalibrator:
     requires: ClassVar[frozenset[str]] = frozenset()
     #: optional features (names from CAPABILITIES) the class provides
     capabilities: ClassVar[frozenset[str]] = frozenset({"power_monitor"})
+    #: the method reads absolute frequency without a coarse input (a cascade of stages)
+    absolute_frequency: ClassVar[bool] = False
     #: ports with a fringe the method needs among those it reads (the cone model: 3)
     fringe_ports_needed: ClassVar[int] = 3
     #: learned attributes common to every calibrator, saved by every calibration file
@@ -533,12 +535,13 @@ class BaseCalibrator:
         """Negative RMS frequency error (Hz) on readings of known frequency (higher is better).
 
         Errors are taken modulo the calibrated FSR for a single-FSR calibrator (it measures
-        frequency modulo its FSR), absolutely for one that reports absolute frequency.
+        frequency modulo its FSR), absolutely for one that reports absolute frequency (from
+        a coarse input, or ``absolute_frequency``).
         """
         predicted = self.predict(powers, coarse_hz=coarse_hz, temperature_k=temperature_k)
         truth = check_frequency(frequency_hz, predicted.shape[0])
         error = predicted - truth
-        if not self.requires & {"coarse_hz"}:
+        if not (self.requires & {"coarse_hz"} or self.absolute_frequency):
             error = wrap_to_period(error, self.fsr_hz_)
         return -float(np.sqrt(np.mean(error**2)))
 
@@ -555,7 +558,7 @@ class BaseCalibrator:
         check_fitted(self)
         values = {
             "fsr_hz": FitValue(self.fsr_hz_, self._fsr_std_hz(), "Hz"),
-            "design_fsr_hz": FitValue(float(self.fsr_hz), None, "Hz"),
+            "design_fsr_hz": FitValue(self._design_fsr_hz(), None, "Hz"),
             "center_hz": FitValue(self.center_hz_, None, "Hz"),
             "calibration_rms_hz": FitValue(self.calibration_rms_hz_, None, "Hz"),
             **self._summary_values(),
@@ -570,11 +573,16 @@ class BaseCalibrator:
             span_hz=tuple(self.span_hz_),
             diagnostics=self.diagnostics_,
             windows=self._window_reports(),
+            windows_are=self._windows_are(),
         )
 
     def _fsr_std_hz(self) -> float | None:
         """Standard error of the fitted FSR (Hz), where the method knows it."""
         return None
+
+    def _design_fsr_hz(self) -> float:
+        """The design FSR (Hz) ``fsr_hz_`` is compared with in the summary."""
+        return float(self.fsr_hz)
 
     def _summary_values(self) -> dict:
         """Method-specific learned values for :meth:`summary` (name -> FitValue)."""
@@ -582,6 +590,10 @@ class BaseCalibrator:
 
     def _window_reports(self) -> tuple:
         return ()
+
+    def _windows_are(self) -> str:
+        """What :meth:`_window_reports` reports on: ``"windows"`` or ``"stages"``."""
+        return "windows"
 
     # ------------------------------------------------------------------ persistence
     def _state(self) -> dict:

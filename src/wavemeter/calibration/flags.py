@@ -35,6 +35,10 @@ integer per reading whose bits are :class:`ReadingFlag` members:
     value. A coarse value off by less than that is never flagged and always picks the right
     order; one off by more is flagged until it is three quarters of an FSR off, beyond
     which it picks a wrong order unseen (no reading of one interferometer can tell).
+    For a cascade of stages (which needs no coarse value): the probability that some
+    stage picked a wrong order, from the stages' uncertainties and each hand-over's
+    residual (:meth:`~wavemeter.calibration.cascade.CascadeCalibrator.order_error_probability`),
+    exceeds the calibration's ``max_order_error`` (default 1e-6).
 
 The pure functions here decide each rule; the calibrators supply the numbers.
 """

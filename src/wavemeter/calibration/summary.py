@@ -191,7 +191,11 @@ class FitReport:
     diagnostics : dict
         The calibrator's ``diagnostics_`` (sweep FSR estimate, port health, warnings).
     windows : tuple of FitReport
-        One report per window of a calibration set; empty otherwise.
+        One report per window of a calibration set (per stage of a cascade); empty
+        otherwise.
+    windows_are : {"windows", "stages"}
+        What ``windows`` holds: a set's windows (numbered from 0) or a cascade's stages
+        (numbered from 1, coarsest first).
     """
 
     method: str
@@ -203,6 +207,7 @@ class FitReport:
     span_hz: tuple
     diagnostics: dict = field(default_factory=dict)
     windows: tuple = ()
+    windows_are: str = "windows"
 
     def __getitem__(self, name: str) -> FitValue:
         return self.values[name]
@@ -219,6 +224,7 @@ class FitReport:
             "span_hz": list(self.span_hz),
             "diagnostics": self.diagnostics,
             "windows": [window.as_dict() for window in self.windows],
+            "windows_are": self.windows_are,
         }
 
     @property
@@ -257,8 +263,9 @@ class FitReport:
             error = "" if value.stderr is None else f" +- {value.stderr:.3g}"
             lines.append(_line(name, f"{value.value:.6g}{error} {value.unit}".rstrip()))
         if self.windows:
-            lines.append(_line("windows", "centre THz      FSR GHz   samples   RMS MHz"))
-            for index, window in enumerate(self.windows):
+            lines.append(_line(self.windows_are, "centre THz      FSR GHz   samples   RMS MHz"))
+            first = 1 if self.windows_are == "stages" else 0
+            for index, window in enumerate(self.windows, start=first):
                 lines.append(
                     f"  {index:<14} {window['center_hz'].value / 1e12:>10.6f} "
                     f"{window['fsr_hz'].value / 1e9:>12.6f} {window.samples:>9} "

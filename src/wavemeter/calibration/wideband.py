@@ -561,9 +561,12 @@ class WidebandCalibrator(BaseCalibrator):
         read = self._frequency_checked(readings, coarse)
         return self._frequency_std_of(readings, *read, include_calibration)
 
-    def _frequency_std_of(self, readings, frequency, phase, maps, include_calibration=True):
+    def _frequency_std_of(
+        self, readings, frequency, phase, maps, include_calibration=True, noise_scale=1.0
+    ):
         """Standard deviation (Hz) of readings already read: their frequency (Hz), phase
-        (rad) and maps, as :func:`band_frequency_hz` returns them."""
+        (rad) and maps, as :func:`band_frequency_hz` returns them; with a detector noise
+        ``noise_scale`` times the calibrated one (the calibration's part unchanged)."""
         variance = band_frequency_variance_hz2(
             self.band_model_,
             readings,
@@ -571,7 +574,7 @@ class WidebandCalibrator(BaseCalibrator):
             phase,
             maps,
             retrieval=self.retrieval,
-            noise_std_w=self.port_noise_std_w_,
+            noise_std_w=noise_scale * self.port_noise_std_w_,
             covariance=self.parameter_covariance_ if include_calibration else None,
             affine=self._affine(),
         )

@@ -120,14 +120,20 @@ def band_crlb_hz(model: BandModel, readings, frequency_hz, phase_rad, noise_std_
     return bound / model.phase_slope_rad_per_hz(frequency_hz)
 
 
-def band_off_model(readings, maps, noise_std_w, noise_dof: float) -> np.ndarray:
-    """Whether each reading's weighted squared distance to its map's cone is improbable
-    (``OFF_MODEL``)."""
+def band_cone_distance(readings, maps, noise_std_w) -> np.ndarray:
+    """Each reading's weighted squared distance ``sum_j r_j^2 / s_j^2`` to its map's cone
+    (maximum-likelihood phase and power; ``n - 2`` degrees of freedom under the model)."""
     phase = cone_ml_phase_rad(readings, maps, noise_std_w=noise_std_w)
     power = source_power_ratio(readings, maps, phase, noise_std_w)
     image = np.einsum("knc,kc->kn", maps, cone_vectors(phase, power))
     residual = (readings - image) / noise_std_w
-    distance = np.einsum("ij,ij->i", residual, residual)
+    return np.einsum("ij,ij->i", residual, residual)
+
+
+def band_off_model(readings, maps, noise_std_w, noise_dof: float) -> np.ndarray:
+    """Whether each reading's weighted squared distance to its map's cone is improbable
+    (``OFF_MODEL``)."""
+    distance = band_cone_distance(readings, maps, noise_std_w)
     return distance > off_model_threshold(readings.shape[1], noise_dof)
 
 

@@ -1,0 +1,828 @@
+"""Absolute frequency from a cascade of interferometers of decreasing FSR, with order confidence.
+
+One source feeds several stages (an on-chip cascade such as 5 THz / 500 GHz / 50 GHz over
+the C band, or the etalons of a commercial meter); a reading holds every stage's ports.
+:class:`CascadeCalibrator` calibrates each stage from one sweep over the band with the
+wide-band model (:class:`~wavemeter.calibration.wideband.WidebandCalibrator`: a phase
+polynomial and a map smooth in frequency, which is the paper's model on a stage whose FSR
+exceeds the band) and reads a frequency without any coarse input:
+
+1. the coarsest stage's phase is unique over the band: read with the band's middle as the
+   coarse value, it gives the frequency;
+2. every further stage is read with the stage before it as the coarse value: of its
+   frequencies modulo its FSR it takes the one nearest that estimate (the fringe order);
+3. the finest stage's frequency is the answer, its uncertainty that of the finest stage
+   (given the orders are right).
+
+A wrong order is a gross error of a whole FSR, so each reading says how likely one is
+(:meth:`CascadeCalibrator.order_error_probability`, :mod:`wavemeter.model.orders`): at a
+hand-over the residual ``r`` (coarse estimate minus fine one) has the standard deviation
+``s`` of both stages' uncertainties, and the posterior probability of another order is
+``sum_{m != 0} w_m / sum_m w_m``, ``w_m = exp(-(r - m F)^2 / (2 s^2))``; at the coarsest
+stage, it is the probability that the reading lies past an end of the range its phase is
+unique over. The probabilities of the stages combine as ``1 - prod (1 - p_k)``.
+
+The fit checks the hand-overs on the sweep itself: a hand-over whose expected wrong-order
+rate at the sweep's noise exceeds ``max_order_error`` is refused (the message names the
+stages and the largest FSR ratio the noise allows), and wrong orders seen on the sweep
+beyond what the rates predict raise a warning.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import numpy as np
+from scipy import special, stats
+
+from ..exceptions import CalibrationWarning, InputError, recorded_calibration_warnings
+from ..model.orders import (
+    any_error_probability,
+    handover_error_probability,
+    handover_error_rate,
+    wrap_error_probability,
+)
+from ..validation import (
+    MIN_SAMPLES,
+    check_choice,
+    check_dark,
+    check_fitted,
+    check_frequency,
+    check_monitor,
+    check_positive,
+    check_powers,
+)
+from .base import BaseCalibrator
+from .delay_search import frequency_text
+from .files import calibrator_fields, calibrator_from_fields
+from .flags import SPAN_MARGIN_STD, ReadingFlag, off_model_threshold, power_flags
+from .learned import RETRIEVALS
+from .wideband import WidebandCalibrator
+from .wideband_reading import band_cone_distance
+
+__all__ = ["CascadeCalibrator", "CascadeReading", "HANDOVER_CAUSE"]
+
+#: the cause of a warning that the sweep saw more wrong orders than the rates predict
+HANDOVER_CAUSE = "order_handover"
+HANDOVER_REMEDY = (
+    "look for steps in the sweep (a mode hop of the laser, a wavelength reference that "
+    "slipped, a stage that drifted) and re-record it"
+)
+#: p-value below which the wrong orders seen on the sweep contradict the predicted ones
+HANDOVER_P_VALUE = 1e-6
+#: a hand-over residual beyond this many standard deviations is OFF_MODEL: the stages
+#: disagree beyond their uncertainties (two-sided p-value ``OFF_MODEL_P_VALUE``, 1e-6)
+DISAGREEMENT_STD = float(special.ndtri(1.0 - 0.5e-6))
+#: readings of one call whose cone distances exceed the calibrated noise at this p-value
+#: carry a noise of their own, which scales their uncertainties (:func:`noise_scale`)
+NOISE_P_VALUE = 1e-6
+#: the issue's C-band cascade (Hz, coarsest first)
+DEFAULT_FSRS_HZ = (5e12, 500e9, 50e9)
+
+
+@dataclasses.dataclass(frozen=True)
+class CascadeReading:
+    """What the cascade found for each of ``N`` readings, stage by stage (coarsest first).
+
+    Attributes
+    ----------
+    frequency_hz, std_hz : ndarray, shape (K, N)
+        Each stage's frequency (Hz) at the order it took and its standard deviation (Hz).
+    phase_rad : ndarray, shape (K, N)
+        Each stage's retrieved phase (rad).
+    maps : list of ndarray, shape (N, n_k, 3)
+        Each stage's map at its frequency.
+    error_probability : ndarray, shape (K, N)
+        Probability that stage ``k`` took a wrong order: the coarsest stage's edge
+        probability, then each hand-over's posterior.
+    disagreement_std : ndarray, shape (K - 1, N)
+        Each hand-over's residual in its standard deviations.
+    cone_distance : ndarray, shape (K, N)
+        Each stage's weighted squared distance of the reading to its cone, in the noise
+        of the readings (``noise_scale``).
+    noise_scale : ndarray, shape (K,)
+        Each stage's detector noise in these readings over the calibrated one
+        (:func:`noise_scale`: 1 unless their cone distances show more noise). Every
+        uncertainty above is in that noise.
+    flags : None or ndarray of int64, shape (N,)
+        The quality mask :meth:`CascadeCalibrator.flags` gives (from
+        :meth:`CascadeCalibrator.read`).
+    """
+
+    frequency_hz: np.ndarray
+    std_hz: np.ndarray
+    phase_rad: np.ndarray
+    maps: list
+    error_probability: np.ndarray
+    disagreement_std: np.ndarray
+    cone_distance: np.ndarray
+    noise_scale: np.ndarray
+    flags: np.ndarray | None = None
+
+    @property
+    def order_error_probability(self) -> np.ndarray:
+        """Probability (per reading) that some stage took a wrong order."""
+        return any_error_probability(self.error_probability)
+
+
+def noise_scale(distance: np.ndarray, free: int, noise_dof: float) -> float:
+    """The readings' noise over the calibrated noise, from their cone distances.
+
+    Under the calibrated noise a distance exceeds ``m``, the median of ``free F(free,
+    noise_dof)``, with probability 1/2. When more of the readings do than that allows at
+    ``NOISE_P_VALUE`` (binomial), the readings carry more noise: the scale is
+    ``sqrt(median(distance) / m)`` (at least 1). Medians keep a few glitches from scaling
+    every reading; a single reading is never scaled (a far one is ``OFF_MODEL`` instead).
+    """
+    median = free * float(stats.f.median(free, noise_dof))
+    above = int(np.count_nonzero(distance > median))
+    if stats.binom.sf(above - 1, distance.size, 0.5) >= NOISE_P_VALUE:
+        return 1.0
+    return max(math.sqrt(float(np.median(distance)) / median), 1.0)
+
+
+def _stage_label(index: int, fsr_hz: float) -> str:
+    return f"stage {index + 1} ({frequency_text(fsr_hz)})"
+
+
+class CascadeCalibrator(BaseCalibrator):
+    """Absolute frequency from interferometer stages of decreasing FSR (module docstring).
+
+    Parameters
+    ----------
+    fsr_hz : sequence of float
+        Design FSR of each stage (Hz), coarsest first, strictly decreasing; at least two.
+        The coarsest must exceed the band (its phase is then unique there).
+    stage_ports : None or sequence of sequences of int
+        The reading columns (zero-based) of each stage, every column in exactly one stage;
+        None: consecutive blocks of equal size.
+    retrieval : {"pinv", "ml"}
+        Phase retrieval of every stage, as for
+        :class:`~wavemeter.calibration.learned.Calibrator`.
+    max_order_error : float
+        Probability of a wrong order above which a reading is flagged ``ORDER_AMBIGUOUS``,
+        and the wrong-order rate per reading above which a hand-over is refused at fit
+        time; in (0, 1).
+    fsr_tolerance : float
+        Relative half width of each stage's FSR bracket, in (0, 1).
+
+    Attributes
+    ----------
+    stages_ : list of WidebandCalibrator
+        One fitted calibration per stage, coarsest first, each on its own columns.
+    stage_ports_ : tuple of tuple of int
+        The columns of each stage.
+    stage_fsrs_hz_ : ndarray, shape (K,)
+        Each stage's fitted FSR at ``center_hz_`` (Hz).
+    fsr_hz_ : float
+        The finest stage's FSR (Hz).
+    handovers_ : list of dict
+        Per hand-over (stage ``k`` to ``k + 1``), JSON-ready: ``ratio`` (fitted FSRs),
+        ``median_std_hz`` (of the residual over the sweep), ``margin_std`` (half the fine
+        FSR over that std: the typical reading's margin), ``worst_margin_std``,
+        ``largest_usable_ratio`` (the ratio at which the sweep's noise would make the rate
+        ``max_order_error``), ``predicted_rate`` (mean expected wrong-order rate over the
+        sweep), ``expected_wrong`` and ``wrong_on_sweep`` (counts on the sweep).
+    edge_margin_std_ : float
+        Distance (in the coarsest stage's standard deviations at the band ends, the
+        smaller end) from the band to the ends of the range that stage's phase is unique
+        over.
+    calibration_rms_hz_ : float
+        RMS absolute error of the sweep read through the cascade (Hz).
+    diagnostics_ : dict
+        ``"cascade"``: stages (FSR, orders, RMS, z-score spread on the sweep), hand-overs
+        and the edge margin; ``"warnings"``: every stage's warnings, named by stage.
+    """
+
+    method = "cascade"
+    absolute_frequency = True
+    capabilities = frozenset({"frequency_std", "power_monitor"})
+
+    def __init__(
+        self,
+        fsr_hz=DEFAULT_FSRS_HZ,
+        stage_ports=None,
+        retrieval: str = "pinv",
+        max_order_error: float = 1e-6,
+        fsr_tolerance: float = 0.2,
+    ):
+        self.fsr_hz = fsr_hz
+        self.stage_ports = stage_ports
+        self.retrieval = retrieval
+        self.max_order_error = max_order_error
+        self.fsr_tolerance = fsr_tolerance
+
+    # ------------------------------------------------------------------ parameters
+    def _design_fsrs_hz(self) -> tuple[float, ...]:
+        values = self.fsr_hz
+        if isinstance(values, (str, bytes)) or np.ndim(values) != 1 or len(values) < 2:
+            raise InputError(
+                "fsr_hz must be the design FSRs of two or more stages (Hz, coarsest first), "
+                f"got {values!r}",
+                parameter="fsr_hz",
+            )
+        try:
+            fsrs = tuple(check_positive("fsr_hz", value) for value in values)
+        except InputError as exc:
+            raise InputError(str(exc), parameter="fsr_hz") from exc
+        if any(fine >= coarse for coarse, fine in zip(fsrs[:-1], fsrs[1:], strict=True)):
+            raise InputError(
+                f"fsr_hz must decrease from stage to stage (coarsest first), got {list(fsrs)}",
+                parameter="fsr_hz",
+            )
+        return fsrs
+
+    def _check_params(self) -> None:
+        self._design_fsrs_hz()
+        check_choice("retrieval", self.retrieval, RETRIEVALS)
+        check_positive("max_order_error", self.max_order_error, upper=1.0)
+        check_positive("fsr_tolerance", self.fsr_tolerance, upper=1.0)
+        if self.stage_ports is not None:
+            self._stage_columns(None)
+
+    def _stage_columns(self, ports: int | None) -> tuple[tuple[int, ...], ...]:
+        """The columns of each stage, checked against ``ports`` columns (None: the setting
+        alone)."""
+        stages = len(self._design_fsrs_hz())
+        if self.stage_ports is None:
+            if ports is None:
+                return ()
+            if ports % stages or ports // stages < 3:
+                raise InputError(
+                    f"the readings have {ports} columns, which do not split into {stages} "
+                    "stages of 3 or more ports each: give stage_ports (the columns of each "
+                    "stage)",
+                    parameter="stage_ports",
+                )
+            size = ports // stages
+            return tuple(tuple(range(k * size, (k + 1) * size)) for k in range(stages))
+        given = self.stage_ports
+        wrong = (
+            f"stage_ports must list, for each of the {stages} stages, 3 or more column "
+            f"indices (zero-based), got {given!r}"
+        )
+        if isinstance(given, (str, bytes)) or len(given) != stages:
+            raise InputError(wrong, parameter="stage_ports")
+        columns = []
+        for block in given:
+            if isinstance(block, (str, bytes)) or np.ndim(block) != 1 or len(block) < 3:
+                raise InputError(wrong, parameter="stage_ports")
+            if not all(
+                isinstance(index, (int, np.integer)) and not isinstance(index, bool) and index >= 0
+                for index in block
+            ):
+                raise InputError(wrong, parameter="stage_ports")
+            columns.append(tuple(int(index) for index in block))
+        flat = [index for block in columns for index in block]
+        if len(set(flat)) != len(flat):
+            raise InputError(
+                f"stage_ports must give each column to one stage only, got {given!r}",
+                parameter="stage_ports",
+            )
+        if ports is not None and sorted(flat) != list(range(ports)):
+            missing = sorted(set(range(ports)) - set(flat))
+            beyond = sorted(set(flat) - set(range(ports)))
+            raise InputError(
+                f"stage_ports must use every one of the {ports} columns once"
+                + (f"; columns {missing} belong to no stage" if missing else "")
+                + (f"; columns {beyond} do not exist" if beyond else "")
+                + ": give each column to a stage, or leave it out of the readings",
+                parameter="stage_ports",
+            )
+        return tuple(columns)
+
+    def get_params_for_file(self) -> dict:
+        params = super().get_params_for_file()
+        if self.stage_ports is not None:
+            params["stage_ports"] = [[int(index) for index in block] for block in self.stage_ports]
+        return params
+
+    @classmethod
+    def _params_from_file(cls, params: dict) -> dict:
+        params = dict(params)
+        if isinstance(params.get("fsr_hz"), list):
+            params["fsr_hz"] = tuple(params["fsr_hz"])
+        if isinstance(params.get("stage_ports"), list):
+            params["stage_ports"] = tuple(
+                tuple(block) if isinstance(block, list) else block
+                for block in params["stage_ports"]
+            )
+        return params
+
+    def _stage_calibrator(self, fsr_hz: float) -> WidebandCalibrator:
+        return WidebandCalibrator(
+            fsr_hz=fsr_hz, fsr_tolerance=self.fsr_tolerance, retrieval=self.retrieval
+        )
+
+    # ------------------------------------------------------------------ fitting
+    def fit(
+        self,
+        powers,
+        frequency_hz,
+        power_monitor_w=None,
+        port_names=None,
+        *,
+        dark_w=None,
+        temperature_k=None,
+    ):
+        """Calibrate every stage from one sweep over the band and check the hand-overs.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n)
+            Port readings of every stage (W, or any unit linear in power), the columns
+            of each stage as ``stage_ports`` says.
+        frequency_hz : array_like, shape (N,)
+            Known source frequency of each reading (Hz), over the band to be measured
+            (narrower than the coarsest FSR).
+        power_monitor_w : None or array_like, shape (N,)
+            Source-power monitor reading (W, or any unit linear in power).
+        port_names : None or sequence of str, length n
+            Names of the columns.
+        dark_w : None or array_like, shape (n,)
+            Per-column dark readings (W), subtracted from every reading.
+        temperature_k : None, float or array_like, shape (N,)
+            Chip temperature of each reading (K): its range is kept in the diagnostics.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        InputError
+            For readings or settings that are wrong (the stage named); with
+            ``parameter="fsr_hz"`` when the coarsest stage's FSR does not exceed the band
+            or a hand-over's wrong-order rate at the sweep's noise exceeds
+            ``max_order_error`` (the message names the stages and the largest usable FSR
+            ratio).
+
+        Warns
+        -----
+        CalibrationWarning
+            Each stage's (named by stage; the coarsest stage's ``"partial_span"`` is left
+            out: its FSR exceeds the band by design), and cause ``"order_handover"`` when
+            the sweep saw more wrong orders than the rates predict.
+        """
+        self._check_params()
+        raw = check_powers(powers, min_samples=MIN_SAMPLES)
+        frequency = check_frequency(frequency_hz, raw.shape[0])
+        monitor = check_monitor(power_monitor_w, raw.shape[0])
+        ports = raw.shape[1]
+        dark = check_dark(dark_w, ports)
+        columns = self._stage_columns(ports)
+        names = [f"p{k + 1}" for k in range(ports)] if port_names is None else list(port_names)
+        if len(names) != ports or not all(isinstance(name, str) for name in names):
+            raise InputError(f"port_names must be {ports} strings, got {port_names!r}")
+        design = self._design_fsrs_hz()
+        stages, notes = [], []
+        for index, (fsr, block) in enumerate(zip(design, columns, strict=True)):
+            label = _stage_label(index, fsr)
+            stage = self._stage_calibrator(fsr)
+            try:
+                with recorded_calibration_warnings() as caught:
+                    stage.fit(
+                        raw[:, block],
+                        frequency,
+                        monitor,
+                        [names[column] for column in block],
+                        dark_w=None if dark is None else dark[list(block)],
+                        temperature_k=temperature_k,
+                    )
+            except InputError as exc:
+                raise type(exc)(f"{label}: {exc}", parameter=exc.parameter) from exc
+            notes += [
+                CalibrationWarning(f"{label}: {note}", cause=note.cause, remedy=note.remedy)
+                for note in caught
+                if not (index == 0 and note.cause == "partial_span")
+            ]
+            stages.append(stage)
+        self.stages_ = stages
+        self.stage_ports_ = columns
+        self.stage_fsrs_hz_ = np.array([stage.fsr_hz_ for stage in stages])
+        self.fsr_hz_ = float(self.stage_fsrs_hz_[-1])
+        self.center_hz_ = stages[0].center_hz_
+        self.span_hz_ = stages[0].span_hz_
+        self.n_ports_ = ports
+        self.n_samples_ = raw.shape[0]
+        self.port_names_ = names
+        self.dark_w_ = dark
+        self.offset_w_ = self._stage_offsets_w()
+        corrected = raw - self._reading_offset_w()
+        total = corrected.sum(axis=1)
+        self.total_power_range_w_ = (float(total.min()), float(total.max()))
+        self._check_coarsest_stage()
+        chain = self._read(corrected)
+        self.calibration_rms_hz_ = float(
+            np.sqrt(np.mean((chain.frequency_hz[-1] - frequency) ** 2))
+        )
+        self.handovers_ = self._handovers(chain, frequency)
+        self.edge_margin_std_ = self._edge_margin_std(chain, frequency)
+        notes += self._handover_notes()
+        self.diagnostics_ = {
+            "temperature_range_k": stages[0].diagnostics_.get("temperature_range_k"),
+            "cascade": {
+                "stages": self._stage_records(chain, frequency),
+                "handovers": self.handovers_,
+                "edge_margin_std": self.edge_margin_std_,
+            },
+            "warnings": [note.record() for note in notes],
+        }
+        for note in notes:
+            warnings.warn(note, stacklevel=2)
+        return self
+
+    def _stage_offsets_w(self) -> np.ndarray:
+        """Every column's fitted offset (W), from the stage that reads it."""
+        offsets = np.zeros(self.n_ports_)
+        for stage, block in zip(self.stages_, self.stage_ports_, strict=True):
+            offsets[list(block)] = stage.offset_w_
+        return offsets
+
+    def _check_coarsest_stage(self) -> None:
+        """Refuse a coarsest stage whose phase repeats within the band."""
+        coarsest = self.stages_[0]
+        low, high = self.span_hz_
+        phase = coarsest.band_model_.phase_rad(np.array([low, high, self.center_hz_]))
+        turn = float(phase[1] - phase[0]) / (2.0 * np.pi)
+        if turn >= 1.0:
+            raise InputError(
+                f"{_stage_label(0, float(self._design_fsrs_hz()[0]))}: its fitted FSR "
+                f"{frequency_text(coarsest.fsr_hz_)} does not exceed the band swept "
+                f"({frequency_text(high - low)}, {turn:.3g} of its fringe): frequencies one "
+                "FSR apart give it the same reading and no stage can tell them apart; sweep "
+                "and measure a band narrower than that FSR, or add a coarser stage",
+                parameter="fsr_hz",
+            )
+
+    def _handovers(self, chain: CascadeReading, frequency_hz: np.ndarray) -> list[dict]:
+        """Every hand-over's record on the sweep (``handovers_``); refuses a hand-over whose
+        expected wrong-order rate exceeds ``max_order_error``."""
+        records = []
+        design = self._design_fsrs_hz()
+        required = math.sqrt(2.0) * float(special.erfcinv(self.max_order_error))
+        for index in range(1, len(self.stages_)):
+            coarse, fine = self.stages_[index - 1], self.stages_[index]
+            fsr = fine.fsr_hz_at(chain.frequency_hz[index])
+            std = np.hypot(chain.std_hz[index - 1], chain.std_hz[index])
+            rate = handover_error_rate(fsr, std)
+            # phase std (rad) of both stages: the ratio at which the margin is `required`
+            coarse_phase = np.median(chain.std_hz[index - 1] * 2.0 * np.pi / coarse.fsr_hz_)
+            fine_phase = np.median(chain.std_hz[index] * 2.0 * np.pi / fine.fsr_hz_)
+            usable = math.sqrt(max((np.pi / required) ** 2 - fine_phase**2, 0.0)) / coarse_phase
+            ratio = coarse.fsr_hz_ / fine.fsr_hz_
+            # the order this hand-over took against the one the recorded frequency has,
+            # each stage's error taken within its own order
+            before = self._within_order_error_hz(chain, frequency_hz, index - 1)
+            after = self._within_order_error_hz(chain, frequency_hz, index)
+            wrong = np.round((before - after) / fsr) != 0
+            record = {
+                "from_stage": index,
+                "to_stage": index + 1,
+                "ratio": float(ratio),
+                "median_std_hz": float(np.median(std)),
+                "margin_std": float(np.median(0.5 * fsr / std)),
+                "worst_margin_std": float(np.min(0.5 * fsr / std)),
+                "largest_usable_ratio": float(usable),
+                "predicted_rate": float(np.mean(rate)),
+                "expected_wrong": float(np.sum(chain.error_probability[index])),
+                "wrong_on_sweep": int(np.count_nonzero(wrong)),
+            }
+            if record["predicted_rate"] > self.max_order_error:
+                raise InputError(
+                    f"{_stage_label(index - 1, design[index - 1])} cannot pick the fringe order "
+                    f"of {_stage_label(index, design[index])}: its frequency noise on the sweep "
+                    f"({frequency_text(record['median_std_hz'])} with the finer stage's, "
+                    f"median) is {2.0 * record['median_std_hz'] / float(np.median(fsr)):.3g} "
+                    "of the finer stage's half FSR, a wrong order for "
+                    f"{record['predicted_rate']:.3g} of the readings (max_order_error "
+                    f"{self.max_order_error:g}); at this noise the largest usable FSR ratio "
+                    f"is {usable:.3g} and these stages have {ratio:.3g}: lower the noise "
+                    "(more power per stage, averaged readings) or add a stage between them",
+                    parameter="fsr_hz",
+                )
+            records.append(record)
+        return records
+
+    def _within_order_error_hz(
+        self, chain: CascadeReading, frequency_hz: np.ndarray, index: int
+    ) -> np.ndarray:
+        """Stage ``index``'s error (Hz) against the recorded frequencies, within its order
+        (the coarsest stage's as it is)."""
+        error = chain.frequency_hz[index] - frequency_hz
+        if index == 0:
+            return error
+        fsr = self.stages_[index].fsr_hz_at(frequency_hz)
+        return error - fsr * np.round(error / fsr)
+
+    def _edge_margin_std(self, chain: CascadeReading, frequency_hz: np.ndarray) -> float:
+        """The coarsest stage's unique range beyond the band, in that stage's standard
+        deviations of the sweep readings at the band's ends (the smaller end)."""
+        ends = np.array([np.argmin(frequency_hz), np.argmax(frequency_hz)])
+        model = self.stages_[0].band_model_
+        end_hz = frequency_hz[ends]
+        offset = model.phase_rad(end_hz) - model.phase_rad(np.array([self.center_hz_]))
+        distance = (np.pi - np.abs(offset)) / model.phase_slope_rad_per_hz(end_hz)
+        return float(np.min(distance / chain.std_hz[0][ends]))
+
+    def _handover_notes(self) -> list[CalibrationWarning]:
+        """A warning per hand-over where the sweep saw improbably many wrong orders."""
+        notes = []
+        for record in self.handovers_:
+            seen, expected = record["wrong_on_sweep"], record["expected_wrong"]
+            if seen and stats.poisson.sf(seen - 1, expected) < HANDOVER_P_VALUE:
+                notes.append(
+                    CalibrationWarning(
+                        f"stage {record['from_stage']} handed stage {record['to_stage']} "
+                        f"another fringe order than the recorded frequency has on {seen} sweep "
+                        f"readings, where the stages' uncertainties predict {expected:.3g}: "
+                        "those readings are not where the sweep says, or the stages disagree "
+                        f"beyond their noise; {HANDOVER_REMEDY}",
+                        cause=HANDOVER_CAUSE,
+                        remedy=HANDOVER_REMEDY,
+                    )
+                )
+        return notes
+
+    def _stage_records(self, chain: CascadeReading, frequency_hz: np.ndarray) -> list[dict]:
+        records = []
+        for index, stage in enumerate(self.stages_):
+            error = chain.frequency_hz[index] - frequency_hz
+            if index == 0:
+                z = error / chain.std_hz[index]
+            else:
+                # modulo the stage's FSR: its precision, whatever order it was handed
+                fsr = stage.fsr_hz_at(chain.frequency_hz[index])
+                z = (error - fsr * np.round(error / fsr)) / chain.std_hz[index]
+            records.append(
+                {
+                    "stage": index + 1,
+                    "ports": [self.port_names_[column] for column in self.stage_ports_[index]],
+                    "fsr_hz": float(stage.fsr_hz_),
+                    "phase_order": stage.phase_order_,
+                    "map_order": stage.map_order_,
+                    "rms_hz": float(np.sqrt(np.mean(error**2))),
+                    "median_std_hz": float(np.median(chain.std_hz[index])),
+                    "z_std": float(np.std(z)),
+                }
+            )
+        return records
+
+    # ------------------------------------------------------------------ reading
+    def _read(self, readings: np.ndarray) -> CascadeReading:
+        """Read validated, offset-corrected readings through the stages (module docstring)."""
+        samples = readings.shape[0]
+        stages = len(self.stages_)
+        frequency = np.empty((stages, samples))
+        std = np.empty((stages, samples))
+        phase = np.empty((stages, samples))
+        distance = np.empty((stages, samples))
+        scale = np.ones(stages)
+        maps = []
+        coarse = np.full(samples, self.center_hz_)
+        for index, (stage, block) in enumerate(zip(self.stages_, self.stage_ports_, strict=True)):
+            rows = readings[:, list(block)]
+            frequency[index], phase[index], stage_maps = stage._frequency_checked(rows, coarse)
+            maps.append(stage_maps)
+            distance[index] = band_cone_distance(rows, stage_maps, stage.port_noise_std_w_)
+            scale[index] = noise_scale(distance[index], len(block) - 2, stage.noise_dof_)
+            distance[index] /= scale[index] ** 2
+            std[index] = stage._frequency_std_of(
+                rows, frequency[index], phase[index], stage_maps, noise_scale=scale[index]
+            )
+            coarse = frequency[index]
+        probability = np.empty((stages, samples))
+        probability[0] = self._edge_probability(frequency[0], std[0])
+        residual = frequency[:-1] - frequency[1:]
+        spread = np.hypot(std[:-1], std[1:])
+        for index in range(1, stages):
+            probability[index] = handover_error_probability(
+                residual[index - 1],
+                self.stages_[index].fsr_hz_at(frequency[index]),
+                spread[index - 1],
+            )
+        with np.errstate(divide="ignore", invalid="ignore"):
+            disagreement = np.abs(residual) / spread
+        return CascadeReading(
+            frequency, std, phase, maps, probability, disagreement, distance, scale
+        )
+
+    def _edge_probability(self, frequency_hz: np.ndarray, std_hz: np.ndarray) -> np.ndarray:
+        """Probability that the coarsest stage's estimate wrapped past an end of the range
+        its phase is unique over, the truth lying in the calibrated band: weighed in that
+        stage's phase (rad), where the wrapped twin lies exactly one turn away."""
+        model = self.stages_[0].band_model_
+        phase = model.phase_rad(frequency_hz)
+        phase_std = std_hz * model.phase_slope_rad_per_hz(frequency_hz)
+        band = model.phase_rad(np.asarray(self.span_hz_, dtype=float))
+        return wrap_error_probability(phase, phase_std, (band[0], band[1]), 2.0 * np.pi)
+
+    def read(self, powers) -> CascadeReading:
+        """Every stage's frequency, uncertainty and order probability for each reading, and
+        the quality flags, in one pass.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Port readings of every stage, in the unit of the calibration sweep (finite:
+            :meth:`flags` takes readings with NaN).
+
+        Returns
+        -------
+        CascadeReading
+        """
+        readings = self._check_readings(powers)
+        chain = self._read(readings)
+        flags = power_flags(
+            readings.sum(axis=1), self._total_power_range_w(), self._offsets_known()
+        )
+        return dataclasses.replace(chain, flags=flags | self._chain_flags(chain))
+
+    def predict(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
+        """Absolute source frequency (Hz) of each reading, from the finest stage at the
+        order the stages before it picked. ``coarse_hz`` and ``temperature_k`` are accepted
+        for the common prediction API and not used.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Port readings of every stage, in the unit of the calibration sweep.
+
+        Returns
+        -------
+        ndarray, shape (N,), Hz
+        """
+        return self.read(powers).frequency_hz[-1]
+
+    def _predict_checked(self, powers: np.ndarray, temperature_k=None) -> np.ndarray:
+        return self._read(powers).frequency_hz[-1]
+
+    def phase(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
+        """The finest stage's retrieved phase (rad) in (-pi, pi].
+
+        Returns
+        -------
+        ndarray, shape (N,), rad
+        """
+        return self.read(powers).phase_rad[-1]
+
+    def frequency_std_hz(
+        self, powers, *, coarse_hz=None, temperature_k=None, include_calibration=True
+    ) -> np.ndarray:
+        """Standard deviation (Hz) of each reading's frequency, given its order is right:
+        the finest stage's (:meth:`WidebandCalibrator.frequency_std_hz`).
+
+        Returns
+        -------
+        ndarray, shape (N,), Hz
+        """
+        readings = self._check_readings(powers)
+        if include_calibration:
+            return self._read(readings).std_hz[-1]
+        chain = self._read(readings)
+        finest = self.stages_[-1]
+        rows = readings[:, list(self.stage_ports_[-1])]
+        return finest._frequency_std_of(
+            rows, chain.frequency_hz[-1], chain.phase_rad[-1], chain.maps[-1], False
+        )
+
+    def order_error_probability(self, powers) -> np.ndarray:
+        """Probability that some stage picked a wrong fringe order, per reading.
+
+        From the stages' uncertainties and each hand-over's residual (module docstring);
+        the mean over readings is the expected wrong-order rate.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+
+        Returns
+        -------
+        ndarray, shape (N,), in [0, 1)
+        """
+        return self.read(powers).order_error_probability
+
+    def crlb_hz(self, powers, *, coarse_hz=None, temperature_k=None, phase_rad=None):
+        """The finest stage's Cramer-Rao bound (Hz) of each reading, at the frequency
+        :meth:`predict` returns or, given ``phase_rad`` (the finest stage's model phase of
+        the frequency to evaluate at, wrapped), at the frequency of that phase nearest it.
+
+        Returns
+        -------
+        ndarray, shape (N,), Hz
+        """
+        raw = np.atleast_2d(np.asarray(powers, dtype=float))
+        found = self.predict(raw)
+        return self.stages_[-1].crlb_hz(
+            raw[:, list(self.stage_ports_[-1])], coarse_hz=found, phase_rad=phase_rad
+        )
+
+    def model_phase_rad(self, frequency_hz) -> np.ndarray:
+        """The finest stage's model phase (rad, wrapped) at frequencies (Hz)."""
+        check_fitted(self)
+        return self.stages_[-1].model_phase_rad(frequency_hz)
+
+    def fsr_hz_at(self, frequency_hz) -> np.ndarray:
+        """The finest stage's local FSR (Hz) at frequencies (Hz)."""
+        check_fitted(self)
+        return self.stages_[-1].fsr_hz_at(frequency_hz)
+
+    def _model_flags(self, readings, coarse_hz, temperature_k) -> np.ndarray:
+        return self._chain_flags(self._read(readings))
+
+    def _chain_flags(self, chain: CascadeReading) -> np.ndarray:
+        """``ORDER_AMBIGUOUS`` where the probability of a wrong order exceeds
+        ``max_order_error``; ``OFF_MODEL`` where a stage's reading is off its cone (in the
+        readings' noise) or a hand-over's residual exceeds ``DISAGREEMENT_STD`` standard
+        deviations (the stages disagree); ``OUTSIDE_SPAN`` where a stage's frequency lies
+        outside the band by more than ``SPAN_MARGIN_STD`` of its standard deviations."""
+        flags = np.zeros(chain.frequency_hz.shape[1], dtype=np.int64)
+        low, high = self.span_hz_
+        for index, block in enumerate(self.stage_ports_):
+            frequency, margin = chain.frequency_hz[index], SPAN_MARGIN_STD * chain.std_hz[index]
+            flags[(frequency < low - margin) | (frequency > high + margin)] |= (
+                ReadingFlag.OUTSIDE_SPAN
+            )
+            threshold = off_model_threshold(len(block), self.stages_[index].noise_dof_)
+            flags[chain.cone_distance[index] > threshold] |= ReadingFlag.OFF_MODEL
+        flags[np.any(chain.disagreement_std > DISAGREEMENT_STD, axis=0)] |= ReadingFlag.OFF_MODEL
+        flags[chain.order_error_probability > self.max_order_error] |= ReadingFlag.ORDER_AMBIGUOUS
+        return flags
+
+    def _offsets_known(self) -> bool:
+        return super()._offsets_known() or any(stage._offsets_known() for stage in self.stages_)
+
+    # ------------------------------------------------------------------ reporting
+    def _fsr_std_hz(self) -> float | None:
+        return self.stages_[-1]._fsr_std_hz()
+
+    def _design_fsr_hz(self) -> float:
+        """The finest stage's design FSR (Hz), as ``fsr_hz_`` is the finest stage's."""
+        return self._design_fsrs_hz()[-1]
+
+    def _summary_values(self) -> dict:
+        from .summary import FitValue
+
+        values = {
+            f"stage_{index + 1}_fsr_hz": FitValue(float(stage.fsr_hz_), stage._fsr_std_hz(), "Hz")
+            for index, stage in enumerate(self.stages_)
+        }
+        for record in self.handovers_:
+            values[f"handover_{record['from_stage']}_{record['to_stage']}_margin_std"] = FitValue(
+                record["margin_std"], None, ""
+            )
+        values["edge_margin_std"] = FitValue(self.edge_margin_std_, None, "")
+        return values
+
+    def _window_reports(self) -> tuple:
+        return tuple(stage.summary() for stage in self.stages_)
+
+    def _windows_are(self) -> str:
+        return "stages"
+
+    # ------------------------------------------------------------------ persistence
+    def _state(self) -> dict:
+        return {
+            "stage_ports": [list(block) for block in self.stage_ports_],
+            "stages": [calibrator_fields(stage) for stage in self.stages_],
+            "handovers": self.handovers_,
+            "edge_margin_std": self.edge_margin_std_,
+        }
+
+    def _set_state(self, state: dict) -> None:
+        design = self._design_fsrs_hz()
+        documents = state.get("stages")
+        if not isinstance(documents, list) or len(documents) != len(design):
+            raise InputError(f"field 'stages' must list {len(design)} stage calibrations")
+        blocks = state.get("stage_ports")
+        if not isinstance(blocks, list):
+            raise InputError("field 'stage_ports' must list the columns of each stage")
+        saved, self.stage_ports = (
+            self.stage_ports,
+            tuple(tuple(block) if isinstance(block, list) else block for block in blocks),
+        )
+        try:
+            columns = self._stage_columns(self.n_ports_)
+        finally:
+            self.stage_ports = saved
+        stages = [
+            calibrator_from_fields(document, f"stage {index + 1}")
+            for index, document in enumerate(documents)
+        ]
+        for index, (stage, block) in enumerate(zip(stages, columns, strict=True)):
+            if not isinstance(stage, WidebandCalibrator) or stage.n_ports_ != len(block):
+                raise InputError(
+                    f"stage {index + 1} must be a 'wideband' calibration of {len(block)} ports, "
+                    f"got {type(stage).method!r} with {stage.n_ports_}"
+                )
+        handovers = state.get("handovers")
+        if not isinstance(handovers, list) or len(handovers) != len(design) - 1:
+            raise InputError(f"field 'handovers' must list {len(design) - 1} hand-overs")
+        self.stages_ = stages
+        self.stage_ports_ = columns
+        self.stage_fsrs_hz_ = np.array([stage.fsr_hz_ for stage in stages])
+        self.fsr_hz_ = float(self.stage_fsrs_hz_[-1])
+        self.handovers_ = handovers
+        self.edge_margin_std_ = float(state.get("edge_margin_std", math.nan))
