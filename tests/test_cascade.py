@@ -325,3 +325,19 @@ def test_score_counts_a_wrong_order_as_the_whole_fsr_it_is():
     error = cal.predict(readings) - shifted
     assert cal.score(readings, shifted) == pytest.approx(-np.sqrt(np.mean(error**2)), rel=1e-12)
     assert -cal.score(readings, shifted) > 0.9 * cal.fsr_hz_
+
+
+def test_a_misfit_of_the_coarsest_stage_says_what_it_means_in_a_cascade():
+    """Over less than one of its FSRs the coarsest stage cannot follow its couplers' and
+    detectors' slopes (here a common one reads as a power drift): the warning says so and
+    that it costs hand-over margin, which the fit reports."""
+    cascade = device()
+    sweep_hz = band_hz(cascade, SWEEP_READINGS)
+    sweep = cascade.powers(sweep_hz, POWER_W, NOISE_W, rng=11)
+    with pytest.warns(wm.CalibrationWarning) as record:
+        cal = wm.CascadeCalibrator(fsr_hz=FSRS_HZ).fit(sweep, sweep_hz)
+    coarsest = [entry.message for entry in record if str(entry.message).startswith("stage 1 ")]
+    assert coarsest
+    for note in coarsest:
+        margin = f"{cal.handovers_[0]['margin_std']:.3g} standard deviations"
+        assert "covers less than one of its FSRs" in str(note) and margin in note.remedy

@@ -70,6 +70,9 @@ HANDOVER_REMEDY = (
     "look for steps in the sweep (a mode hop of the laser, a wavelength reference that "
     "slipped, a stage that drifted) and re-record it"
 )
+#: misfit causes whose residual a map changing with wavelength also leaves on a stage
+#: swept over less than its FSR
+SWEEP_MISFIT_CAUSES = ("power_drift", "detector_offset", "phase_drift", "other_misfit")
 #: p-value below which the wrong orders seen on the sweep contradict the predicted ones
 HANDOVER_P_VALUE = 1e-6
 #: a hand-over residual beyond this many standard deviations is OFF_MODEL: the stages
@@ -363,7 +366,8 @@ class CascadeCalibrator(BaseCalibrator):
         -----
         CalibrationWarning
             Each stage's (named by stage; the coarsest stage's ``"partial_span"`` is left
-            out: its FSR exceeds the band by design), and cause ``"order_handover"`` when
+            out: its FSR exceeds the band by design; its misfits say what they cost in a
+            cascade, ``SWEEP_MISFIT_CAUSES``), and cause ``"order_handover"`` when
             the sweep saw more wrong orders than the rates predict.
         """
         self._check_params()
@@ -420,7 +424,7 @@ class CascadeCalibrator(BaseCalibrator):
         )
         self.handovers_ = self._handovers(chain, frequency)
         self.edge_margin_std_ = self._edge_margin_std(chain, frequency)
-        notes += self._handover_notes()
+        notes = [self._coarsest_context(note) for note in notes] + self._handover_notes()
         self.diagnostics_ = {
             "temperature_range_k": stages[0].diagnostics_.get("temperature_range_k"),
             "cascade": {
@@ -526,6 +530,26 @@ class CascadeCalibrator(BaseCalibrator):
         offset = model.phase_rad(end_hz) - model.phase_rad(np.array([self.center_hz_]))
         distance = (np.pi - np.abs(offset)) / model.phase_slope_rad_per_hz(end_hz)
         return float(np.min(distance / chain.std_hz[0][ends]))
+
+    def _coarsest_context(self, note: CalibrationWarning) -> CalibrationWarning:
+        """A misfit of the coarsest stage, with what it means in a cascade: the stage's
+        band is narrower than its FSR, where a map changing with wavelength cannot be told
+        from the phase, and its uncertainties (the model-free noise) carry the misfit into
+        the hand-over margin, not into the answer."""
+        label = _stage_label(0, self._design_fsrs_hz()[0])
+        if note.cause not in SWEEP_MISFIT_CAUSES or not str(note).startswith(f"{label}:"):
+            return note
+        margin = self.handovers_[0]["margin_std"]
+        context = (
+            "in a cascade the coarsest stage covers less than one of its FSRs, where a map "
+            "changing with wavelength (coupler and detector slopes, which over a sweep look "
+            "like a drift) cannot be told from the phase and leaves a residual of this kind: "
+            "the stage's uncertainties include it, so it costs hand-over margin (now "
+            f"{margin:.3g} standard deviations to stage 2), not the finest stage's accuracy"
+        )
+        return CalibrationWarning(
+            f"{note}; {context}", cause=note.cause, remedy=f"{note.remedy}; {context}"
+        )
 
     def _handover_notes(self) -> list[CalibrationWarning]:
         """A warning per hand-over where the sweep saw improbably many wrong orders."""
