@@ -41,6 +41,8 @@ _WHERE = {
     "orthonormal_map": "model",
     "crlb_frequency_std": "model",
     "crlb_ideal_frequency_std": "model",
+    "design_cascade": "model",
+    "CascadeDesign": "model",
     "error_summary_hz": "analysis",
     "frequency_error_hz": "analysis",
     "write_report": "report",

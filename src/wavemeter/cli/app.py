@@ -44,6 +44,7 @@ COMMANDS = {
     "report": "Write an HTML report with figures of a calibration on its sweep.",
     "reanchor": "Re-anchor a calibration to readings of reference lines of known frequency.",
     "info": "Print a summary of a calibration file.",
+    "design": "Choose the fewest cascade stages that read a band at a wrong-order rate.",
 }
 
 
@@ -115,9 +116,20 @@ OPTION_OF_PARAMETER = {
     "responsivity_slope_per_thz": "--responsivity-slope",
     "phase_order": "--phase-order",
     "map_order": "--map-order",
+    "stage_ports": "--stage-ports",
+    "max_order_error": "--max-order-error",
 }
 _OPTION_IN_COMMAND = {
     "simulate": {"x_unit": "--write-axis-unit", "power_unit": "--write-power-unit"},
+    "design": {
+        "band_hz": "--band",
+        "finest_fsr_hz": "--finest-fsr",
+        "power_w": "--power",
+        "noise_w": "--noise",
+        "ports": "--ports",
+        "wrong_order_rate": "--rate",
+        "stages": "--stages",
+    },
 }
 
 

@@ -1,6 +1,7 @@
 """The physics: object space on the cone, coupler matrices, phase retrieval, its limit and
 the uncertainty of a reading."""
 
+from .cascade_design import CascadeDesign, design_cascade
 from .cone import (
     cone_vectors,
     delay_phase_rad,
@@ -52,4 +53,6 @@ __all__ = [
     "edge_error_probability",
     "any_error_probability",
     "wrap_error_probability",
+    "CascadeDesign",
+    "design_cascade",
 ]
