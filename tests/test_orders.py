@@ -78,3 +78,4 @@ def test_any_error_probability_keeps_tiny_probabilities():
     tiny = np.array([[1e-18], [2e-18], [3e-18]])
     assert any_error_probability(tiny)[0] == pytest.approx(6e-18, rel=1e-12)
     assert any_error_probability(np.array([[0.5], [0.5]]))[0] == pytest.approx(0.75)
+    assert not np.signbit(any_error_probability(np.zeros((3, 2)))).any()

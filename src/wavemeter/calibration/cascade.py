@@ -738,10 +738,19 @@ class CascadeCalibrator(BaseCalibrator):
         ndarray, shape (N,), Hz
         """
         raw = np.atleast_2d(np.asarray(powers, dtype=float))
-        found = self.predict(raw)
+        low, high = self.span_hz_
+        # a reading read outside the band (a wrong order at its end) is bounded at the
+        # band's end: the finest stage has no map beyond it
+        found = np.clip(self.predict(raw), low, high)
         return self.stages_[-1].crlb_hz(
             raw[:, list(self.stage_ports_[-1])], coarse_hz=found, phase_rad=phase_rad
         )
+
+    @property
+    def noise_std_w_(self) -> float:
+        """The finest stage's detector noise estimate (W), the cascade's precision."""
+        check_fitted(self)
+        return self.stages_[-1].noise_std_w_
 
     def model_phase_rad(self, frequency_hz) -> np.ndarray:
         """The finest stage's model phase (rad, wrapped) at frequencies (Hz)."""

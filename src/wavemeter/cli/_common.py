@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import math
 import unicodedata
 from pathlib import Path
 
@@ -42,8 +43,10 @@ __all__ = [
     "load",
     "check_ports",
     "fsr_text",
+    "frequency_text",
     "optical_text",
     "noise_text",
+    "cascade_lines",
 ]
 
 #: Unicode categories never printed: controls (C0, C1, DEL), format characters (bidi
@@ -133,6 +136,19 @@ def fsr_text(fsr_hz: float) -> str:
     return f"{fsr_hz / 1e9:.6f} GHz"
 
 
+#: SI prefixes of frequencies, largest first, for :func:`frequency_text`
+_FREQUENCY_PREFIXES = ((1e12, "THz"), (1e9, "GHz"), (1e6, "MHz"), (1e3, "kHz"))
+
+
+def frequency_text(frequency_hz: float, digits: int = 6) -> str:
+    """A frequency with the largest SI prefix that keeps it >= 1, ``digits`` significant:
+    ``5 THz``, ``496.734 GHz``."""
+    for factor, unit in _FREQUENCY_PREFIXES:
+        if abs(frequency_hz) >= factor:
+            return f"{frequency_hz / factor:.{digits}g} {unit}"
+    return f"{frequency_hz:.{digits}g} Hz"
+
+
 def optical_text(frequency_hz: float) -> str:
     """An optical frequency as every command prints it: ``193.399988 THz (1550.1162 nm)``."""
     return f"{frequency_hz / 1e12:.6f} THz ({SPEED_OF_LIGHT_M_S / frequency_hz * 1e9:.4f} nm)"
@@ -141,6 +157,85 @@ def optical_text(frequency_hz: float) -> str:
 def noise_text(noise_w: float) -> str:
     """A detector noise standard deviation as every command prints it: ``5.012e-07 W``."""
     return f"{noise_w:.4g} W"
+
+
+#: width of the label column of the lines ``info`` and ``calibrate`` print
+LABEL_WIDTH = 17
+
+
+def _finite(value) -> float | None:
+    """A finite number of a calibration file, else None (a file may be hand-edited)."""
+    is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    return float(value) if is_number and math.isfinite(value) else None
+
+
+def _number_text(value, unit: str = "", digits: int = 3) -> str:
+    number = _finite(value)
+    return "?" if number is None else f"{number:.{digits}g}{unit}"
+
+
+def _frequency_entry(value, digits: int = 6) -> str:
+    number = _finite(value)
+    return "?" if number is None else frequency_text(number, digits)
+
+
+def _stage_line(record: dict) -> str:
+    ports = record.get("ports")
+    ports = ", ".join(map(str, ports)) if isinstance(ports, list) else "?"
+    return (
+        f"FSR {_frequency_entry(record.get('fsr_hz'))}, ports {ports}, phase order "
+        f"{record.get('phase_order', '?')}, map order {record.get('map_order', '?')}, median "
+        f"std {_frequency_entry(record.get('median_std_hz'), 4)}, sweep RMS "
+        f"{_frequency_entry(record.get('rms_hz'), 4)}, z spread {_number_text(record.get('z_std'))}"
+    )
+
+
+def _handover_line(record: dict) -> str:
+    return (
+        f"FSR ratio {_number_text(record.get('ratio'))} (largest usable "
+        f"{_number_text(record.get('largest_usable_ratio'))}), margin "
+        f"{_number_text(record.get('margin_std'))} std (worst "
+        f"{_number_text(record.get('worst_margin_std'))}), predicted wrong-order rate "
+        f"{_number_text(record.get('predicted_rate'))}, wrong orders on the sweep "
+        f"{record.get('wrong_on_sweep', '?')} (expected "
+        f"{_number_text(record.get('expected_wrong'))})"
+    )
+
+
+def cascade_lines(diagnostics) -> list[str]:
+    """What ``diagnostics_["cascade"]`` of a cascade calibration holds, one line per stage
+    (FSR, ports, orders, median standard deviation, RMS and z-score spread on the sweep),
+    per hand-over (FSR ratio and the largest the noise allows, margin in standard
+    deviations, predicted wrong-order rate, wrong orders on the sweep) and the coarsest
+    stage's edge margin; none for other calibrations."""
+    record = diagnostics.get("cascade") if isinstance(diagnostics, dict) else None
+    if not isinstance(record, dict):
+        return []
+
+    def line(label: str, text: str) -> str:
+        return printable(f"{label:<{LABEL_WIDTH}}{text}")
+
+    lines = [
+        line(f"stage {stage.get('stage', '?')}", _stage_line(stage))
+        for stage in record.get("stages") or []
+        if isinstance(stage, dict)
+    ]
+    lines += [
+        line(
+            f"hand-over {handover.get('from_stage', '?')}->{handover.get('to_stage', '?')}",
+            _handover_line(handover),
+        )
+        for handover in record.get("handovers") or []
+        if isinstance(handover, dict)
+    ]
+    lines.append(
+        line(
+            "edge margin",
+            f"{_number_text(record.get('edge_margin_std'))} std (the coarsest stage's unique "
+            "range beyond the band, at the band's ends)",
+        )
+    )
+    return lines
 
 
 # ---------------------------------------------------------------------------- shared options

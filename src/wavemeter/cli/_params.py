@@ -1,5 +1,5 @@
 """What options accept: physical quantities with units, the orders of a wide-band model,
-and old option names kept hidden.
+the stages of a cascade, and old option names kept hidden.
 
 Every physical quantity on the command line is a number with a unit (``50GHz``, ``1 mW``,
 ``-30dBm``, ``1550nm``, ``20C``); a bare number is in SI units (Hz, W, K). A bare frequency
@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import math
 import re
+from collections import Counter
 
 import click
 
@@ -34,6 +35,9 @@ __all__ = [
     "PowerListParam",
     "TemperatureParam",
     "OrderParam",
+    "FrequencyListParam",
+    "BandParam",
+    "StagePortsParam",
     "FREQUENCY",
     "FSR",
     "OPTICAL_FREQUENCY",
@@ -44,6 +48,9 @@ __all__ = [
     "TEMPERATURE",
     "PHASE_ORDER",
     "MAP_ORDER",
+    "FSRS",
+    "BAND",
+    "STAGE_PORTS",
     "BARE_FREQUENCY_LIMIT_HZ",
 ]
 
@@ -291,6 +298,112 @@ class OrderParam(click.ParamType):
         return order
 
 
+class FrequencyListParam(click.ParamType):
+    """Frequencies separated by commas, each as ``item`` takes it: ``5THz,500GHz,50GHz``.
+
+    Converts to a tuple of float (Hz), in the order given.
+
+    Parameters
+    ----------
+    item : FrequencyParam
+        What each frequency must be (an FSR refuses a bare number below 1 MHz).
+    """
+
+    name = "F,F,.."
+
+    def __init__(self, item: FrequencyParam):
+        self.item = item
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        parts = [part.strip() for part in str(value).split(",")]
+        if not all(parts):
+            self.fail(
+                f"{value!r}: empty value; separate frequencies with single commas", param, ctx
+            )
+        return tuple(self.item.convert(part, param, ctx) for part in parts)
+
+
+class BandParam(click.ParamType):
+    """An optical band ``LOW:HIGH``, each an optical frequency or vacuum wavelength
+    (``191THz:195.4THz``, ``1534nm:1570nm``). Converts to ``(low, high)`` in Hz, low first."""
+
+    name = "LOW:HIGH"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        parts = str(value).split(":")
+        if len(parts) != 2:
+            self.fail(
+                f"{value!r} is not a band: give its ends as LOW:HIGH (191THz:195.4THz)", param, ctx
+            )
+        ends = sorted(OPTICAL_FREQUENCY.convert(part.strip(), param, ctx) for part in parts)
+        if not ends[1] > ends[0]:
+            self.fail(f"{value!r}: the band's ends must differ", param, ctx)
+        return tuple(ends)
+
+
+_POSITIONS = re.compile(r"^(\d+)(?:-(\d+))?$")
+#: the highest column position ``--stage-ports`` takes (far above any reading's port count)
+MAX_COLUMN_POSITION = 4096
+
+
+def _positions(token: str) -> range | None:
+    """Column positions of one token, ``3`` or ``4-6`` (from 1), or None if it is not one."""
+    found = _POSITIONS.match(token.strip())
+    if found is None:
+        return None
+    first = int(found.group(1))
+    last = first if found.group(2) is None else int(found.group(2))
+    if not 1 <= first <= last <= MAX_COLUMN_POSITION:
+        return None
+    return range(first, last + 1)
+
+
+class StagePortsParam(click.ParamType):
+    """The port columns of each stage of a cascade: stages separated by ``/``, each a list of
+    positions among the port columns (counted from 1, in the order the columns are read)
+    and ranges ``A-B``: ``1-3/4-6/7-9``, ``1,3,5/2,4,6/7-9``.
+
+    Converts to a tuple with one tuple of positions (from 1) per stage. A column given to
+    two stages is refused here; whether every column belongs to a stage, and the stages
+    match the FSRs, is checked against the file.
+    """
+
+    name = "A-B/C-D/.."
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        stages = []
+        for text in str(value).split("/"):
+            positions = []
+            for token in text.split(","):
+                found = _positions(token)
+                if found is None:
+                    self.fail(
+                        f"{value!r}: {token.strip()!r} is not a column position or range; give "
+                        "each stage's columns by position from 1 (3 or 4-6), stages separated by "
+                        "'/': 1-3/4-6/7-9",
+                        param,
+                        ctx,
+                    )
+                positions += found
+            stages.append(tuple(positions))
+        counts = Counter(position for stage in stages for position in stage)
+        twice = sorted(position for position, count in counts.items() if count > 1)
+        if twice:
+            self.fail(
+                f"{value!r} gives column(s) {', '.join(map(str, twice))} to more than one stage; "
+                "each port column belongs to one stage",
+                param,
+                ctx,
+            )
+        return tuple(stages)
+
+
 #: any frequency; a bare number is in Hz
 FREQUENCY = FrequencyParam()
 #: a free spectral range: refuses a bare number below 1 MHz (``--fsr 50`` meant 50GHz)
@@ -311,3 +424,9 @@ TEMPERATURE = TemperatureParam()
 PHASE_ORDER = OrderParam(1, "MAX_PHASE_ORDER")
 #: map order J of a wide-band calibration, 0 (one map) to the highest searched
 MAP_ORDER = OrderParam(0, "MAX_MAP_ORDER")
+#: the design FSRs of a cascade's stages, coarsest first (each as ``FSR`` takes it)
+FSRS = FrequencyListParam(FSR)
+#: an optical band LOW:HIGH (Hz)
+BAND = BandParam()
+#: the port columns of each stage of a cascade (positions from 1)
+STAGE_PORTS = StagePortsParam()

@@ -15,6 +15,14 @@ were recorded as one.
 ``--method wideband`` fits one model across a band of many FSRs (a phase polynomial and a
 map smooth in frequency); ``--phase-order`` and ``--map-order`` fix its orders, which are
 otherwise chosen by cross-validation on held-out FSRs. They belong to that method alone.
+
+``--method cascade`` calibrates interferometer stages of decreasing FSR from one sweep over
+the band (``--fsr`` lists their design FSRs, coarsest first): absolute frequency with no
+coarse input, each reading with the probability of a wrong fringe order. The sweep's port
+columns, in order, are the readings' columns; ``--stage-ports`` gives each stage its
+columns by position (default: consecutive blocks of equal size) and ``--max-order-error``
+the wrong-order probability above which a reading is flagged and a hand-over is refused.
+Both belong to that method alone, and so does a list of FSRs.
 """
 
 from __future__ import annotations
@@ -31,13 +39,14 @@ from ..io import ColumnRequest, port_key
 from ..progress import busy
 from ._common import (
     FORCE,
-    FSR,
     PORT_PHASES,
     QUIET,
     about,
+    cascade_lines,
     check_calibration_output,
     column_options,
     column_request,
+    frequency_text,
     out_option,
     port_phases_rad,
     printable,
@@ -45,7 +54,7 @@ from ._common import (
     say,
     setting,
 )
-from ._params import MAP_ORDER, OFFSETS, PHASE_ORDER
+from ._params import FSRS, MAP_ORDER, OFFSETS, PHASE_ORDER, STAGE_PORTS
 from ._streams import STDIN_LABEL, is_stdio, output_path
 from ._temperature import (
     check_temperature_options,
@@ -59,6 +68,8 @@ from .app import WarningsRefused
 DEFAULT_TEMPERATURE_STD_K = 1e-3
 #: options of the wide-band method alone: option name -> its parameter
 WIDEBAND_OPTIONS = {"--phase-order": "phase_order", "--map-order": "map_order"}
+#: options of the cascade alone: option name -> its parameter
+CASCADE_OPTIONS = {"--stage-ports": "stage_ports", "--max-order-error": "max_order_error"}
 
 
 @contextlib.contextmanager
@@ -117,18 +128,51 @@ def _dark_w(options: dict, request, sweep_table) -> np.ndarray | None:
     return dark.powers_w.mean(axis=0)
 
 
+def _fsr_list_text(fsrs_hz) -> str:
+    return ", ".join(frequency_text(value) for value in fsrs_hz)
+
+
+def _design_fsr(options: dict):
+    """The design FSR of the method: one (Hz), or a cascade's, coarsest first (tuple, Hz;
+    the C-band cascade's 5 THz / 500 GHz / 50 GHz when ``--fsr`` is not given)."""
+    fsrs, method = options["fsr"], options["method"]
+    if method != "cascade":
+        if len(fsrs) != 1:
+            raise InputError(
+                f"--fsr gives {len(fsrs)} FSRs ({_fsr_list_text(fsrs)}) but --method {method} "
+                "calibrates one interferometer: give its one design FSR, or --method cascade "
+                "for stages of decreasing FSR"
+            )
+        return fsrs[0]
+    if not _given("fsr"):
+        from ..calibration.cascade import DEFAULT_FSRS_HZ
+
+        return DEFAULT_FSRS_HZ
+    if len(fsrs) < 2:
+        raise InputError(
+            f"--method cascade needs the design FSR of every stage, two or more, coarsest "
+            f"first (e.g. --fsr 5THz,500GHz,50GHz); got one ({_fsr_list_text(fsrs)})"
+        )
+    if any(fine >= coarse for coarse, fine in zip(fsrs[:-1], fsrs[1:], strict=True)):
+        raise InputError(
+            f"--fsr {_fsr_list_text(fsrs)}: the FSRs of a cascade must decrease from stage to "
+            "stage; list them coarsest first (e.g. --fsr 5THz,500GHz,50GHz)"
+        )
+    return fsrs
+
+
 def _calibrator(options: dict, phases):
     """The unfitted calibrator the options ask for (a calibration set with ``--per-fsr``)."""
     from ..calibration.baselines import ConventionalCalibrator
     from ..calibration.learned import Calibrator
     from ..calibration.set import CalibrationSet
 
-    fsr, tolerance, method = options["fsr"], options["fsr_tolerance"], options["method"]
+    tolerance, method = options["fsr_tolerance"], options["method"]
     retrieval = options["retrieval"]
     if method == "conventional" and retrieval != "pinv":
         raise InputError(
-            f"--retrieval {retrieval} needs --method learned, thermal or wideband, got "
-            f"--method {method}"
+            f"--retrieval {retrieval} needs --method learned, thermal, wideband or cascade, "
+            f"got --method {method}"
         )
     for option, name in WIDEBAND_OPTIONS.items():
         if method != "wideband" and _given(name):
@@ -136,6 +180,14 @@ def _calibrator(options: dict, phases):
                 f"{option} is an order of the wide-band model (--method wideband); --method "
                 f"{method} has no such order: leave {option} out, or add --method wideband"
             )
+    for option, name in CASCADE_OPTIONS.items():
+        if method != "cascade" and _given(name):
+            raise InputError(
+                f"{option} is a setting of a cascade of stages (--method cascade); --method "
+                f"{method} calibrates one interferometer: leave {option} out, or add --method "
+                "cascade"
+            )
+    fsr = _design_fsr(options)
     if method == "learned":
         calibrator = Calibrator(fsr_hz=fsr, fsr_tolerance=tolerance, retrieval=retrieval)
     elif method == "wideband":
@@ -147,6 +199,17 @@ def _calibrator(options: dict, phases):
             phase_order=options["phase_order"],
             map_order=options["map_order"],
             retrieval=retrieval,
+        )
+    elif method == "cascade":
+        from ..calibration.cascade import CascadeCalibrator
+
+        if options["stage_ports"] is not None:
+            _check_stage_groups(options["stage_ports"], fsr)
+        calibrator = CascadeCalibrator(
+            fsr_hz=fsr,
+            retrieval=retrieval,
+            max_order_error=options["max_order_error"],
+            fsr_tolerance=tolerance,
         )
     elif method == "thermal":
         from ..calibration.thermal import ThermalCalibrator
@@ -165,10 +228,10 @@ def _calibrator(options: dict, phases):
             f"(--method thermal); --method {method} does not use it"
         )
     if options["per_fsr"]:
-        if method == "wideband":
+        if method in ("wideband", "cascade"):
             raise InputError(
-                "--per-fsr calibrates each FSR on its own, --method wideband the whole band "
-                "with one model: choose one of them"
+                f"--per-fsr calibrates each FSR on its own, --method {method} the whole band "
+                "at once: choose one of them"
             )
         if calibrator.requires:
             raise InputError(
@@ -321,6 +384,45 @@ def _read_sweeps(calibrator, sweeps: tuple, request, options: dict) -> _Sweeps:
     return _Sweeps(tables, temperature, given)
 
 
+def _check_stage_groups(stage_ports, fsrs_hz) -> None:
+    """Before any work: ``--stage-ports`` gives one group of 3 or more columns per FSR."""
+    if len(stage_ports) != len(fsrs_hz):
+        raise InputError(
+            f"--stage-ports gives the columns of {len(stage_ports)} stage(s) but --fsr has "
+            f"{len(fsrs_hz)} ({_fsr_list_text(fsrs_hz)}): give one group of columns per FSR, "
+            "separated by '/', in the order of the FSRs"
+        )
+    small = [index + 1 for index, stage in enumerate(stage_ports) if len(stage) < 3]
+    if small:
+        raise InputError(
+            f"--stage-ports gives stage(s) {', '.join(map(str, small))} fewer than 3 columns; "
+            "every stage needs 3 or more ports"
+        )
+
+
+def _stage_columns(stage_ports, table) -> tuple:
+    """``--stage-ports`` (positions from 1) as the cascade's columns (from 0), checked
+    against the sweep's port columns: every one in a stage, none beyond them."""
+    ports = len(table.port_names)
+    where = f"{table.source} has {ports} port columns ({_port_list(table)})"
+    given = {position for stage in stage_ports for position in stage}
+    beyond = sorted(given - set(range(1, ports + 1)))
+    if beyond:
+        raise InputError(
+            f"--stage-ports names column(s) {', '.join(map(str, beyond))} but {where}; give "
+            "positions from 1 to the number of port columns (choose the columns with --ports)"
+        )
+    missing = sorted(set(range(1, ports + 1)) - given)
+    if missing:
+        names = ", ".join(table.port_names[position - 1] for position in missing)
+        raise InputError(
+            f"--stage-ports gives no stage column(s) {', '.join(map(str, missing))} ({names}), "
+            f"but {where}: give every port column to a stage, or read only the stages' columns "
+            "with --ports"
+        )
+    return tuple(tuple(position - 1 for position in stage) for stage in stage_ports)
+
+
 def _fit(options: dict, calibrator, sweeps: _Sweeps, dark_w):
     extra = {} if sweeps.temperature_k is None else {"temperature_k": sweeps.temperature_k}
     description = printable(f"calibrating on {sweeps.label}")
@@ -403,7 +505,14 @@ def _read_line(sweeps: _Sweeps) -> str:
     "sweeps", metavar="SWEEP [SWEEP ...]", nargs=-1, required=True, type=click.Path(dir_okay=False)
 )
 @out_option("Calibration file to write: JSON, e.g. chip.wmcal.json ('-' for stdout).")
-@setting("--fsr", "50GHz", FSR, "Design FSR: 50GHz, '49.69 GHz'; a bare number is in Hz (5e10).")
+@setting(
+    "--fsr",
+    "50GHz",
+    FSRS,
+    "Design FSR: 50GHz, '49.69 GHz'; a bare number is in Hz (5e10). --method cascade: every "
+    "stage's, coarsest first (default 5THz,500GHz,50GHz).",
+    metavar="FSR[,FSR..]",
+)
 @setting(
     "--fsr-tolerance",
     0.2,
@@ -412,20 +521,21 @@ def _read_line(sweeps: _Sweeps) -> str:
 )
 @click.option(
     "--method",
-    type=click.Choice(("learned", "conventional", "thermal", "wideband")),
+    type=click.Choice(("learned", "conventional", "thermal", "wideband", "cascade")),
     default="learned",
     show_default=True,
     help="Learned linear map (paper), the conventional ideal-map method, the learned map "
     "with the chip temperature's effect on bias phase and delay (sweeps at several "
-    "temperatures), or one learned model across a band of many FSRs (phase polynomial "
-    "and a map smooth in frequency; readings then need a coarse frequency).",
+    "temperatures), one learned model across a band of many FSRs (phase polynomial "
+    "and a map smooth in frequency; readings then need a coarse frequency), or a cascade "
+    "of stages of decreasing FSR (absolute frequency, no coarse input).",
 )
 @click.option(
     "--retrieval",
     type=click.Choice(("pinv", "ml")),
     default="pinv",
     show_default=True,
-    help="Phase retrieval of the learned, thermal and wideband methods: pseudo-inverse "
+    help="Phase retrieval of the learned, thermal, wideband and cascade methods: pseudo-inverse "
     "(paper) or cone-constrained maximum likelihood (reaches the Cramer-Rao bound also for "
     "ill-conditioned maps).",
 )
@@ -442,6 +552,22 @@ def _read_line(sweeps: _Sweeps) -> str:
     metavar="J",
     help="Legendre order of the map's change across the band of --method wideband: 0 (one "
     "map) or higher. Default: chosen by cross-validation on held-out FSRs.",
+)
+@click.option(
+    "--stage-ports",
+    type=STAGE_PORTS,
+    help="Port columns of each stage of --method cascade, by position among the port "
+    "columns read (from 1, in order), stages separated by '/' in the order of --fsr: "
+    "1-3/4-6/7-9, 1,3,5/2,4,6/7-9. Default: consecutive blocks of equal size.",
+)
+@setting(
+    "--max-order-error",
+    1e-6,
+    click.FloatRange(0, 1, min_open=True, max_open=True),
+    "Probability of a wrong fringe order above which --method cascade flags a reading "
+    "ORDER_AMBIGUOUS, and the wrong-order rate at the sweep's noise above which it refuses "
+    "a hand-over between stages.",
+    metavar="P",
 )
 @temperature_k_option(
     "Chip temperature of every reading of a sweep file (thermal method), once per file in "
@@ -506,6 +632,14 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
     given. Measuring with it needs a coarse frequency of each reading within half an
     FSR (--coarse or --coarse-frequency), which picks the fringe order.
 
+    --method cascade calibrates stages of decreasing FSR (--fsr 5THz,500GHz,50GHz,
+    coarsest first; the coarsest must exceed the band) from one sweep over the band: the
+    port columns read, in order, are the stages' columns, in consecutive blocks of equal
+    size or as --stage-ports says. Each stage picks the fringe order of the next, so
+    readings need no coarse frequency; a hand-over the sweep's noise makes unreliable
+    (wrong-order rate above --max-order-error) is refused with the largest FSR ratio the
+    noise allows.
+
     \b
     Example:
       wavemeter calibrate sweep.csv -o chip.wmcal.json --fsr 50GHz
@@ -517,6 +651,8 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
           --temperature-k 21.5C -o chip.wmcal.json
       wavemeter calibrate --method wideband band.csv -o band.wmcal.json
       wavemeter calibrate --method wideband band.csv -o band.wmcal.json --phase-order 2
+      wavemeter calibrate --method cascade cband.csv -o cascade.wmcal.json \\
+          --fsr 5THz,500GHz,50GHz --stage-ports 1-3/4-6/7-9
     """
     from ..calibration.files import save_calibration
 
@@ -533,6 +669,8 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
     request = column_request(options)
     quiet = options["quiet"]
     read_sweeps = _read_sweeps(calibrator, sweeps, request, options)
+    if options["stage_ports"] is not None:
+        calibrator.set_params(stage_ports=_stage_columns(options["stage_ports"], read_sweeps.first))
     dark_w = _dark_w(options, request, read_sweeps.first)
     calibration = _fit(options, calibrator, read_sweeps, dark_w)
     with output_path(out_path) as target:
@@ -540,6 +678,8 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
     to_stderr = is_stdio(out_path)
     say(quiet, _read_line(read_sweeps), err=to_stderr)
     say(quiet, calibration.summary().text, err=to_stderr)
+    for line in cascade_lines(getattr(calibration, "diagnostics_", None)):
+        say(quiet, line, err=to_stderr)
     say(quiet, f"wrote {'the calibration to stdout' if to_stderr else out_path}", err=to_stderr)
 
 

@@ -1,4 +1,10 @@
-"""`wavemeter evaluate`: frequency errors on readings of known frequency."""
+"""`wavemeter evaluate`: frequency errors on readings of known frequency.
+
+A cascade calibration reads absolute frequency without a coarse input; its wrong fringe
+orders (readings off by half the finest stage's FSR or more) are counted against the number
+its ``order_error_probability`` predicts, and against the readings it flags
+``ORDER_AMBIGUOUS``.
+"""
 
 from __future__ import annotations
 
@@ -84,6 +90,24 @@ def _coarse_users(calibrations: dict) -> str:
     return ", ".join(dict.fromkeys(kinds))
 
 
+def _is_cascade(calibration) -> bool:
+    """Whether a calibration reads absolute frequency through stages (a cascade)."""
+    return calibration.absolute_frequency and hasattr(calibration, "stages_")
+
+
+def _order_lines(report: dict) -> list[str]:
+    """One line per cascade: wrong orders seen, predicted and flagged
+    (:func:`wavemeter.report.content.order_errors`)."""
+    samples = report["samples"]
+    return [
+        f"fringe orders of {label}: {record['wrong_orders']} of {samples} readings off by half "
+        f"the finest stage's FSR or more, {record['expected_wrong_orders']:.3g} expected from "
+        f"its order_error_probability; {record['flagged_order_ambiguous']} flagged "
+        f"ORDER_AMBIGUOUS ({record['wrong_orders_flagged']} of the wrong ones)"
+        for label, record in report.get("order_errors", {}).items()
+    ]
+
+
 def _print_evaluation(report: dict, calibrations: dict) -> None:
     say(
         False,
@@ -122,6 +146,8 @@ def _print_evaluation(report: dict, calibrations: dict) -> None:
             f"from the calibration residual of {report['crlb_method']}, its map taken as the "
             "true one)",
         )
+    for line in _order_lines(report):
+        say(False, line)
     users = _coarse_users(calibrations)
     if report["coarse_from"] == "coarse_hz":
         say(False, f"coarse frequency of each reading ({users}): column {report['coarse_column']}")
@@ -157,7 +183,14 @@ def _placement_notes(report: dict, calibrations: dict) -> list[str]:
                 f"({fsr / 1e9:.6f} GHz)"
             )
         needs_coarse = "coarse_hz" in calibrations[label].requires
-        if needs_coarse and report["coarse_from"] == "truth":
+        if _is_cascade(calibrations[label]):
+            reason = (
+                "a cascade picks each reading's fringe order from its coarser stages and reads "
+                "only the band it was calibrated on: readings outside it, or noisier than its "
+                "hand-overs allow, come back whole FSRs off (measure writes each reading's "
+                "order_error_probability and flags ORDER_AMBIGUOUS)"
+            )
+        elif needs_coarse and report["coarse_from"] == "truth":
             reason = "its maps misread them even with the true frequency as the coarse value"
         elif needs_coarse and hasattr(calibrations[label], "windows_"):
             reason = (
@@ -239,7 +272,7 @@ def _test_temperature_k(calibrations: dict, table):
     "--sweep",
     type=click.Path(dir_okay=False),
     help="Sweep to fit the other method (learned <-> conventional; wideband -> learned per "
-    "FSR) for comparison.",
+    "FSR) for comparison; a cascade has none.",
 )
 @click.option(
     "--compare",
@@ -288,7 +321,9 @@ def evaluate(
     structure makes that bound loose). A calibration set picks each reading's window, a
     wide-band calibration its fringe order, from --coarse, else from the truth; a thermal
     calibration reads each reading's chip temperature from the test file's temperature
-    column (--temperature COL).
+    column (--temperature COL). A cascade calibration needs no coarse frequency (and
+    refuses --coarse); its wrong fringe orders are counted against those its
+    order_error_probability predicts and those it flags ORDER_AMBIGUOUS.
 
     \b
     Example:
@@ -296,6 +331,19 @@ def evaluate(
       wavemeter evaluate set.wmcal.json test.csv --adjacent --json
     """
     calibration = load(calibration_file)
+    if sweep is not None and _is_cascade(calibration):
+        raise InputError(
+            f"--sweep fits another method on the sweep to compare with, and {calibration_file} "
+            f"is a {calibration.method_label} calibration, which has none (no other method "
+            "reads absolute frequency from the readings of its stages): leave --sweep out, or "
+            "pass another calibration file with --compare"
+        )
+    if coarse_column is not None and calibration.absolute_frequency and not compare_files:
+        raise InputError(
+            f"{calibration_file} is a {calibration.method_label} calibration: it reads the "
+            "absolute frequency and picks every fringe order itself, so it has no use for a "
+            "coarse frequency; leave --coarse out"
+        )
     request = column_request(options, coarse=coarse_column)
     table = read(
         test,
@@ -324,6 +372,7 @@ def evaluate(
         "coarse_column": table.coarse_column,
     }
     from ..analysis.evaluation import adjacent_evaluation, evaluate_calibrations
+    from ..report.content import order_errors
 
     with about(test):
         report.update(
@@ -335,6 +384,13 @@ def evaluate(
                 temperature_k=_test_temperature_k(calibrations, table),
             )
         )
+        orders = {
+            label: order_errors(other, table.powers_w, table.x_hz)
+            for label, other in calibrations.items()
+            if _is_cascade(other)
+        }
+    if orders:
+        report["order_errors"] = orders
     if adjacent:
         if not hasattr(calibration, "windows_"):
             raise InputError(

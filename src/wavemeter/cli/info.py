@@ -7,7 +7,10 @@ errors, its reference temperature, calibrated range and unambiguous bias-rate ra
 metadata says where each sweep file's temperature came from. A wide-band calibration adds
 its orders and parameter count, its phase coefficients with their standard errors, how the
 orders were chosen (the cross-validation curve) and the residual phase across the band
-(``diagnostics_["wideband"]``).
+(``diagnostics_["wideband"]``). A cascade calibration adds a line per stage (FSR, ports,
+orders, median standard deviation), per hand-over (FSR ratio and the largest usable one,
+margin in standard deviations, predicted wrong-order rate, wrong orders on the sweep) and
+the coarsest stage's edge margin (``diagnostics_["cascade"]``).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ import click
 
 from ..exceptions import FileFormatError
 from ..report.formatting import PHASE_COEFFICIENT_NAMES, scientific_with_error
-from ._common import printable
+from ._common import cascade_lines, printable
 
 #: extensions of the data files the readers take (sweeps, readings), never calibrations
 DATA_EXTENSIONS = frozenset(
@@ -283,9 +286,10 @@ def info(calibration_file):
         )
     )
     click.echo(printable(content.calibrator.summary().text))
-    wide_band = wideband_lines(getattr(content.calibrator, "diagnostics_", None))
-    if wide_band:
-        click.echo("\n".join(wide_band))
+    diagnostics = getattr(content.calibrator, "diagnostics_", None)
+    model_lines = wideband_lines(diagnostics) + cascade_lines(diagnostics)
+    if model_lines:
+        click.echo("\n".join(model_lines))
     click.echo("\n".join(metadata_lines(content.metadata)))
 
 

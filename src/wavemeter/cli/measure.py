@@ -9,15 +9,24 @@ output has a ``temperature_k`` column: the temperature (K) each reading was retr
 A calibration that needs a coarse frequency of each reading (``"coarse_hz"`` in its
 ``requires``: a per-FSR set, which picks the window by it, or a wide-band calibration,
 which picks the fringe order) gets it from ``--coarse COL`` or ``--coarse-frequency``.
+
+A cascade calibration reads absolute frequency with no coarse input (and refuses one): each
+chunk of readings is read in one pass (:meth:`~wavemeter.CascadeCalibrator.read`), and the
+output adds ``order_error_probability``, the probability that some stage picked a wrong
+fringe order. When a stage's readings are noisier than its calibration sweep, one
+``warning: [reading_noise]`` line says which and by how much: the uncertainties and order
+probabilities written follow the readings' own noise.
 """
 
 from __future__ import annotations
+
+import warnings
 
 import click
 import numpy as np
 
 from ..calibration.flags import ReadingFlag, flag_counts
-from ..exceptions import InputError
+from ..exceptions import CalibrationWarning, InputError
 from ..io import write_table
 from ..progress import busy, chunked
 from ..units import SPEED_OF_LIGHT_M_S
@@ -29,6 +38,7 @@ from ._common import (
     check_ports,
     column_options,
     column_request,
+    frequency_text,
     load,
     names,
     out_option,
@@ -75,6 +85,43 @@ def _coarse(calibration, cal_path, table, coarse_hz):
     )
 
 
+#: cause of the warning that a cascade's readings are noisier than its calibration sweep
+READING_NOISE_CAUSE = "reading_noise"
+
+
+def _refuse_coarse(calibration, cal_path, coarse_column, coarse_hz) -> None:
+    """A calibration that reads absolute frequency (a cascade) takes no coarse frequency."""
+    if calibration.absolute_frequency and (coarse_column is not None or coarse_hz is not None):
+        option = "--coarse" if coarse_column is not None else "--coarse-frequency"
+        raise InputError(
+            f"{cal_path} is a {calibration.method_label} calibration: its stages read the "
+            f"absolute frequency and pick every fringe order themselves, so it has no use for a "
+            f"coarse frequency; leave {option} out"
+        )
+
+
+def _noise_warning(calibration, noise_scale: np.ndarray) -> CalibrationWarning | None:
+    """The warning that a cascade's readings are noisier than its calibration sweep, from
+    the largest noise scale of each stage over the chunks (K,); None when none is."""
+    noisier = np.flatnonzero(noise_scale > 1.0)
+    if noisier.size == 0:
+        return None
+    fsrs = calibration.stage_fsrs_hz_
+    stages = ", ".join(
+        f"{noise_scale[index]:.3g}x in stage {index + 1} ({frequency_text(fsrs[index])})"
+        for index in noisier
+    )
+    return CalibrationWarning(
+        f"the readings are noisier than the calibration sweep: their detector noise is "
+        f"{stages} the calibrated one (estimated from the readings' distances to each stage's "
+        "model); frequency_std_hz and order_error_probability follow the readings' noise, "
+        "and wrong orders grow more likely with it",
+        cause=READING_NOISE_CAUSE,
+        remedy="lower the readings' noise (more power, averaging) or recalibrate in the "
+        "conditions of use",
+    )
+
+
 def flag_summary(flags: np.ndarray) -> str:
     """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2`` (a reading may have
     several bits, so the counts can add up to more than the readings flagged)."""
@@ -87,8 +134,8 @@ def flag_summary(flags: np.ndarray) -> str:
 @click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
 @click.argument("data", type=click.Path(dir_okay=False))
 @out_option(
-    "Output file: frequency_hz, wavelength_nm, phase_rad, frequency_std_hz, flags per input row "
-    "('-': stdout)."
+    "Output file: frequency_hz, wavelength_nm, phase_rad, frequency_std_hz, "
+    "order_error_probability (cascade), flags per input row ('-': stdout)."
 )
 @click.option("--keep", metavar="COL,COL,..", help="Input columns to copy into the output.")
 @FORMAT
@@ -148,9 +195,11 @@ def measure(
     phase_rad at full float64 precision, frequency_std_hz (unless --no-uncertainty or
     the calibration gives none), flags (quality bits: 1 OFF_MODEL, 2 OUTSIDE_SPAN,
     4 POWER_RANGE, 8 INVALID, 16 TEMPERATURE_RANGE, 32 ORDER_AMBIGUOUS; 0 when nothing is
-    wrong), for a
-    thermal calibration temperature_k (the chip temperature used, K), then the --keep
-    columns. Rows skipped with --drop-invalid are written as NaN with the INVALID flag.
+    wrong), for a thermal calibration temperature_k (the chip temperature used, K), then
+    the --keep columns. A cascade calibration adds order_error_probability (unit-less,
+    before flags): the probability that some stage picked a wrong fringe order, which flags
+    ORDER_AMBIGUOUS above the calibration's --max-order-error. Rows skipped with
+    --drop-invalid are written as NaN with the INVALID flag.
     DATA '-' is read from stdin; with -o - the table goes to stdout (CSV unless --format)
     and messages to stderr. An existing output is replaced only with --force.
 
@@ -159,19 +208,23 @@ def measure(
     --temperature COL) or --temperature-k for the whole file. A per-FSR calibration set
     and a wide-band calibration need a coarse frequency of each reading within half an
     FSR of the truth (--coarse COL, or --coarse-frequency for the whole file): it picks
-    the window, or the fringe order.
+    the window, or the fringe order. A cascade calibration needs none (and refuses one);
+    when a stage's readings are noisier than its calibration sweep, a warning line says
+    so, and the uncertainties and order probabilities follow the readings' noise.
 
     \b
     Example:
       wavemeter measure chip.wmcal.json readings.csv -o frequencies.csv --keep time_s
       wavemeter measure thermal.wmcal.json readings.csv -o f.csv --temperature 'Temp (C)'
       wavemeter measure band.wmcal.json readings.csv -o f.csv --coarse set_point_THz
+      wavemeter measure cascade.wmcal.json readings.csv -o f.csv
     """
     quiet = options["quiet"]
     file_format = output_format(
         out_path, file_format, inputs=(calibration_file, data), force=force
     )  # before any work
     calibration = load(calibration_file)
+    _refuse_coarse(calibration, calibration_file, coarse_column, coarse_hz)
     offered = "frequency_std" in calibration.capabilities
     if uncertainty and not offered:
         raise InputError(
@@ -206,6 +259,9 @@ def measure(
     phase = np.full(table.n_rows, np.nan)
     std = np.full(table.n_rows, np.nan)
     flags = np.where(table.invalid, int(ReadingFlag.INVALID), 0)
+    cascade = hasattr(calibration, "stages_")
+    order_error = np.full(table.n_rows, np.nan) if cascade else None
+    noise_scale = np.ones(len(calibration.stages_)) if cascade else None
     rows = np.flatnonzero(~table.invalid)
     description = printable(f"measuring {table.source}")
     for block in chunked(valid.n_rows, description, quiet=quiet):
@@ -213,16 +269,28 @@ def measure(
         if temperature is not None:
             extra["temperature_k"] = temperature[rows[block]]
         with about(table.source):
+            if cascade:  # every stage in one pass
+                found = calibration.read(valid.powers_w[block])
+                frequency[rows[block]] = found.frequency_hz[-1]
+                phase[rows[block]] = found.phase_rad[-1]
+                std[rows[block]] = found.std_hz[-1]
+                order_error[rows[block]] = found.order_error_probability
+                flags[rows[block]] = found.flags
+                noise_scale = np.maximum(noise_scale, found.noise_scale)
+                continue
             frequency[rows[block]] = calibration.predict(valid.powers_w[block], **extra)
             phase[rows[block]] = calibration.phase(valid.powers_w[block], **extra)
             if uncertainty:
                 std[rows[block]] = calibration.frequency_std_hz(valid.powers_w[block], **extra)
             flags[rows[block]] = calibration.flags(valid.powers_w[block], **extra)
+    if cascade and (noisier := _noise_warning(calibration, noise_scale)) is not None:
+        warnings.warn(noisier, stacklevel=1)
     columns = {
         "frequency_hz": frequency,
         "wavelength_nm": SPEED_OF_LIGHT_M_S / frequency * 1e9,
         "phase_rad": phase,
         **({"frequency_std_hz": std} if uncertainty else {}),
+        **({} if order_error is None else {"order_error_probability": order_error}),
         "flags": flags,
         **({} if temperature is None else {"temperature_k": temperature}),
     }

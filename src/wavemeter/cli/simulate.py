@@ -17,6 +17,13 @@ the device's reference 293.15 K) or during a linear ramp (``--ramp-k A:B`` over 
 recording, with ``--repeat`` sweeps in a row), and the files get a ``temperature_k``
 column. Runs at different temperatures simulate the same device (same ``--seed``) with
 noise of their own: the noise is drawn from a stream of the seed and the temperatures.
+
+A cascade (``--cascade 5THz,500GHz,50GHz``: Table 1 stages of decreasing FSR fed by one
+source through an equal splitter, :class:`~wavemeter.simulation.CascadeInterferometer`) is
+swept over ``--band LOW:HIGH`` (default the C band, 191-195.4 THz), centred in it; its port
+columns are named ``p<stage><port>`` (``p11, p12, p13, p21, ...``, the port zero-padded past
+9 ports), which the readers find in that order. ``--ports`` is each stage's port count and
+``--power`` the source power before the split.
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ from ._common import (
     FORMAT,
     FSR,
     QUIET,
+    frequency_text,
     fsr_text,
     note,
     optical_text,
@@ -48,7 +56,7 @@ from ._common import (
     say,
     setting,
 )
-from ._params import NOISE_POWER, NOISE_POWERS, OFFSETS, POWER, TEMPERATURE
+from ._params import BAND, FSRS, NOISE_POWER, NOISE_POWERS, OFFSETS, POWER, TEMPERATURE
 from ._streams import is_stdio
 
 #: bias phase change per kelvin of ``--thermal-drift`` for a device without a thermal
@@ -67,6 +75,21 @@ _SPECTRAL_STREAM = 3
 PLATFORMS = ("sin", "soi")
 #: spectral platforms of ``--spectral``: the keys of wavemeter.simulation.SPECTRAL_PRESETS
 SPECTRAL_PLATFORMS = ("sin",)
+#: the band a cascade is swept over when --band is not given: the C band (Hz)
+DEFAULT_CASCADE_BAND_HZ = (191.0e12, 195.4e12)
+#: options a cascade is not simulated with: option dest -> why, as the message says it
+_NOT_FOR_CASCADE = {
+    "fsr": "the stages' FSRs are --cascade's",
+    "span_fsr": "a cascade's sweep covers --band",
+    "dark_offset_w": "the detector faults are simulated for a single device",
+    "dispersion_s2": "--spectral sin gives every stage the dispersion of its delay",
+    "coupler_slope": "--spectral sin gives every stage its spectral slopes",
+    "responsivity_slope": "--spectral sin gives every stage its spectral slopes",
+    "thermal_drift_k": "the thermal faults are simulated for a single device",
+    "platform": "the thermal devices are single devices",
+    "temperature_k": "the thermal devices are single devices",
+    "ramp_k": "the thermal devices are single devices",
+}
 #: options that set a field of the spectral preset: option dest -> SpectralPreset field
 _SPECTRAL_OPTIONS = {
     "dispersion_s2": "dispersion_s2",
@@ -130,12 +153,35 @@ def _axis_column(unit: str, prefix: str = "") -> str:
     return f"{prefix}{word}_{_suffix(unit)}"
 
 
-def _power_columns(powers_w: np.ndarray, unit: str) -> dict[str, np.ndarray]:
-    """Port columns ``p1_<unit>``...; in dBm a reading <= 0 W becomes the -200 dBm code."""
+def _is_cascade(device) -> bool:
+    return hasattr(device, "stages")
+
+
+def _port_names(device) -> list[str]:
+    """Names of the port columns without their unit: ``p1, p2, ...`` for a single device,
+    ``p11, p12, ..., p21, ...`` (stage, then port, zero-padded to the widest port number)
+    for a cascade, so that the readers find them in reading order and the stage shows."""
+    if not _is_cascade(device):
+        return [f"p{k + 1}" for k in range(device.ports)]
+    width = len(str(max(stage.ports for stage in device.stages)))
+    return [
+        f"p{index + 1}{port + 1:0{width}d}"
+        for index, stage in enumerate(device.stages)
+        for port in range(stage.ports)
+    ]
+
+
+def _power_columns(powers_w: np.ndarray, unit: str, names: list[str]) -> dict[str, np.ndarray]:
+    """Port columns ``<name>_<unit>``; in dBm a reading <= 0 W becomes the -200 dBm code."""
     values = w_to_power(powers_w, unit)
     if unit == "dBm":
         values = np.where(np.isfinite(values), values, SENTINEL_DBM)
-    return {f"p{k + 1}_{_suffix(unit)}": values[:, k] for k in range(powers_w.shape[1])}
+    return {f"{name}_{_suffix(unit)}": values[:, k] for k, name in enumerate(names)}
+
+
+def _monitor_w(device, power_w: np.ndarray) -> np.ndarray:
+    """The monitor reading (W) of the source power: a cascade's is its first stage's tap."""
+    return (device.stages[0] if _is_cascade(device) else device).monitor(power_w)
 
 
 def _readings(
@@ -163,20 +209,18 @@ def _readings(
         power = power * (1 + options["power_fluctuation"] * rng.standard_normal(samples))
     powers = np.empty((samples, device.ports))
     for rows in chunked(samples, description, quiet=options["quiet"]):
-        drift = None if bias_drift_rad is None else bias_drift_rad[rows]
-        temperature = None if temperature_k is None else temperature_k[rows]
+        extra = {}  # a cascade has neither
+        if bias_drift_rad is not None:
+            extra["bias_drift_rad"] = bias_drift_rad[rows]
+        if temperature_k is not None:
+            extra["temperature_k"] = temperature_k[rows]
         powers[rows] = device.powers(
-            frequency_hz[rows],
-            power[rows],
-            options["noise_w"],
-            rng,
-            temperature_k=temperature,
-            bias_drift_rad=drift,
+            frequency_hz[rows], power[rows], options["noise_w"], rng, **extra
         )
-    columns = _power_columns(powers, options["power_unit"])
+    columns = _power_columns(powers, options["power_unit"], _port_names(device))
     if options["monitor"]:
         unit = options["power_unit"]
-        columns[f"monitor_{_suffix(unit)}"] = w_to_power(device.monitor(power), unit)
+        columns[f"monitor_{_suffix(unit)}"] = w_to_power(_monitor_w(device, power), unit)
     if temperature_k is not None:
         columns["temperature_k"] = temperature_k
     return columns
@@ -316,6 +360,71 @@ def _noise_rng(options) -> np.random.Generator:
     return np.random.default_rng([options["seed"], _TEMPERATURE_STREAM, *millikelvin])
 
 
+def _cascade(options):
+    """The cascade of ``--cascade`` over ``--band``, its stages centred in the band;
+    refuses the options a cascade is not simulated with and a band its coarsest stage does
+    not cover."""
+    from ..simulation.cascade import CascadeInterferometer
+
+    context = click.get_current_context()
+    for name, reason in _NOT_FOR_CASCADE.items():
+        if context.get_parameter_source(name) not in (None, ParameterSource.DEFAULT):
+            option = next(param.opts[0] for param in context.command.params if param.name == name)
+            raise InputError(
+                f"{option} is not simulated for a cascade (--cascade): {reason}; leave it out"
+            )
+    fsrs = options["cascade"]
+    if len(fsrs) < 2 or any(
+        fine >= coarse for coarse, fine in zip(fsrs[:-1], fsrs[1:], strict=True)
+    ):
+        raise InputError(
+            f"--cascade {', '.join(frequency_text(value) for value in fsrs)}: a cascade needs "
+            "two or more stages of decreasing FSR, coarsest first (e.g. 5THz,500GHz,50GHz)"
+        )
+    low, high = options["band"] or DEFAULT_CASCADE_BAND_HZ
+    device = CascadeInterferometer.table1(
+        fsrs,
+        ports=options["ports"],
+        seed=options["seed"],
+        center_hz=(low + high) / 2,
+        spectral=options["spectral"],
+    )
+    coarsest = device.true_fsrs_hz[0]
+    if coarsest <= high - low:
+        raise InputError(
+            f"the coarsest stage's FSR ({frequency_text(coarsest)} as drawn, design "
+            f"{frequency_text(fsrs[0])}) does not exceed the band {frequency_text(low)} to "
+            f"{frequency_text(high)} ({frequency_text(high - low)}): its phase repeats within "
+            "the band and no cascade can read it; give a narrower --band or a coarser first "
+            "stage"
+        )
+    return device
+
+
+def _cascade_text(device, band_hz, seed: int, spectral: str | None) -> list[str]:
+    """The ``device:`` line of a cascade (stages, columns, FSRs, band) and, with
+    ``spectral``, the ``spectral:`` line (each stage's dispersion, the finest stage's
+    local FSR at the band's ends)."""
+    names = _port_names(device)
+    columns = ", ".join(f"{names[block[0]]}-{names[block[-1]]}" for block in device.stage_ports)
+    low, high = band_hz
+    lines = [
+        f"device: cascade of {len(device.stages)} Table 1 stages, "
+        f"{device.stages[0].ports} ports each (columns {columns}), seed {seed}, true FSRs "
+        f"{', '.join(frequency_text(value) for value in device.true_fsrs_hz)}, band "
+        f"{optical_text(low)} to {optical_text(high)}"
+    ]
+    if spectral is not None:
+        local_hz = device.stages[-1].local_fsr_hz(np.array([low, high]))
+        dispersions = ", ".join(f"{stage.dispersion_s2:.3g}" for stage in device.stages)
+        lines.append(
+            f"spectral: {spectral}, dispersion {dispersions} s^2 (stage by stage), the finest "
+            f"stage's local FSR {fsr_text(local_hz[0])} at the band's low end, "
+            f"{fsr_text(local_hz[1])} at its high end"
+        )
+    return lines
+
+
 def _temperature_text(temperature_k: np.ndarray) -> str:
     start, end = temperature_k[0], temperature_k[-1]
     return f"{start:.6g} K" if start == end else f"{start:.6g} to {end:.6g} K"
@@ -339,7 +448,7 @@ def _targets(out_path: str, test_samples: int, test_out: str | None) -> list[str
 
 @click.command()
 @out_option("Sweep file to write (.csv, .tsv, .parquet, .h5, .npz; '-' for stdout).")
-@setting("--ports", 3, click.IntRange(3, 64), "Number of output ports of the MMI.")
+@setting("--ports", 3, click.IntRange(3, 64), "Number of output ports of the MMI (of each stage).")
 @setting("--seed", 1, click.IntRange(0), "Seed of the device impairments and the noise.")
 @setting("--samples", 2001, click.IntRange(4), "Readings in the calibration sweep.")
 @setting("--span-fsr", 1.0, click.FloatRange(0, min_open=True), "Sweep span in FSRs.")
@@ -365,6 +474,21 @@ def _targets(out_path: str, test_samples: int, test_out: str | None) -> list[str
     FSR,
     "Design FSR: 50GHz, '49.69 GHz'; a bare number is in Hz (the device's FSR differs by "
     "Table 1's 5 % delay spread).",
+)
+@click.option(
+    "--cascade",
+    type=FSRS,
+    metavar="FSR,FSR,..",
+    help="Simulate a cascade of Table 1 stages of these design FSRs, coarsest first, fed by "
+    "one source through an equal splitter (5THz,500GHz,50GHz): port columns p11, p12, .. "
+    "(stage, port) over --band.",
+)
+@click.option(
+    "--band",
+    type=BAND,
+    metavar="LOW:HIGH",
+    help="Band a --cascade sweep covers, evenly, ends included: 191THz:195.4THz, "
+    "1534nm:1570nm (default 191THz:195.4THz, the C band); the stages are centred in it.",
 )
 @click.option(
     "--test",
@@ -528,6 +652,13 @@ def simulate(out_path, test_samples, test_out, force, **options):
     has an output coupler and receivers that change slowly with frequency, drawn from
     --seed, and the platform's dispersion; a C-band sweep is --span-fsr 88.
 
+    A cascade (--cascade 5THz,500GHz,50GHz) is Table 1 stages of decreasing FSR with
+    --ports ports each, fed by one source (--power, split equally), swept evenly over
+    --band (default the C band, 191-195.4 THz); the test readings are uniform over the
+    band. Its port columns p11, p12, .., p21, .. name stage and port. With --spectral sin
+    every stage gets the platform's slopes and the dispersion of its delay. The single
+    device's FSR, span, detector and thermal faults are not simulated for a cascade.
+
     \b
     Example:
       wavemeter simulate -o sweep.csv --ports 3 --seed 1 --test 20000
@@ -536,6 +667,8 @@ def simulate(out_path, test_samples, test_out, force, **options):
       wavemeter simulate -o s290.csv --platform sin --temperature-k 290
       wavemeter simulate -o ramp.csv --platform sin --ramp-k 290:300 --repeat 5
       wavemeter simulate -o band.csv --spectral sin --span-fsr 88 --samples 176000
+      wavemeter simulate -o cband.csv --cascade 5THz,500GHz,50GHz --spectral sin \\
+          --samples 20000 --test 100000
     """
     from ..simulation.interferometer import Interferometer
 
@@ -548,14 +681,28 @@ def simulate(out_path, test_samples, test_out, force, **options):
     targets = _targets(out_path, test_samples, test_out)
     formats = [output_format(path, options["file_format"], force=force) for path in targets]
     messages_to_stderr = any(is_stdio(path) for path in targets)
-    device = Interferometer.table1(options["ports"], seed=options["seed"], fsr_hz=options["fsr"])
-    device, spectral_preset = _spectral(device, options)
-    device = _thermal(_faulty(device, options), options)
+    cascade = options["cascade"] is not None
+    if cascade:
+        device, spectral_preset = _cascade(options), None
+        band = options["band"] or DEFAULT_CASCADE_BAND_HZ
+        sweep_hz = np.linspace(*band, options["samples"])
+    else:
+        if options["band"] is not None:
+            raise InputError(
+                "--band is the band of a cascade (--cascade); a single device's sweep is "
+                "--span-fsr FSRs about its centre"
+            )
+        device = Interferometer.table1(
+            options["ports"], seed=options["seed"], fsr_hz=options["fsr"]
+        )
+        device, spectral_preset = _spectral(device, options)
+        device = _thermal(_faulty(device, options), options)
+        sweep_hz = device.sweep_hz(options["samples"], options["span_fsr"])
     options["noise_w"] = _noise_w(options, device.ports)
     varies = options["power_fluctuation"] > 0 or options["power_drift"] > 0
     options["monitor"] = varies and not options["no_monitor"]
     rng = _noise_rng(options)
-    sweep_hz = np.tile(device.sweep_hz(options["samples"], options["span_fsr"]), options["repeat"])
+    sweep_hz = np.tile(sweep_hz, options["repeat"])
     frequencies = [(_axis_column(x_unit), sweep_hz)]
     if test_samples:
         low, high = sweep_hz.min(), sweep_hz.max()
@@ -593,6 +740,10 @@ def simulate(out_path, test_samples, test_out, force, **options):
                 f"the {SENTINEL_DBM:g} dBm no-reading code; read {path} with --drop-invalid, "
                 "or simulate with a lower --noise",
             )
+    if cascade:
+        for line in _cascade_text(device, band, options["seed"], options["spectral"]):
+            say(quiet, line, err=messages_to_stderr)
+        return
     say(
         quiet,
         f"device: Table 1, {device.ports} ports, seed {options['seed']}, true FSR "

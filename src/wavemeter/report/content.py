@@ -21,6 +21,13 @@ compared with the learned calibration set fitted per FSR on the same sweep (the 
 to cover a band), reads every reading with the truth as its coarse frequency, and adds the
 cross-validation curve of its orders and the residual phase across the band, per FSR
 window (``diagnostics_["wideband"]``).
+
+A cascade calibration (:class:`~wavemeter.calibration.cascade.CascadeCalibrator`) is shown
+alone: no other method reads absolute frequency from the same readings. Its errors are
+absolute (a wrong fringe order shows as a whole FSR), its fringes and object space are
+those of its finest stage (the stage the answer comes from), its Cramer-Rao bound and noise
+those of the finest stage, and the summary counts the wrong fringe orders of the evaluation
+readings against those its ``order_error_probability`` predicts and those it flags.
 """
 
 from __future__ import annotations
@@ -35,6 +42,8 @@ from ..analysis.evaluation import adjacent_evaluation, crlb_per_reading_hz
 from ..analysis.metrics import error_summary_hz, frequency_error_hz
 from ..calibration.base import BaseCalibrator
 from ..calibration.baselines import ConventionalCalibrator
+from ..calibration.cascade import CascadeCalibrator
+from ..calibration.flags import ReadingFlag
 from ..calibration.learned import Calibrator
 from ..calibration.set import CalibrationSet
 from ..calibration.wideband import WidebandCalibrator
@@ -48,11 +57,14 @@ from .page import wideband_record
 __all__ = [
     "report_content",
     "comparison_calibration",
+    "order_errors",
     "retrieved_frequency_hz",
     "learned_noise_std_w",
 ]
 
 MODEL_POINTS = 1000
+
+
 #: half width, in FSRs, of the stretch of a single calibration's sweep shown as fringes
 FRINGE_HALF_WIDTH_FSR = 1.5
 
@@ -149,6 +161,20 @@ def _is_wideband(calibration: BaseCalibrator) -> bool:
     return isinstance(calibration, WidebandCalibrator)
 
 
+def _is_cascade(calibration: BaseCalibrator) -> bool:
+    return isinstance(calibration, CascadeCalibrator)
+
+
+def _finest_stage(calibration: CascadeCalibrator, readings: _Readings):
+    """The finest stage of a cascade, the readings of its columns alone and its port names."""
+    columns = list(calibration.stage_ports_[-1])
+    stage_readings = _Readings(
+        readings.frequency_hz, readings.powers_w[:, columns], readings.monitor_w
+    )
+    names = [calibration.port_names_[column] for column in columns]
+    return calibration.stages_[-1], stage_readings, names
+
+
 def _band_model(calibration: WidebandCalibrator) -> BandModel:
     """The fitted phase polynomial and map of a wide-band calibration."""
     return BandModel(
@@ -169,7 +195,9 @@ def _calibrated_range_hz(calibration: BaseCalibrator) -> tuple[float, float]:
 
 def learned_noise_std_w(calibration: BaseCalibrator) -> float | None:
     """Detector noise estimate (W) of a learned calibration: its ``noise_std_w_``, the mean
-    over the windows of a set; None for other methods."""
+    over the windows of a set, a cascade's finest stage's; None for other methods."""
+    if _is_cascade(calibration):
+        return float(calibration.stages_[-1].noise_std_w_)
     if not _is_learned(calibration):
         return None
     return float(np.mean([window.noise_std_w_ for window in _windows(calibration)]))
@@ -208,7 +236,20 @@ def comparison_calibration(
         retrieval, fitted without the temperature (what the temperature buys); for a
         wide-band calibration, a set of learned calibrations, one per FSR, with its FSR
         settings and retrieval (what one model of the band buys).
+
+    Raises
+    ------
+    InputError
+        For a cascade calibration: no other method reads absolute frequency from its
+        readings.
     """
+    if _is_cascade(calibration):
+        raise InputError(
+            "a cascade calibration has no other method to fit on its sweep for comparison: "
+            "no other method reads absolute frequency from the readings of its stages; "
+            "evaluate it alone, or beside another calibration file",
+            parameter="comparison",
+        )
     design = calibration.fsr_hz
     own = _central(calibration)
     phases = own.get_params().get("port_phases_rad") if port_phases_rad is None else port_phases_rad
@@ -237,11 +278,14 @@ def retrieved_frequency_hz(
 
     A calibration that needs a coarse frequency (a set, a wide band) is given the true
     frequency as the coarse value; a calibration that needs the chip temperature gets
-    ``temperature_k`` (K, scalar or (N,)).
+    ``temperature_k`` (K, scalar or (N,)); a calibration that reads absolute frequency (a
+    cascade) returns its own, whole FSRs off where it took a wrong fringe order.
     """
     truth = np.asarray(frequency_hz, dtype=float)
     if "coarse_hz" in calibration.requires:
         return calibration.predict(powers_w, coarse_hz=truth)
+    if calibration.absolute_frequency:
+        return calibration.predict(powers_w)
     predicted = calibration.predict(powers_w, **_temperature_inputs(calibration, temperature_k))
     return truth + frequency_error_hz(predicted, truth, calibration.fsr_hz_)
 
@@ -267,7 +311,12 @@ def _model_phase_rad(model: Calibrator, frequency_hz, temperature_k=None) -> np.
 def _crlb_hz(learned: BaseCalibrator, readings: _Readings) -> np.ndarray:
     """Per-reading Cramer-Rao standard deviation (Hz) at the true frequency, under the
     learned calibration's own model (:func:`crlb_per_reading_hz`; at each reading's chip
-    temperature for a calibration that needs it)."""
+    temperature for a calibration that needs it; a cascade's finest stage's, read with the
+    truth as its coarse frequency, so that a reading the cascade took a wrong order for is
+    bounded where it is)."""
+    if _is_cascade(learned):
+        stage, stage_readings, _ = _finest_stage(learned, readings)
+        return crlb_per_reading_hz(stage, stage_readings.powers_w, readings.frequency_hz)
     if not _needs_temperature(learned):
         return crlb_per_reading_hz(learned, readings.powers_w, readings.frequency_hz)
     phase = wrap_phase_rad(_model_phase_rad(learned, readings.frequency_hz, readings.temperature_k))
@@ -342,9 +391,14 @@ def _band_fringe_panel(calibration: WidebandCalibrator, sweep: _Readings, rows: 
 
 def _fringe_figure(learned: BaseCalibrator, learned_name: str, sweep: _Readings, ports):
     """A single calibration: the sweep near its centre (a wide band: near the middle of the
-    band); a set: every window (small multiples)."""
+    band; a cascade: its finest stage there); a set: every window (small multiples)."""
     from .fringes import plot_fringes, plot_window_fringes
 
+    if _is_cascade(learned):
+        stage, stage_sweep, names = _finest_stage(learned, sweep)
+        return _fringe_figure(
+            stage, f"{learned_name}, stage {len(learned.stages_)}", stage_sweep, names
+        )
     if isinstance(learned, CalibrationSet):
         index = learned.window_index(sweep.frequency_hz)
         panels = [
@@ -397,6 +451,9 @@ def _object_samples(calibration: BaseCalibrator, evaluation: _Readings) -> np.nd
     wide band: its own map); a single-FSR calibration: the readings within its central
     stretch."""
     truth, powers = evaluation.frequency_hz, evaluation.powers_w
+    if _is_cascade(calibration):
+        stage, stage_readings, _ = _finest_stage(calibration, evaluation)
+        return _band_unit_power_samples(stage, stage_readings.powers_w, truth)
     if _is_wideband(calibration):
         return _band_unit_power_samples(calibration, powers, truth)
     if not isinstance(calibration, CalibrationSet):
@@ -435,8 +492,8 @@ def report_content(
         residual gave it), ``evaluated_on``, ``samples``, ``comparison`` (its label, None
         when it could not be fitted) and ``comparison_error`` (why not, else None),
         ``comparison_warnings`` (the ``[cause] message`` of each calibration warning the
-        comparison's fit gave), and
-        ``adjacent`` for sets.
+        comparison's fit gave), ``adjacent`` for sets and ``order_errors`` for a cascade
+        (:func:`order_errors`).
     """
     from . import figures as plotting
 
@@ -445,24 +502,30 @@ def report_content(
     thermal = _needs_temperature(calibration)
     calibration_readings = _readings(sweep, "sweep", ports, thermal)
     evaluation = calibration_readings if test is None else _readings(test, "test", ports, thermal)
-    if isinstance(calibration, CalibrationSet) or _is_wideband(calibration):
+    if (
+        isinstance(calibration, CalibrationSet)
+        or _is_wideband(calibration)
+        or _is_cascade(calibration)
+    ):
         _check_inside(calibration, evaluation.frequency_hz, "sweep" if test is None else "test")
-    comparison_error = None
+    other, comparison_error = None, None
     with recorded_calibration_warnings() as comparison_warnings:
+        # a cascade is shown alone (comparison_calibration says why)
         try:
-            other = comparison_calibration(
-                calibration,
-                calibration_readings.powers_w,
-                calibration_readings.frequency_hz,
-                calibration_readings.monitor_w,
-                port_phases_rad,
-            )
+            if not _is_cascade(calibration):
+                other = comparison_calibration(
+                    calibration,
+                    calibration_readings.powers_w,
+                    calibration_readings.frequency_hz,
+                    calibration_readings.monitor_w,
+                    port_phases_rad,
+                )
         except InputError as exc:
             # a learned calibration is reported on its own when the other method cannot
             # be fitted on its sweep (a plain one on sweeps at several temperatures)
             if not _is_learned(calibration):
                 raise
-            other, comparison_error = None, str(exc)
+            comparison_error = str(exc)
     # page only where the comparison is expected to misfit: a plain calibration of a thermal
     # sweep, a per-FSR set whose whole-sweep fit sees the band's dispersion
     if not (thermal or _is_wideband(calibration)):
@@ -471,7 +534,9 @@ def report_content(
     methods = {calibration.method_label: calibration}
     if other is not None:
         methods[other.method_label] = other
-    learned_name = next(name for name, cal in methods.items() if _is_learned(cal))
+    learned_name = next(
+        name for name, cal in methods.items() if _is_learned(cal) or _is_cascade(cal)
+    )
     learned = methods[learned_name]
     truth, powers = evaluation.frequency_hz, evaluation.powers_w
     retrieved = {
@@ -485,7 +550,7 @@ def report_content(
     samples = {
         name: _object_samples(cal, evaluation)
         for name, cal in methods.items()
-        if hasattr(_central(cal), "map_") or _is_wideband(cal)
+        if hasattr(_central(cal), "map_") or _is_wideband(cal) or _is_cascade(cal)
     }
     edges = calibration.window_edges_hz_ if isinstance(calibration, CalibrationSet) else None
     figures = {
@@ -527,7 +592,43 @@ def report_content(
     }
     if isinstance(calibration, CalibrationSet):
         summary["adjacent"] = _adjacent_or_reason(calibration, powers, truth)
+    if _is_cascade(calibration):
+        summary["order_errors"] = order_errors(calibration, powers, truth)
     return figures, summary
+
+
+def order_errors(calibration: CascadeCalibrator, powers_w, frequency_hz) -> dict:
+    """Wrong fringe orders of a cascade on readings of known frequency, against those its
+    ``order_error_probability`` predicts and those it flags ``ORDER_AMBIGUOUS``.
+
+    Parameters
+    ----------
+    calibration : CascadeCalibrator
+        A fitted cascade.
+    powers_w : array_like, shape (N, n)
+        Readings of every stage, in the unit of the calibration sweep.
+    frequency_hz : array_like, shape (N,)
+        Their true frequencies (Hz).
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``readings``, ``wrong_orders`` (readings off by half the finest
+        stage's local FSR or more), ``expected_wrong_orders`` (sum of the readings'
+        ``order_error_probability``), ``flagged_order_ambiguous`` and
+        ``wrong_orders_flagged`` (the wrong ones among those flagged).
+    """
+    found = calibration.read(powers_w)
+    truth = np.asarray(frequency_hz, dtype=float)
+    wrong = np.abs(found.frequency_hz[-1] - truth) >= 0.5 * calibration.fsr_hz_at(truth)
+    flagged = (found.flags & ReadingFlag.ORDER_AMBIGUOUS) != 0
+    return {
+        "readings": int(truth.size),
+        "wrong_orders": int(np.count_nonzero(wrong)),
+        "expected_wrong_orders": float(np.sum(found.order_error_probability)),
+        "flagged_order_ambiguous": int(np.count_nonzero(flagged)),
+        "wrong_orders_flagged": int(np.count_nonzero(wrong & flagged)),
+    }
 
 
 def _wideband_figures(calibration: WidebandCalibrator, crlb_rms_hz: float) -> dict:

@@ -3,6 +3,12 @@
 The page is self-contained (figures embedded as base64 PNG, no scripts, no external
 links) and escapes every text it shows. Numbers of errors, ratios and noise carry three
 significant digits; frequencies of the calibration itself carry the digits it resolves.
+
+A cascade calibration gets a section of its stages (FSR, ports, orders, standard deviation
+and error on the sweep), its hand-overs (FSR ratio and the largest the noise allows, margin
+in standard deviations, predicted wrong-order rate, wrong orders on the sweep), the
+coarsest stage's edge margin and the wrong orders of the evaluation readings against those
+predicted (``diagnostics_["cascade"]``).
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ __all__ = [
     "THERMAL_FIGURES",
     "WIDEBAND_FIGURES",
     "wideband_record",
+    "cascade_record",
     "RETRIEVAL_NAMES",
 ]
 
@@ -96,6 +103,12 @@ def wideband_record(calibration: BaseCalibrator | None) -> Mapping | None:
     return record if isinstance(record, Mapping) else None
 
 
+def cascade_record(calibration: BaseCalibrator | None) -> Mapping | None:
+    """``diagnostics_["cascade"]`` of a cascade calibration, else None."""
+    record = (getattr(calibration, "diagnostics_", None) or {}).get("cascade")
+    return record if isinstance(record, Mapping) else None
+
+
 def figure_names(calibration: BaseCalibrator | None = None) -> list[str]:
     """The figures of a calibration's report, in page order (default: those of every
     calibration; a calibration that needs the chip temperature adds ``THERMAL_FIGURES``,
@@ -146,11 +159,21 @@ def _input_rows(input_files: Mapping[str, object]) -> list[list[str]]:
 def _calibration_rows(calibration: BaseCalibrator, summary: dict) -> list[list[str]]:
     low, high = calibration.span_hz_
     center = calibration.center_hz_
+    design = calibration.get_params()["fsr_hz"]
+    cascade = cascade_record(calibration) is not None
     rows = [
         ["method", calibration.method_label],
         ["phase retrieval", _retrieval(calibration)],
-        ["design FSR (GHz)", f"{calibration.get_params()['fsr_hz'] / 1e9:.6g}"],
-        ["fitted FSR (GHz)", f"{calibration.fsr_hz_ / 1e9:.9g}"],
+        [
+            "design FSRs, coarsest first (GHz)" if cascade else "design FSR (GHz)",
+            ", ".join(f"{value / 1e9:.6g}" for value in design)
+            if cascade
+            else f"{design / 1e9:.6g}",
+        ],
+        [
+            "fitted FSR of the finest stage (GHz)" if cascade else "fitted FSR (GHz)",
+            f"{calibration.fsr_hz_ / 1e9:.9g}",
+        ],
         ["centre (THz)", f"{center / 1e12:.9g}"],
         ["centre vacuum wavelength (nm)", f"{SPEED_OF_LIGHT_M_S / center * 1e9:.6f}"],
         ["sweep span (GHz)", f"{(high - low) / 1e9:.6g}"],
@@ -161,7 +184,9 @@ def _calibration_rows(calibration: BaseCalibrator, summary: dict) -> list[list[s
     noise = summary.get("noise_std_w")
     if noise is not None:
         source = f"{summary['noise_from']} fit residual"
-        if summary["noise_from"] != calibration.method_label:
+        if cascade:
+            source = "the finest stage's fit residual"
+        elif summary["noise_from"] != calibration.method_label:
             source += " on the same sweep"
         rows.append(["detector noise estimate (W)", f"{scientific(noise)} ({source})"])
     if hasattr(calibration, "windows_"):
@@ -274,6 +299,92 @@ def _wideband_html(calibration: BaseCalibrator) -> str:
     return "<h2>Wide band: orders and residual phase</h2>" + choice + f"<p>{html.escape(text)}</p>"
 
 
+def _cascade_html(calibration: BaseCalibrator, summary: dict) -> str:
+    """The cascade section: its stages, its hand-overs on the sweep, the coarsest stage's
+    edge margin and the wrong orders of the evaluation readings; empty for other
+    calibrations."""
+    record = cascade_record(calibration)
+    if record is None:
+        return ""
+    design = calibration.get_params()["fsr_hz"]
+    stage_header = [
+        "stage",
+        "ports",
+        "design FSR (GHz)",
+        "fitted FSR (GHz)",
+        "phase order P",
+        "map order J",
+        "median std (MHz)",
+        "RMS error on the sweep (MHz)",
+        "z-score spread",
+    ]
+    stage_rows = [
+        [
+            str(stage["stage"]),
+            ", ".join(port_label(name) for name in stage["ports"]),
+            f"{design[index] / 1e9:.6g}",
+            f"{stage['fsr_hz'] / 1e9:.9g}",
+            str(stage["phase_order"]),
+            str(stage["map_order"]),
+            _mhz(stage["median_std_hz"]),
+            _mhz(stage["rms_hz"]),
+            significant(stage["z_std"]),
+        ]
+        for index, stage in enumerate(record["stages"])
+    ]
+    handover_header = [
+        "hand-over",
+        "FSR ratio",
+        "largest usable ratio",
+        "margin (std, median)",
+        "worst margin (std)",
+        "predicted wrong-order rate",
+        "expected wrong on the sweep",
+        "wrong on the sweep",
+    ]
+    handover_rows = [
+        [
+            f"stage {handover['from_stage']} to {handover['to_stage']}",
+            significant(handover["ratio"]),
+            significant(handover["largest_usable_ratio"]),
+            significant(handover["margin_std"]),
+            significant(handover["worst_margin_std"]),
+            scientific(handover["predicted_rate"]),
+            scientific(handover["expected_wrong"]),
+            str(handover["wrong_on_sweep"]),
+        ]
+        for handover in record["handovers"]
+    ]
+    text = (
+        "Each stage picks the fringe order of the next; a hand-over's margin is half the "
+        "finer stage's FSR over the standard deviation of the two stages' difference, and "
+        "the largest usable ratio the FSR ratio at which the sweep's noise would make the "
+        f"wrong-order rate {calibration.get_params()['max_order_error']:g} (max_order_error, "
+        "above which a reading is flagged ORDER_AMBIGUOUS). The coarsest stage's phase is "
+        f"unique {significant(record['edge_margin_std'])} of its standard deviations beyond "
+        "the band's ends (edge margin)."
+    )
+    orders = summary.get("order_errors")
+    if orders is not None:
+        text += (
+            f" On the {summary['evaluated_on']}: {orders['wrong_orders']} of "
+            f"{orders['readings']} readings off by half the finest stage's FSR or more, "
+            f"{scientific(orders['expected_wrong_orders'])} expected from their "
+            f"order_error_probability; {orders['flagged_order_ambiguous']} flagged "
+            f"ORDER_AMBIGUOUS ({orders['wrong_orders_flagged']} of the wrong ones)."
+        )
+    text += (
+        " A cascade is shown alone: no other method reads absolute frequency from the "
+        "readings of its stages."
+    )
+    return (
+        "<h2>Cascade: stages and hand-overs</h2>"
+        + _table(stage_header, stage_rows)
+        + _table(handover_header, handover_rows)
+        + f"<p>{html.escape(text)}</p>"
+    )
+
+
 #: SI suffix of a diagnostics key -> (unit shown, SI value per unit, exponent notation)
 #: temperatures (``_k``, not rates ``_per_k``) with the digits a temperature needs
 _KEY_UNITS = {
@@ -285,7 +396,7 @@ _KEY_UNITS = {
 #: digits of a temperature in K (mK resolution near room temperature)
 TEMPERATURE_DIGITS = 6
 #: diagnostics shown in a table of their own rather than among the diagnostics
-_SHOWN_ELSEWHERE = {"thermal", "wideband"}
+_SHOWN_ELSEWHERE = {"thermal", "wideband", "cascade"}
 
 
 def _key_unit(key: str):
@@ -497,6 +608,7 @@ def render_page(
         "</div></div>"
         + _diagnostics_html(calibration)
         + _wideband_html(calibration)
+        + _cascade_html(calibration, summary)
         + windows
         + f"<h2>Frequency error on the {html.escape(summary['evaluated_on'])} "
         f"({summary['samples']} readings)</h2>"
