@@ -13,6 +13,7 @@ import warnings
 
 import numpy as np
 import pytest
+from scipy import stats
 
 import wavemeter as wm
 from wavemeter.calibration.cascade import DISAGREEMENT_STD, HANDOVER_CAUSE, noise_scale
@@ -133,15 +134,20 @@ def test_wrong_orders_seen_match_those_predicted_at_high_noise():
 
 
 def test_the_readings_noise_scales_batches_not_single_readings_or_glitches():
-    free, dof = 1, 1e4
     rng = np.random.default_rng(12)
-    quiet = rng.chisquare(free, 10_000)
-    assert noise_scale(quiet, free, dof) == 1.0
-    assert noise_scale(9.0 * quiet, free, dof) == pytest.approx(3.0, rel=0.05)
-    assert noise_scale(np.array([400.0]), free, dof) == 1.0
+    quiet = rng.chisquare(1, 10_000)
+    noise_median = float(stats.chi2.median(1))
+    median = float(np.median(rng.chisquare(1, 10_000)))  # as a sweep would find it
+    assert noise_scale(quiet, median, noise_median) == 1.0
+    assert noise_scale(9.0 * quiet, median, noise_median) == pytest.approx(3.0, rel=0.05)
+    assert noise_scale(np.array([400.0]), median, noise_median) == 1.0
     glitched = quiet.copy()
     glitched[:20] = 1e6
-    assert noise_scale(glitched, free, dof) == 1.0
+    assert noise_scale(glitched, median, noise_median) == 1.0
+    # a model that missed a constant 2 on the sweep: the noise scales the rest only
+    missed = 2.0
+    swept = float(np.median(quiet + missed))
+    assert noise_scale(9.0 * quiet + missed, swept, noise_median) == pytest.approx(3.0, rel=0.05)
     cal, _, _ = calibrated()
     truth = band_hz(device(), 3, np.random.default_rng(13))
     readings = device().powers(truth, POWER_W, NOISE_W, rng=14)

@@ -56,7 +56,7 @@ from ..validation import (
 )
 from .base import BaseCalibrator
 from .delay_search import frequency_text
-from .files import calibrator_fields, calibrator_from_fields
+from .files import calibrator_fields, calibrator_from_fields, state_array, state_float
 from .flags import SPAN_MARGIN_STD, ReadingFlag, off_model_threshold, power_flags
 from .learned import RETRIEVALS
 from .wideband import WidebandCalibrator
@@ -130,20 +130,29 @@ class CascadeReading:
         return any_error_probability(self.error_probability)
 
 
-def noise_scale(distance: np.ndarray, free: int, noise_dof: float) -> float:
-    """The readings' noise over the calibrated noise, from their cone distances.
+def chi2_median(free: int, noise_dof: float) -> float:
+    """The median of a cone distance under the calibrated noise: ``free F(free, noise_dof)``
+    (``free = n - 2`` degrees of freedom, the noise estimated on ``noise_dof``)."""
+    return free * float(stats.f.median(free, noise_dof))
 
-    Under the calibrated noise a distance exceeds ``m``, the median of ``free F(free,
-    noise_dof)``, with probability 1/2. When more of the readings do than that allows at
-    ``NOISE_P_VALUE`` (binomial), the readings carry more noise: the scale is
-    ``sqrt(median(distance) / m)`` (at least 1). Medians keep a few glitches from scaling
-    every reading; a single reading is never scaled (a far one is ``OFF_MODEL`` instead).
+
+def noise_scale(distance: np.ndarray, reference_median: float, noise_median: float) -> float:
+    """The readings' detector noise over the calibration sweep's, from their cone distances.
+
+    Under the sweep's conditions a reading's distance exceeds the sweep's median distance
+    ``reference_median`` with probability 1/2. When more of the readings do than that
+    allows at ``NOISE_P_VALUE`` (binomial), they carry more noise. A distance is the
+    noise's part (median ``noise_median`` at the calibrated noise, :func:`chi2_median`)
+    plus what the model misses (``reference_median - noise_median`` on the sweep, which the
+    noise does not change), so the scale is ``sqrt(1 + (median(distance) -
+    reference_median) / noise_median)``. Medians keep a few glitches from scaling every
+    reading; a single reading is never scaled (a far one is ``OFF_MODEL`` instead).
     """
-    median = free * float(stats.f.median(free, noise_dof))
-    above = int(np.count_nonzero(distance > median))
+    above = int(np.count_nonzero(distance > reference_median))
     if stats.binom.sf(above - 1, distance.size, 0.5) >= NOISE_P_VALUE:
         return 1.0
-    return max(math.sqrt(float(np.median(distance)) / median), 1.0)
+    excess = (float(np.median(distance)) - reference_median) / noise_median
+    return math.sqrt(1.0 + max(excess, 0.0))
 
 
 def _stage_label(index: int, fsr_hz: float) -> str:
@@ -188,6 +197,10 @@ class CascadeCalibrator(BaseCalibrator):
         ``largest_usable_ratio`` (the ratio at which the sweep's noise would make the rate
         ``max_order_error``), ``predicted_rate`` (mean expected wrong-order rate over the
         sweep), ``expected_wrong`` and ``wrong_on_sweep`` (counts on the sweep).
+    cone_distance_median_ : ndarray, shape (K,)
+        Each stage's median cone distance over the sweep: readings whose distances lie
+        above it more often than chance carry more noise than the sweep
+        (:func:`noise_scale`).
     edge_margin_std_ : float
         Distance (in the coarsest stage's standard deviations at the band ends, the
         smaller end) from the band to the ends of the range that stage's phase is unique
@@ -418,6 +431,18 @@ class CascadeCalibrator(BaseCalibrator):
         total = corrected.sum(axis=1)
         self.total_power_range_w_ = (float(total.min()), float(total.max()))
         self._check_coarsest_stage()
+        self.cone_distance_median_ = np.array(
+            [
+                np.median(
+                    band_cone_distance(
+                        corrected[:, list(block)],
+                        stage.band_model_.maps_at(frequency),
+                        stage.port_noise_std_w_,
+                    )
+                )
+                for stage, block in zip(stages, columns, strict=True)
+            ]
+        )
         chain = self._read(corrected)
         self.calibration_rms_hz_ = float(
             np.sqrt(np.mean((chain.frequency_hz[-1] - frequency) ** 2))
@@ -611,8 +636,12 @@ class CascadeCalibrator(BaseCalibrator):
             frequency[index], phase[index], stage_maps = stage._frequency_checked(rows, coarse)
             maps.append(stage_maps)
             distance[index] = band_cone_distance(rows, stage_maps, stage.port_noise_std_w_)
-            scale[index] = noise_scale(distance[index], len(block) - 2, stage.noise_dof_)
-            distance[index] /= scale[index] ** 2
+            reference = self.cone_distance_median_[index]
+            median = chi2_median(len(block) - 2, stage.noise_dof_)
+            scale[index] = noise_scale(distance[index], reference, median)
+            # in the noise of the readings, beside what the model missed on the sweep
+            missed = max(reference - median, 0.0)
+            distance[index] *= median / (scale[index] ** 2 * median + missed)
             std[index] = stage._frequency_std_of(
                 rows, frequency[index], phase[index], stage_maps, noise_scale=scale[index]
             )
@@ -822,6 +851,7 @@ class CascadeCalibrator(BaseCalibrator):
             "stages": [calibrator_fields(stage) for stage in self.stages_],
             "handovers": self.handovers_,
             "edge_margin_std": self.edge_margin_std_,
+            "cone_distance_median": self.cone_distance_median_.tolist(),
         }
 
     def _set_state(self, state: dict) -> None:
@@ -858,4 +888,7 @@ class CascadeCalibrator(BaseCalibrator):
         self.stage_fsrs_hz_ = np.array([stage.fsr_hz_ for stage in stages])
         self.fsr_hz_ = float(self.stage_fsrs_hz_[-1])
         self.handovers_ = handovers
-        self.edge_margin_std_ = float(state.get("edge_margin_std", math.nan))
+        self.edge_margin_std_ = state_float(state, "edge_margin_std")
+        self.cone_distance_median_ = state_array(state, "cone_distance_median", (len(design),))
+        if np.any(self.cone_distance_median_ <= 0):
+            raise InputError("field 'cone_distance_median' must hold positive numbers")
