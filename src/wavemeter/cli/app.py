@@ -129,6 +129,7 @@ _OPTION_IN_COMMAND = {
         "ports": "--ports",
         "wrong_order_rate": "--rate",
         "stages": "--stages",
+        "noise_factor": "--noise-factor",
     },
 }
 

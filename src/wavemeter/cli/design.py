@@ -56,6 +56,22 @@ from ._params import BAND, FSR, POWER
     "wrong fringe order).",
     dest="wrong_order_rate",
 )
+@setting(
+    "--noise-factor",
+    2.0,
+    click.FloatRange(1.0),
+    "The stages' noise over the ideal bound to design for (2 covers Table 1 stages at their "
+    "noisiest phase; 1: ideal stages).",
+    dest="noise_factor",
+)
+@setting(
+    "--fsr-tolerance",
+    0.1,
+    click.FloatRange(0.0, 1.0, max_open=True),
+    "Relative FSR error of the fabricated stages to design for (0.1: twice Table 1's 5 % "
+    "delay spread; 0: exact FSRs).",
+    dest="fsr_tolerance",
+)
 @click.option(
     "--stages",
     type=click.IntRange(1, 8),
@@ -63,11 +79,23 @@ from ._params import BAND, FSR, POWER
     "fewest that meet --rate).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the design as JSON.")
-def design(band_hz, finest_fsr_hz, noise_w, power_w, ports, wrong_order_rate, stages, as_json):
+def design(
+    band_hz,
+    finest_fsr_hz,
+    noise_w,
+    power_w,
+    ports,
+    wrong_order_rate,
+    noise_factor,
+    fsr_tolerance,
+    stages,
+    as_json,
+):
     """The fewest cascade stages that read a band at a wrong-order rate.
 
-    Ideal stages, the source power split equally among them; the finest FSR is given, the
-    others geometric, the coarsest chosen to minimise the predicted wrong-order rate.
+    Stages --noise-factor times noisier than ideal with FSRs off by up to --fsr-tolerance,
+    the source power split equally among them; the finest FSR is given, the others
+    geometric, the coarsest chosen to minimise the predicted wrong-order rate.
 
     \b
     Example:
@@ -83,6 +111,8 @@ def design(band_hz, finest_fsr_hz, noise_w, power_w, ports, wrong_order_rate, st
         power_w=power_w,
         noise_w=noise_w,
         wrong_order_rate=wrong_order_rate,
+        noise_factor=noise_factor,
+        fsr_tolerance=fsr_tolerance,
         stages=stages,
     )
     if as_json:

@@ -44,6 +44,13 @@ Derivation (ideal stages, equal power split)
 7. Stages: the fewest ``K`` (1 to :data:`MAX_STAGES`) whose best design meets the
    requested rate. ``K = 1`` means the finest stage alone covers the band (``F_0 =
    finest_fsr_hz > B``) at that rate.
+8. Real stages: a chip's stages are noisier than ideal and its FSRs miss their design.
+   Every ``s_k`` is ``noise_factor`` times the ideal one, and the rates are those of the
+   worst FSRs within ``fsr_tolerance`` (``t``): in 4 the coarsest FSR is ``F_0 (1 - t)``
+   (with its std), and in 3 the coarser stage's FSR and std are ``(1 + t)`` times their
+   design and the finer's ``(1 - t)`` times, ``z_k = (1 - t) F_{k+1} / 2 / sqrt(((1 + t)
+   s_k)^2 + ((1 - t) s_{k+1})^2)``. ``noise_factor = 1`` and ``t = 0`` give 1-7 as they
+   stand.
 """
 
 from __future__ import annotations
@@ -60,10 +67,20 @@ from ..validation import check_positive
 from .limits import crlb_ideal_frequency_std
 from .orders import any_error_probability, handover_error_rate
 
-__all__ = ["CascadeDesign", "design_cascade", "MAX_STAGES"]
+__all__ = [
+    "CascadeDesign",
+    "design_cascade",
+    "MAX_STAGES",
+    "DEFAULT_NOISE_FACTOR",
+    "DEFAULT_FSR_TOLERANCE",
+]
 
 #: the most stages :func:`design_cascade` considers
 MAX_STAGES = 8
+#: the stages' noise over the ideal bound a design allows for (see design_cascade)
+DEFAULT_NOISE_FACTOR = 2.0
+#: the relative FSR error a design allows for (twice Table 1's 5 % delay spread)
+DEFAULT_FSR_TOLERANCE = 0.1
 
 #: the search for ``F_0``: the smallest and largest relative excess ``F_0 / max(B, F_{K-1}) - 1``
 _EXCESS_RANGE = (1e-9, 1e7)
@@ -135,7 +152,8 @@ class CascadeDesign:
     ratios : tuple of float, shape (K - 1,)
         ``F_k / F_{k+1}`` of each hand-over (all equal).
     stage_std_hz : tuple of float, shape (K,)
-        Frequency standard deviation of each stage, ideal, at its share of the power (Hz).
+        Frequency standard deviation of each stage at its share of the power (Hz): the
+        ideal bound times ``noise_factor``.
     edge_margin : float
         How far the coarsest stage's unique range reaches beyond each end of the band, in
         that stage's standard deviations: ``(F_0 - B) / (2 s_0)``.
@@ -153,6 +171,11 @@ class CascadeDesign:
         Detector noise standard deviation per port and reading (W).
     requested_rate : float
         The wrong-order rate asked for (per reading).
+    noise_factor : float
+        The stages' noise over the ideal bound the design allows for.
+    fsr_tolerance : float
+        The relative error of every FSR the design allows for: margins and rates are
+        those of the worst case (item 8 of the module docstring).
     """
 
     fsrs_hz: tuple[float, ...]
@@ -169,6 +192,8 @@ class CascadeDesign:
     power_w: float
     noise_w: float
     requested_rate: float
+    noise_factor: float = 1.0
+    fsr_tolerance: float = 0.0
 
     @property
     def stages(self) -> int:
@@ -230,7 +255,9 @@ class CascadeDesign:
             f"band: {band}{self.band_width_hz / 1e9:.6g} GHz wide; stage 1's range reaches "
             f"{self.edge_margin:.2f} std beyond each end: wrap rate {_rate_text(self.edge_rate)}",
             f"{self.stages} stage(s) of {self.ports} ports, each {self.stage_power_w:.4g} W "
-            f"(source {self.power_w:.4g} W), detector noise {self.noise_w:.4g} W per port",
+            f"(source {self.power_w:.4g} W), detector noise {self.noise_w:.4g} W per port; "
+            f"stages {self.noise_factor:g}x the ideal noise, FSRs within "
+            f"{100 * self.fsr_tolerance:g} % (margins and rates at the worst)",
             f"wrong-order rate per reading: {_rate_text(self.wrong_order_rate)} predicted "
             f"({_rate_text(self.requested_rate)} requested)",
         ]
@@ -270,6 +297,22 @@ def _band(band_hz) -> tuple[tuple[float, float] | None, float]:
     return (low, high), high - low
 
 
+def _factor(noise_factor) -> float:
+    value = _positive("noise_factor", noise_factor)
+    if value < 1.0:
+        raise InputError(
+            f"noise_factor must be >= 1 (no stage beats the ideal bound), got {noise_factor!r}",
+            parameter="noise_factor",
+        )
+    return value
+
+
+def _tolerance(fsr_tolerance) -> float:
+    if fsr_tolerance == 0:
+        return 0.0
+    return _positive("fsr_tolerance", fsr_tolerance, upper=1.0)
+
+
 def _ports(ports) -> int:
     if isinstance(ports, bool) or not isinstance(ports, (int, np.integer)) or ports < 3:
         raise InputError(f"ports must be an integer >= 3, got {ports!r}", parameter="ports")
@@ -304,6 +347,8 @@ class _Setting:
     power_w: float
     noise_w: float
     requested_rate: float
+    noise_factor: float
+    fsr_tolerance: float
 
     def fsrs_hz(self, coarsest_fsr_hz: float, stages: int) -> tuple[float, ...]:
         """Geometric FSRs from ``coarsest_fsr_hz`` to the finest, which is kept exact."""
@@ -316,26 +361,45 @@ class _Setting:
     def stage_std_hz(self, fsrs_hz) -> tuple[float, ...]:
         stage_power_w = self.power_w / len(fsrs_hz)
         return tuple(
-            float(crlb_ideal_frequency_std(self.ports, stage_power_w, self.noise_w, fsr))
+            self.noise_factor
+            * float(crlb_ideal_frequency_std(self.ports, stage_power_w, self.noise_w, fsr))
             for fsr in fsrs_hz
         )
+
+    def margins(self, fsrs_hz, stds_hz) -> np.ndarray:
+        """Each hand-over's margin (std) with the coarser FSR ``fsr_tolerance`` above its
+        design and the finer one below it (item 8 of the module docstring)."""
+        wider, narrower = 1.0 + self.fsr_tolerance, 1.0 - self.fsr_tolerance
+        stds = np.asarray(stds_hz)
+        half = np.asarray(fsrs_hz[1:]) * narrower / 2.0
+        return half / np.hypot(stds[:-1] * wider, stds[1:] * narrower)
+
+    def log_edge_rate(self, fsrs_hz, stds_hz) -> float:
+        """``log`` of the wrap rate with the coarsest FSR ``fsr_tolerance`` below its
+        design (its unique range then narrowest)."""
+        narrower = 1.0 - self.fsr_tolerance
+        return _log_edge_rate(fsrs_hz[0] * narrower, stds_hz[0] * narrower, self.band_width_hz)
+
+    def edge_margin(self, fsrs_hz, stds_hz) -> float:
+        """``(F_0 - B) / (2 s_0)`` with the coarsest FSR ``fsr_tolerance`` below its design."""
+        narrower = 1.0 - self.fsr_tolerance
+        return (fsrs_hz[0] * narrower - self.band_width_hz) / (2.0 * stds_hz[0] * narrower)
 
     def log_rate(self, coarsest_fsr_hz: float, stages: int) -> float:
         """``log`` of the sum of the wrap and hand-over rates (the search's objective)."""
         fsrs = self.fsrs_hz(coarsest_fsr_hz, stages)
         stds = np.array(self.stage_std_hz(fsrs))
-        margins = np.array(fsrs[1:]) / 2.0 / np.hypot(stds[:-1], stds[1:])
-        terms = [_log_edge_rate(fsrs[0], stds[0], self.band_width_hz)]
-        terms += list(_log_handover_rate(margins))
+        terms = [self.log_edge_rate(fsrs, stds)]
+        terms += list(_log_handover_rate(self.margins(fsrs, stds)))
         return float(special.logsumexp(terms))
 
     def design(self, coarsest_fsr_hz: float, stages: int) -> CascadeDesign:
         fsrs = self.fsrs_hz(coarsest_fsr_hz, stages)
         stds = self.stage_std_hz(fsrs)
-        residual_stds = np.hypot(stds[:-1], stds[1:])
-        margins = np.array(fsrs[1:]) / 2.0 / residual_stds
-        handover_rates = handover_error_rate(np.array(fsrs[1:]), residual_stds)
-        edge_rate = math.exp(_log_edge_rate(fsrs[0], stds[0], self.band_width_hz))
+        margins = self.margins(fsrs, stds)
+        # the rate at margin z: erfc(z / sqrt 2), as for a half FSR of z standard deviations
+        handover_rates = handover_error_rate(2.0 * margins, 1.0)
+        edge_rate = math.exp(self.log_edge_rate(fsrs, stds))
         total = any_error_probability(np.array([edge_rate, *handover_rates]))
         return CascadeDesign(
             fsrs_hz=fsrs,
@@ -344,7 +408,7 @@ class _Setting:
             handover_rates=tuple(float(rate) for rate in handover_rates),
             ratios=tuple(fsrs[k] / fsrs[k + 1] for k in range(stages - 1)),
             stage_std_hz=stds,
-            edge_margin=(fsrs[0] - self.band_width_hz) / (2.0 * stds[0]),
+            edge_margin=self.edge_margin(fsrs, stds),
             edge_rate=edge_rate,
             band_hz=self.band_hz,
             band_width_hz=self.band_width_hz,
@@ -352,16 +416,19 @@ class _Setting:
             power_w=self.power_w,
             noise_w=self.noise_w,
             requested_rate=self.requested_rate,
+            noise_factor=self.noise_factor,
+            fsr_tolerance=self.fsr_tolerance,
         )
 
     def best(self, stages: int) -> CascadeDesign | None:
         """The rate-minimising design of ``stages`` stages; None when ``K = 1`` and the
         finest FSR does not exceed the band."""
+        narrowest = self.band_width_hz / (1.0 - self.fsr_tolerance)
         if stages == 1:
-            if self.finest_fsr_hz <= self.band_width_hz:
+            if self.finest_fsr_hz <= narrowest:
                 return None
             return self.design(self.finest_fsr_hz, 1)
-        floor_hz = max(self.band_width_hz, self.finest_fsr_hz)
+        floor_hz = max(narrowest, self.finest_fsr_hz)
 
         def objective(log_excess: float) -> float:
             return self.log_rate(floor_hz * (1.0 + math.exp(log_excess)), stages)
@@ -384,13 +451,16 @@ def design_cascade(
     power_w: float = 1e-3,
     noise_w: float = 5e-7,
     wrong_order_rate: float = 1e-9,
+    noise_factor: float = DEFAULT_NOISE_FACTOR,
+    fsr_tolerance: float = DEFAULT_FSR_TOLERANCE,
     stages: int | None = None,
 ) -> CascadeDesign:
-    """The fewest ideal stages that read ``band_hz`` absolutely at ``wrong_order_rate``.
+    """The fewest stages that read ``band_hz`` absolutely at ``wrong_order_rate``.
 
-    The model, its derivation and the search are in the module docstring: ideal stages,
-    the source power split equally (each stage ``power_w / K``), the finest FSR given, the
-    others geometric, the coarsest chosen to minimise the predicted wrong-order rate.
+    The model, its derivation and the search are in the module docstring: stages
+    ``noise_factor`` times noisier than ideal, the source power split equally (each stage
+    ``power_w / K``), the finest FSR given, the others geometric, the coarsest chosen to
+    minimise the predicted wrong-order rate, every FSR allowed ``fsr_tolerance`` of error.
 
     Parameters
     ----------
@@ -408,6 +478,16 @@ def design_cascade(
         Detector noise standard deviation per port and reading (W), > 0.
     wrong_order_rate : float
         Requested probability per reading that some stage's order is wrong, in (0, 1).
+    noise_factor : float
+        The stages' frequency noise over the ideal bound, >= 1. The default 2 covers a
+        Table 1 stage at its noisiest phase (the pseudo-inverse's spread over 300 draws:
+        median 1.1, 95th percentile 1.56) with the coarsest stage's misfit over a band
+        narrower than its FSR (its model-free noise about 1.3x); 1: ideal stages.
+    fsr_tolerance : float
+        Relative error of every FSR the design must survive, in [0, 1): the coarsest FSR
+        that much below its design (its unique range narrowest), each hand-over with the
+        coarser FSR above and the finer below. The default 0.1 is twice Table 1's 5 % delay
+        spread; 0: exact FSRs.
     stages : int, optional
         Force this many stages (1 to :data:`MAX_STAGES`): the returned design is that
         ``K``'s best, whether or not it meets the rate (see ``CascadeDesign.meets_rate``).
@@ -434,6 +514,8 @@ def design_cascade(
         power_w=_positive("power_w", power_w),
         noise_w=_positive("noise_w", noise_w),
         requested_rate=_positive("wrong_order_rate", wrong_order_rate, upper=1.0),
+        noise_factor=_factor(noise_factor),
+        fsr_tolerance=_tolerance(fsr_tolerance),
     )
     forced = _stage_count(stages)
     if forced is not None:
