@@ -347,3 +347,25 @@ def test_a_misfit_of_the_coarsest_stage_says_what_it_means_in_a_cascade():
     for note in coarsest:
         margin = f"{cal.handovers_[0]['margin_std']:.3g} standard deviations"
         assert "covers less than one of its FSRs" in str(note) and margin in note.remedy
+
+
+def test_a_stage_whose_model_misses_the_chip_widens_its_uncertainty_by_what_the_sweep_showed():
+    """Over the C band the 5 THz stage cannot follow its spectral slopes: its sweep errors
+    exceed its std, the excess is kept, and the z-scores of new readings of that stage
+    are of unit spread; the small cascade's bands show nothing significant."""
+    cascade = wm.CascadeInterferometer.table1(seed=1, center_hz=193.2e12)
+    sweep_hz = np.linspace(191.0e12, 195.4e12, 8000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wm.CalibrationWarning)
+        cal = wm.CascadeCalibrator().fit(
+            cascade.powers(sweep_hz, POWER_W, NOISE_W, rng=26), sweep_hz
+        )
+    assert cal.model_error_hz_[0] > 0 and np.all(cal.model_error_hz_[1:] == 0)
+    plain, _, _ = calibrated(spectral=None)
+    assert np.all(plain.model_error_hz_ == 0)
+    truth = np.random.default_rng(27).uniform(191.0e12, 195.4e12, 20_000)
+    found = cal.read(cascade.powers(truth, POWER_W, NOISE_W, rng=28))
+    z = (found.frequency_hz[0] - truth) / found.std_hz[0]
+    # 20000 readings: 1/sqrt(2 N) = 0.005; the excess is estimated on 8000 sweep readings
+    # whose errors are correlated along the band, so allow a few percent
+    assert abs(np.std(z) - 1.0) < 0.05

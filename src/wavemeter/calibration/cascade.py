@@ -14,6 +14,10 @@ exceeds the band) and reads a frequency without any coarse input:
 3. the finest stage's frequency is the answer, its uncertainty that of the finest stage
    (given the orders are right).
 
+Each stage's uncertainty is its wide-band calibration's, in the readings' own noise
+(:func:`noise_scale`, measured against the sweep), plus any error the sweep showed beyond
+it (``model_error_hz_``).
+
 A wrong order is a gross error of a whole FSR, so each reading says how likely one is
 (:meth:`CascadeCalibrator.order_error_probability`, :mod:`wavemeter.model.orders`): at a
 hand-over the residual ``r`` (coarse estimate minus fine one) has the standard deviation
@@ -197,6 +201,10 @@ class CascadeCalibrator(BaseCalibrator):
         ``largest_usable_ratio`` (the ratio at which the sweep's noise would make the rate
         ``max_order_error``), ``predicted_rate`` (mean expected wrong-order rate over the
         sweep), ``expected_wrong`` and ``wrong_on_sweep`` (counts on the sweep).
+    model_error_hz_ : ndarray, shape (K,)
+        Each stage's error on the sweep beyond its uncertainty (Hz, 0 where none is
+        significant; estimated robustly), added to its readings' std in quadrature (a
+        coarsest stage whose model misses the chip's wavelength slopes has some).
     cone_distance_median_ : ndarray, shape (K,)
         Each stage's median cone distance over the sweep: readings whose distances lie
         above it more often than chance carry more noise than the sweep
@@ -443,6 +451,8 @@ class CascadeCalibrator(BaseCalibrator):
                 for stage, block in zip(stages, columns, strict=True)
             ]
         )
+        self.model_error_hz_ = np.zeros(len(stages))
+        self.model_error_hz_ = self._model_error_hz(self._read(corrected), frequency)
         chain = self._read(corrected)
         self.calibration_rms_hz_ = float(
             np.sqrt(np.mean((chain.frequency_hz[-1] - frequency) ** 2))
@@ -595,6 +605,28 @@ class CascadeCalibrator(BaseCalibrator):
                 )
         return notes
 
+    def _model_error_hz(self, chain: CascadeReading, frequency_hz: np.ndarray) -> np.ndarray:
+        """Each stage's error (Hz) on the sweep beyond its uncertainty, where significant.
+
+        A stage whose model misses part of the chip (the coarsest stage over less than its
+        FSR) reads the sweep with errors its ``std`` does not explain. Robustly, so that a
+        few bad sweep readings do not count: when more z-scores than chance lie beyond
+        the normal quartile ``Q`` (binomial at ``NOISE_P_VALUE``), their spread ``r =
+        median |z| / Q`` gives the excess ``sqrt(r^2 - 1) rms(std)``, added to every
+        reading's std in quadrature.
+        """
+        quartile = float(special.ndtri(0.75))
+        excess = np.zeros(len(self.stages_))
+        for index in range(len(self.stages_)):
+            error = self._within_order_error_hz(chain, frequency_hz, index)
+            std = chain.std_hz[index]
+            z = np.abs(error / std)
+            beyond = int(np.count_nonzero(z > quartile))
+            if stats.binom.sf(beyond - 1, z.size, 0.5) < NOISE_P_VALUE:
+                spread = float(np.median(z)) / quartile
+                excess[index] = math.sqrt(max(spread**2 - 1.0, 0.0) * np.mean(std**2))
+        return excess
+
     def _stage_records(self, chain: CascadeReading, frequency_hz: np.ndarray) -> list[dict]:
         records = []
         for index, stage in enumerate(self.stages_):
@@ -642,8 +674,11 @@ class CascadeCalibrator(BaseCalibrator):
             # in the noise of the readings, beside what the model missed on the sweep
             missed = max(reference - median, 0.0)
             distance[index] *= median / (scale[index] ** 2 * median + missed)
-            std[index] = stage._frequency_std_of(
-                rows, frequency[index], phase[index], stage_maps, noise_scale=scale[index]
+            std[index] = np.hypot(
+                stage._frequency_std_of(
+                    rows, frequency[index], phase[index], stage_maps, noise_scale=scale[index]
+                ),
+                self.model_error_hz_[index],
             )
             coarse = frequency[index]
         probability = np.empty((stages, samples))
@@ -852,6 +887,7 @@ class CascadeCalibrator(BaseCalibrator):
             "handovers": self.handovers_,
             "edge_margin_std": self.edge_margin_std_,
             "cone_distance_median": self.cone_distance_median_.tolist(),
+            "model_error_hz": self.model_error_hz_.tolist(),
         }
 
     def _set_state(self, state: dict) -> None:
@@ -892,3 +928,6 @@ class CascadeCalibrator(BaseCalibrator):
         self.cone_distance_median_ = state_array(state, "cone_distance_median", (len(design),))
         if np.any(self.cone_distance_median_ <= 0):
             raise InputError("field 'cone_distance_median' must hold positive numbers")
+        self.model_error_hz_ = state_array(state, "model_error_hz", (len(design),))
+        if np.any(self.model_error_hz_ < 0):
+            raise InputError("field 'model_error_hz' must hold numbers >= 0 (Hz)")
