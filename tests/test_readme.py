@@ -102,3 +102,28 @@ def test_the_wide_band_example_chooses_the_orders_the_readme_states(tmp_path, mo
     row = next(line for line in printed if line.startswith("wideband "))
     # 3000 test readings: the RMS over the bound is 1 within 4 / sqrt(2 x 3000) = 0.05
     assert abs(float(row.split()[-1]) - 1.0) < 0.05
+
+
+def test_the_cascade_example_prints_what_the_readme_states(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    section = README[README.index("### Cascade") : README.index("## Using your own data")]
+    commands = [
+        " ".join(match.replace("\\", "").split())
+        for match in re.findall(r"^    (wavemeter (?:[^\n]*\\\n)*[^\n]*)", section, re.M)
+    ]
+    design, simulate, calibrate = commands[:3]
+    printed = run(design, capsys)
+    stated = re.search(r"three stages,\s+(\S+) THz / (\S+) GHz / 50 GHz", section)
+    fsrs_ghz = [line.split()[1] for line in printed[1:4]]
+    assert [f"{float(fsrs_ghz[0]) / 1e3:.3g}", f"{float(fsrs_ghz[1]):.3g}"] == list(stated.groups())
+    assert fsrs_ghz[2] == "50" and printed[4].startswith("band:")
+    run(simulate, capsys)
+    run(calibrate.split("#")[0], capsys)
+    info = run("wavemeter info cband.wmcal.json", capsys)
+    for line in re.findall(r"^    (hand-over [^\n]*)", section, re.M):
+        assert line in info
+    evaluated = run("wavemeter evaluate cband.wmcal.json cband-test.csv", capsys)
+    row = next(line for line in evaluated if line.startswith("cascade "))
+    ratio = re.search(r"(\S+) MHz RMS,\s+(\S+)x the Cramer-Rao bound", section)
+    assert f"{float(row.split()[1]):.3g}" == ratio.group(1) and row.split()[-1] == ratio.group(2)
+    assert any("0 of 5000 readings off" in line for line in evaluated)
