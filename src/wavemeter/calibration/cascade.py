@@ -43,7 +43,6 @@ from scipy import special, stats
 
 from ..exceptions import CalibrationWarning, InputError, recorded_calibration_warnings
 from ..model.orders import (
-    any_error_probability,
     handover_error_probability,
     handover_error_rate,
     wrap_error_probability,
@@ -59,6 +58,7 @@ from ..validation import (
     check_powers,
 )
 from .base import BaseCalibrator
+from .cascade_reading import NOISE_P_VALUE, CascadeReading, chi2_median, noise_scale
 from .delay_search import frequency_text
 from .files import calibrator_fields, calibrator_from_fields, state_array, state_float
 from .flags import SPAN_MARGIN_STD, ReadingFlag, off_model_threshold, power_flags
@@ -66,7 +66,7 @@ from .learned import RETRIEVALS
 from .wideband import WidebandCalibrator
 from .wideband_reading import band_cone_distance
 
-__all__ = ["CascadeCalibrator", "CascadeReading", "HANDOVER_CAUSE"]
+__all__ = ["CascadeCalibrator", "HANDOVER_CAUSE"]
 
 #: the cause of a warning that the sweep saw more wrong orders than the rates predict
 HANDOVER_CAUSE = "order_handover"
@@ -82,81 +82,8 @@ HANDOVER_P_VALUE = 1e-6
 #: a hand-over residual beyond this many standard deviations is OFF_MODEL: the stages
 #: disagree beyond their uncertainties (two-sided p-value ``OFF_MODEL_P_VALUE``, 1e-6)
 DISAGREEMENT_STD = float(special.ndtri(1.0 - 0.5e-6))
-#: readings of one call whose cone distances exceed the calibrated noise at this p-value
-#: carry a noise of their own, which scales their uncertainties (:func:`noise_scale`)
-NOISE_P_VALUE = 1e-6
 #: the issue's C-band cascade (Hz, coarsest first)
 DEFAULT_FSRS_HZ = (5e12, 500e9, 50e9)
-
-
-@dataclasses.dataclass(frozen=True)
-class CascadeReading:
-    """What the cascade found for each of ``N`` readings, stage by stage (coarsest first).
-
-    Attributes
-    ----------
-    frequency_hz, std_hz : ndarray, shape (K, N)
-        Each stage's frequency (Hz) at the order it took and its standard deviation (Hz).
-    phase_rad : ndarray, shape (K, N)
-        Each stage's retrieved phase (rad).
-    maps : list of ndarray, shape (N, n_k, 3)
-        Each stage's map at its frequency.
-    error_probability : ndarray, shape (K, N)
-        Probability that stage ``k`` took a wrong order: the coarsest stage's edge
-        probability, then each hand-over's posterior.
-    disagreement_std : ndarray, shape (K - 1, N)
-        Each hand-over's residual in its standard deviations.
-    cone_distance : ndarray, shape (K, N)
-        Each stage's weighted squared distance of the reading to its cone, in the noise
-        of the readings (``noise_scale``).
-    noise_scale : ndarray, shape (K,)
-        Each stage's detector noise in these readings over the calibrated one
-        (:func:`noise_scale`: 1 unless their cone distances show more noise). Every
-        uncertainty above is in that noise.
-    flags : None or ndarray of int64, shape (N,)
-        The quality mask :meth:`CascadeCalibrator.flags` gives (from
-        :meth:`CascadeCalibrator.read`).
-    """
-
-    frequency_hz: np.ndarray
-    std_hz: np.ndarray
-    phase_rad: np.ndarray
-    maps: list
-    error_probability: np.ndarray
-    disagreement_std: np.ndarray
-    cone_distance: np.ndarray
-    noise_scale: np.ndarray
-    flags: np.ndarray | None = None
-
-    @property
-    def order_error_probability(self) -> np.ndarray:
-        """Probability (per reading) that some stage took a wrong order."""
-        return any_error_probability(self.error_probability)
-
-
-def chi2_median(free: int, noise_dof: float) -> float:
-    """The median of a cone distance under the calibrated noise: ``free F(free, noise_dof)``
-    (``free = n - 2`` degrees of freedom, the noise estimated on ``noise_dof``)."""
-    return free * float(stats.f.median(free, noise_dof))
-
-
-def noise_scale(distance: np.ndarray, reference_median: float, noise_median: float) -> float:
-    """The readings' detector noise over the calibration sweep's, from their cone distances.
-
-    Under the sweep's conditions a reading's distance exceeds the sweep's median distance
-    ``reference_median`` with probability 1/2. When more of the readings do than that
-    allows at ``NOISE_P_VALUE`` (binomial), they carry more noise. A distance is the
-    noise's part (median ``noise_median`` at the calibrated noise, :func:`chi2_median`)
-    plus what the model misses (``reference_median - noise_median`` on the sweep, which the
-    noise does not change), so the scale is ``sqrt(1 + (median(distance) -
-    reference_median) / noise_median)``. Medians keep a few glitches from scaling every
-    reading; a single reading is never scaled (a far one is ``OFF_MODEL`` instead).
-    """
-    above = int(np.count_nonzero(distance > reference_median))
-    if stats.binom.sf(above - 1, distance.size, 0.5) >= NOISE_P_VALUE:
-        return 1.0
-    excess = (float(np.median(distance)) - reference_median) / noise_median
-    return math.sqrt(1.0 + max(excess, 0.0))
 
 
 def _stage_label(index: int, fsr_hz: float) -> str:
