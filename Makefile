@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench trust thermal wideband peers fuzz clean
+.PHONY: demo test lint bench trust thermal wideband cascade peers fuzz clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -46,6 +46,10 @@ thermal: $(BIN)/wavemeter
 # the wide-band calibration of issue 11 over the C band; writes docs/figures/wideband_residual_phase.png
 wideband: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/wideband.py
+
+# the cascade of issue 12 over the C band: wrong orders seen vs predicted, no coarse input
+cascade: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/cascade.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'

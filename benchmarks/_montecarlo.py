@@ -49,6 +49,7 @@ __all__ = [
     "rms",
     "status",
     "trials",
+    "wideband_crlb_hz",
 ]
 
 DESIGN_FSR_HZ = 50e9
@@ -310,3 +311,35 @@ def causes_cell(fits: Sequence[Fit]) -> str:
     warned = sum(bool(fit.causes or fit.refused) for fit in fits)
     named = ", ".join(f"{cause} {count}" for cause, count in counts.most_common())
     return f"{warned}/{len(fits)}" + (f": {named}" if named else "")
+
+
+def wideband_crlb_hz(device: wm.Interferometer, frequency_hz, power_w, noise_w) -> np.ndarray:
+    """Per-reading Cramer-Rao bound (Hz) of a device with spectral effects, at the true
+    frequencies.
+
+    The phase bound under the device's map at each frequency (``true_map(frequency_hz=f)``,
+    the bias inside it) at its phase ``phase_rad(f)``, over ``dt/df = 2 pi`` times the group
+    delay there: dispersion and coupler slopes are those of the truth.
+
+    Parameters
+    ----------
+    device : wavemeter.Interferometer
+    frequency_hz : ndarray, shape (N,)
+        Source frequencies (Hz).
+    power_w : float or array_like, shape (N,)
+        Power reaching the device (W).
+    noise_w : float or array_like, shape (n,)
+        Detector noise standard deviation per reading (W), one or one per port.
+
+    Returns
+    -------
+    ndarray, shape (N,), Hz
+    """
+    phase_bound_rad = wm.crlb_frequency_std(
+        device.true_map(frequency_hz=frequency_hz),
+        device.phase_rad(frequency_hz),
+        power_w,
+        noise_w,
+        2.0 * np.pi,
+    )
+    return phase_bound_rad / (2.0 * np.pi * device.group_delay_s(frequency_hz))
