@@ -11,7 +11,6 @@ it works in chunks.
 
 from __future__ import annotations
 
-import functools
 import re
 from pathlib import Path
 
@@ -24,7 +23,6 @@ from wavemeter.calibration.flags import ReadingFlag
 from wavemeter.cli import main
 from wavemeter.cli import measure as measure_module
 from wavemeter.io import ColumnRequest, read_table, write_table
-from wavemeter.progress import chunked
 
 from .conftest import NOISE_W, POWER_W, one_error
 from .conftest import run_cli as run
@@ -297,7 +295,7 @@ def test_flags_follow_their_rows_through_chunks_and_dropped_rows(
     and 1/3 of the source power get POWER_RANGE (outside the calibrated total power by
     more than a factor 2); every other row has the calibration's own flags, measured in
     chunks of 7 rows."""
-    monkeypatch.setattr(measure_module, "chunked", functools.partial(chunked, chunk_rows=7))
+    monkeypatch.setattr(measure_module, "MEASURE_CHUNK_ROWS", 7)
     readings = read_table(clean["test"], ColumnRequest(), need_x=False).powers_w[:40]
     readings[[5, 6]] *= 3.0
     readings[20] /= 3.0

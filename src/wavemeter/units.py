@@ -17,6 +17,7 @@ import numpy as np
 from .exceptions import InputError
 
 __all__ = [
+    "frequency_text",
     "SPEED_OF_LIGHT_M_S",
     "FREQUENCY_UNITS",
     "WAVELENGTH_UNITS",
@@ -311,3 +312,16 @@ def parse_power_w(text, name: str = "power") -> float:
     if unit == "dBm":
         return float(power_to_w(number, "dBm"))
     return float(_scaled(np.float64(number), POWER_UNITS[unit] if unit else 0))
+
+
+#: SI prefixes of frequencies, largest first
+_FREQUENCY_PREFIXES = ((1e12, "THz"), (1e9, "GHz"), (1e6, "MHz"), (1e3, "kHz"))
+
+
+def frequency_text(frequency_hz: float, digits: int = 6) -> str:
+    """A frequency with the largest SI prefix that keeps it >= 1, ``digits`` significant:
+    ``5 THz``, ``496.734 GHz``."""
+    for factor, unit in _FREQUENCY_PREFIXES:
+        if abs(frequency_hz) >= factor:
+            return f"{frequency_hz / factor:.{digits}g} {unit}"
+    return f"{frequency_hz:.{digits}g} Hz"

@@ -46,6 +46,7 @@ import numpy as np
 from scipy import optimize
 
 from ..exceptions import EdgeMinimumError, InputError
+from ..units import frequency_text
 from ..validation import check_choice, check_positive
 
 __all__ = [
@@ -78,16 +79,6 @@ MIN_EXPLAINED_FRACTION = 0.5
 #: carry no fringe above the noise: the fringe would hold less power than the noise, and
 #: no delay could explain ``MIN_EXPLAINED_FRACTION`` of the variation
 NO_FRINGE_RATIO = 1.0 / (1.0 - MIN_EXPLAINED_FRACTION)
-
-_PREFIXES = ((1e12, "THz"), (1e9, "GHz"), (1e6, "MHz"), (1e3, "kHz"))
-
-
-def frequency_text(value_hz: float, digits: int = 6) -> str:
-    """A frequency with the largest SI prefix that keeps it >= 1, ``digits`` significant."""
-    for factor, unit in _PREFIXES:
-        if abs(value_hz) >= factor:
-            return f"{value_hz / factor:.{digits}g} {unit}"
-    return f"{value_hz:.{digits}g} Hz"
 
 
 def _bracket_text(fsr_hz: float, fsr_tolerance: float) -> str:

@@ -16,7 +16,7 @@ from ..exceptions import InputError, WavemeterError
 from ..io import FORMATS, ColumnRequest, port_key, read_table, table_format
 from ..io.reading import NO_LIGHT_REASON
 from ..progress import busy
-from ..units import SPEED_OF_LIGHT_M_S
+from ..units import SPEED_OF_LIGHT_M_S, frequency_text
 from ._params import FREQUENCY, FSR, AliasedOption, FrequencyParam
 from ._streams import STDIN_LABEL, is_stdio
 
@@ -134,19 +134,6 @@ def _stdin_named(path):
 def fsr_text(fsr_hz: float) -> str:
     """An FSR as every command prints it: ``49.584877 GHz``."""
     return f"{fsr_hz / 1e9:.6f} GHz"
-
-
-#: SI prefixes of frequencies, largest first, for :func:`frequency_text`
-_FREQUENCY_PREFIXES = ((1e12, "THz"), (1e9, "GHz"), (1e6, "MHz"), (1e3, "kHz"))
-
-
-def frequency_text(frequency_hz: float, digits: int = 6) -> str:
-    """A frequency with the largest SI prefix that keeps it >= 1, ``digits`` significant:
-    ``5 THz``, ``496.734 GHz``."""
-    for factor, unit in _FREQUENCY_PREFIXES:
-        if abs(frequency_hz) >= factor:
-            return f"{frequency_hz / factor:.{digits}g} {unit}"
-    return f"{frequency_hz:.{digits}g} Hz"
 
 
 def optical_text(frequency_hz: float) -> str:

@@ -16,43 +16,46 @@ output adds ``order_error_probability``, the probability that some stage picked 
 fringe order. When a stage's readings are noisier than its calibration sweep, one
 ``warning: [reading_noise]`` line says which and by how much: the uncertainties and order
 probabilities written follow the readings' own noise.
+
+The file is read, measured and written a chunk of rows at a time
+(:func:`wavemeter.jobs.measure_file`), so the memory does not grow with the file; the output
+appears only once complete. DATA may also be a folder or a quoted glob pattern: each data
+file is measured into OUTDIR, and a file that fails is reported while the others go on.
 """
 
 from __future__ import annotations
 
-import warnings
+import glob
+from pathlib import Path
 
 import click
-import numpy as np
 
-from ..calibration.flags import ReadingFlag, flag_counts
-from ..exceptions import CalibrationWarning, InputError
-from ..io import write_table
-from ..progress import busy, chunked
-from ..units import SPEED_OF_LIGHT_M_S
+from ..atomic import check_output
+from ..exceptions import InputError, WavemeterError
+from ..io import iter_readings
+from ..io.formats import FILE_FORMATS
+from ..jobs import MEASURE_CHUNK_ROWS, measure_file
+from ..progress import progress_bar
 from ._common import (
     FORCE,
     FORMAT,
     QUIET,
-    about,
     check_ports,
     column_options,
     column_request,
-    frequency_text,
     load,
     names,
-    out_option,
+    note,
     output_format,
     printable,
-    read,
     say,
 )
 from ._params import OPTICAL_FREQUENCY, AliasedOption
-from ._streams import is_stdio
+from ._streams import STDIN_LABEL, is_stdio
 from ._temperature import (
     check_temperature_options,
+    missing_temperature,
     needs_temperature,
-    reading_temperature_k,
     temperature_k_option,
 )
 
@@ -60,15 +63,14 @@ from ._temperature import (
 COARSE_OPTIONS = "pass --coarse COL or --coarse-frequency VALUE"
 
 
-def _coarse(calibration, cal_path, table, coarse_hz):
-    """Coarse frequency per reading for a calibration that needs one (``"coarse_hz"`` in
-    its ``requires``: a calibration set, a wide-band calibration); None for the others."""
+def _check_coarse(calibration, cal_path, stream, coarse_hz) -> None:
+    """A calibration that needs a coarse frequency per reading (``"coarse_hz"`` in its
+    ``requires``: a calibration set, a wide-band calibration) gets it from a column or
+    --coarse-frequency."""
     if "coarse_hz" not in calibration.requires:
-        return None
-    if table.coarse_hz is not None:
-        return table.coarse_hz
-    if coarse_hz is not None:
-        return np.full(table.n_rows, coarse_hz)
+        return
+    if stream.coarse_column is not None or coarse_hz is not None:
+        return
     if hasattr(calibration, "windows_"):
         low, high = calibration.covered_hz()
         raise InputError(
@@ -85,10 +87,6 @@ def _coarse(calibration, cal_path, table, coarse_hz):
     )
 
 
-#: cause of the warning that a cascade's readings are noisier than its calibration sweep
-READING_NOISE_CAUSE = "reading_noise"
-
-
 def _refuse_coarse(calibration, cal_path, coarse_column, coarse_hz) -> None:
     """A calibration that reads absolute frequency (a cascade) takes no coarse frequency."""
     if calibration.absolute_frequency and (coarse_column is not None or coarse_hz is not None):
@@ -100,42 +98,36 @@ def _refuse_coarse(calibration, cal_path, coarse_column, coarse_hz) -> None:
         )
 
 
-def _noise_warning(calibration, noise_scale: np.ndarray) -> CalibrationWarning | None:
-    """The warning that a cascade's readings are noisier than its calibration sweep, from
-    the largest noise scale of each stage over the chunks (K,); None when none is."""
-    noisier = np.flatnonzero(noise_scale > 1.0)
-    if noisier.size == 0:
-        return None
-    fsrs = calibration.stage_fsrs_hz_
-    stages = ", ".join(
-        f"{noise_scale[index]:.3g}x in stage {index + 1} ({frequency_text(fsrs[index])})"
-        for index in noisier
-    )
-    return CalibrationWarning(
-        f"the readings are noisier than the calibration sweep: their detector noise is "
-        f"{stages} the calibrated one (estimated from the readings' distances to each stage's "
-        "model); frequency_std_hz and order_error_probability follow the readings' noise, "
-        "and wrong orders grow more likely with it",
-        cause=READING_NOISE_CAUSE,
-        remedy="lower the readings' noise (more power, averaging) or recalibrate in the "
-        "conditions of use",
-    )
-
-
-def flag_summary(flags: np.ndarray) -> str:
+def flag_summary(counts: dict[str, int], flagged: int, rows: int) -> str:
     """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2`` (a reading may have
-    several bits, so the counts can add up to more than the readings flagged)."""
-    counts = ", ".join(f"{name} {count}" for name, count in flag_counts(flags).items())
-    text = f"flagged {int(np.count_nonzero(flags))} of {flags.size} readings"
-    return f"{text}: {counts}" if counts else text
+    several bits, so the counts can add up to more than the readings flagged).
+
+    Parameters
+    ----------
+    counts : dict of str to int
+        Readings with each flag bit, by bit name (bits no reading has left out).
+    flagged : int
+        Readings with any bit.
+    rows : int
+        Readings measured.
+    """
+    text = f"flagged {flagged} of {rows} readings"
+    listed = ", ".join(f"{name} {count}" for name, count in counts.items())
+    return f"{text}: {listed}" if listed else text
 
 
 @click.command()
 @click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
-@click.argument("data", type=click.Path(dir_okay=False))
-@out_option(
-    "Output file: frequency_hz, wavelength_nm, phase_rad, frequency_std_hz, "
-    "order_error_probability (cascade), flags per input row ('-': stdout)."
+@click.argument("data", type=click.Path())
+@click.option(
+    "-o",
+    "--out",
+    "out_path",
+    required=True,
+    type=click.Path(allow_dash=True),
+    help="Output file: frequency_hz, wavelength_nm, phase_rad, frequency_std_hz, "
+    "order_error_probability (cascade), flags per input row ('-': stdout); a folder "
+    "when DATA is a folder or a glob pattern.",
 )
 @click.option("--keep", metavar="COL,COL,..", help="Input columns to copy into the output.")
 @FORMAT
@@ -201,7 +193,14 @@ def measure(
     ORDER_AMBIGUOUS above the calibration's --max-order-error. Rows skipped with
     --drop-invalid are written as NaN with the INVALID flag.
     DATA '-' is read from stdin; with -o - the table goes to stdout (CSV unless --format)
-    and messages to stderr. An existing output is replaced only with --force.
+    and messages to stderr. An existing output is replaced only with --force. The file
+    is read, measured and written in chunks: the memory does not grow with the file, and
+    the output appears only once complete.
+
+    DATA may be a folder (its data files) or a quoted glob pattern ('runs/*.h5'): each
+    file is measured into the folder -o OUTDIR as <name>.<format extension> (CSV unless
+    --format); a file that fails is reported with its error and the others go on, and
+    the exit code is 2 when any failed.
 
     A thermal calibration needs the chip temperature of each reading: from a temperature
     column (found by name with its unit, e.g. temperature_K or 'Temp (C)', or
@@ -218,89 +217,206 @@ def measure(
       wavemeter measure thermal.wmcal.json readings.csv -o f.csv --temperature 'Temp (C)'
       wavemeter measure band.wmcal.json readings.csv -o f.csv --coarse set_point_THz
       wavemeter measure cascade.wmcal.json readings.csv -o f.csv
+      wavemeter measure chip.wmcal.json 'runs/*.parquet' -o measured/ --format parquet
     """
     quiet = options["quiet"]
+    calibration_check = (calibration_file, coarse_column, coarse_hz, temperature_k, uncertainty)
+    settings = {
+        "keep": names(keep) or (),
+        "coarse_column": coarse_column,
+        "coarse_hz": coarse_hz,
+        "temperature_k": temperature_k,
+        "uncertainty": uncertainty,
+        "options": options,
+    }
+    if _many_files(data):
+        _measure_many(calibration_file, data, out_path, file_format, force, settings)
+        return
     file_format = output_format(
         out_path, file_format, inputs=(calibration_file, data), force=force
     )  # before any work
-    calibration = load(calibration_file)
-    _refuse_coarse(calibration, calibration_file, coarse_column, coarse_hz)
+    calibration, settings["uncertainty"] = _checked_calibration(*calibration_check, options)
+    summary = _measure_one(calibration, calibration_file, data, out_path, file_format, settings)
+    err = is_stdio(out_path)
+    written = "stdout" if err else out_path
+    say(quiet, f"wrote {written} ({summary.rows} rows)", err=err)
+    say(quiet, flag_summary(summary.flag_counts, summary.flagged, summary.rows), err=err)
+
+
+def _checked_calibration(cal_path, coarse_column, coarse_hz, temperature_k, uncertainty, options):
+    """The calibration and whether to write frequency_std_hz, after the checks of the
+    options that need no readings."""
+    calibration = load(cal_path)
+    _refuse_coarse(calibration, cal_path, coarse_column, coarse_hz)
     offered = "frequency_std" in calibration.capabilities
     if uncertainty and not offered:
         raise InputError(
-            f"{calibration_file}: --uncertainty needs a learned calibration (single or per "
+            f"{cal_path}: --uncertainty needs a learned calibration (single or per "
             f"FSR), not a {calibration.method_label} calibration"
         )
-    uncertainty = offered if uncertainty is None else uncertainty
-    thermal = needs_temperature(calibration)
     column = options["temperature_column"]
-    check_temperature_options(calibration, calibration_file, column=column, given=temperature_k)
-    if column is not None and not thermal:
+    check_temperature_options(calibration, cal_path, column=column, given=temperature_k)
+    if column is not None and not needs_temperature(calibration):
         raise InputError(
             f"--temperature names the chip temperature column for a calibration that needs "
-            f"it (a thermal calibration); {calibration_file} is a "
+            f"it (a thermal calibration); {cal_path} is a "
             f"{calibration.method_label} calibration, which does not use it: leave "
             "--temperature out"
         )
-    request = column_request(options, coarse=coarse_column, keep=names(keep) or ())
-    table = read(
+    return calibration, offered if uncertainty is None else uncertainty
+
+
+def _measure_one(calibration, cal_path, data, out_path, file_format, settings, *, bar=True):
+    """Measure one file into ``out_path``; the summary. ``bar``: show its progress."""
+    options = settings["options"]
+    quiet = options["quiet"]
+    request = column_request(options, coarse=settings["coarse_column"], keep=settings["keep"])
+    given_k = settings["temperature_k"]
+    thermal = needs_temperature(calibration)
+    label = STDIN_LABEL if is_stdio(data) else str(data)
+    stream = iter_readings(
         data,
         request,
-        need_x=False,
-        drop_invalid=options["drop_invalid"],
-        quiet=quiet,
-        temperature=thermal and temperature_k is None,
+        chunk_rows=MEASURE_CHUNK_ROWS,
+        allow_invalid=options["drop_invalid"],
+        find_temperature=thermal and given_k is None,
+        name=label,
     )
-    check_ports(calibration, calibration_file, table, explicit=request.ports is not None)
-    temperature = reading_temperature_k(calibration, calibration_file, table, temperature_k)
-    valid = table.valid_only()
-    coarse = _coarse(calibration, calibration_file, valid, coarse_hz)
-    frequency = np.full(table.n_rows, np.nan)
-    phase = np.full(table.n_rows, np.nan)
-    std = np.full(table.n_rows, np.nan)
-    flags = np.where(table.invalid, int(ReadingFlag.INVALID), 0)
-    cascade = hasattr(calibration, "stages_")
-    order_error = np.full(table.n_rows, np.nan) if cascade else None
-    noise_scale = np.ones(len(calibration.stages_)) if cascade else None
-    rows = np.flatnonzero(~table.invalid)
-    description = printable(f"measuring {table.source}")
-    for block in chunked(valid.n_rows, description, quiet=quiet):
-        extra = {} if coarse is None else {"coarse_hz": coarse[block]}
-        if temperature is not None:
-            extra["temperature_k"] = temperature[rows[block]]
-        with about(table.source):
-            if cascade:  # every stage in one pass
-                found = calibration.read(valid.powers_w[block])
-                frequency[rows[block]] = found.frequency_hz[-1]
-                phase[rows[block]] = found.phase_rad[-1]
-                std[rows[block]] = found.std_hz[-1]
-                order_error[rows[block]] = found.order_error_probability
-                flags[rows[block]] = found.flags
-                noise_scale = np.maximum(noise_scale, found.noise_scale)
-                continue
-            frequency[rows[block]] = calibration.predict(valid.powers_w[block], **extra)
-            phase[rows[block]] = calibration.phase(valid.powers_w[block], **extra)
-            if uncertainty:
-                std[rows[block]] = calibration.frequency_std_hz(valid.powers_w[block], **extra)
-            flags[rows[block]] = calibration.flags(valid.powers_w[block], **extra)
-    if cascade and (noisier := _noise_warning(calibration, noise_scale)) is not None:
-        warnings.warn(noisier, stacklevel=1)
-    columns = {
-        "frequency_hz": frequency,
-        "wavelength_nm": SPEED_OF_LIGHT_M_S / frequency * 1e9,
-        "phase_rad": phase,
-        **({"frequency_std_hz": std} if uncertainty else {}),
-        **({} if order_error is None else {"order_error_probability": order_error}),
-        "flags": flags,
-        **({} if temperature is None else {"temperature_k": temperature}),
-    }
-    for name, values in table.kept.items():
-        columns.setdefault(name, values)
-    with busy(printable(f"writing {out_path}"), quiet=quiet):
-        write_table(out_path, columns, file_format)
-    written = "stdout" if is_stdio(out_path) else out_path
-    say(quiet, f"wrote {written} ({table.n_rows} rows)", err=is_stdio(out_path))
-    say(quiet, flag_summary(flags), err=is_stdio(out_path))
+    check_ports(calibration, cal_path, stream, explicit=request.ports is not None)
+    if thermal and given_k is None and stream.temperature_column is None:
+        raise missing_temperature(
+            f"{cal_path} is a {calibration.method_label} calibration: it",
+            stream.source,
+            "pass --temperature COL, or --temperature-k T for one temperature for the file",
+        )
+    _check_coarse(calibration, cal_path, stream, settings["coarse_hz"])
+
+    def progress(description, total, unit):
+        return progress_bar(printable(description), total, quiet=quiet or not bar, unit=unit)
+
+    summary = measure_file(
+        calibration,
+        stream,
+        out_path,
+        file_format=file_format,
+        coarse_hz=settings["coarse_hz"],
+        temperature_k=given_k,
+        uncertainty=settings["uncertainty"],
+        progress=progress,
+    )
+    if summary.invalid_rows:
+        note(
+            quiet,
+            f"{summary.source}: skipped {summary.invalid_rows} invalid row(s), first: "
+            f"{', '.join(summary.invalid_examples[:3])}",
+        )
+    return summary
+
+
+# ---------------------------------------------------------------------------- many files
+#: characters that make DATA a glob pattern
+_GLOB_CHARACTERS = frozenset("*?[")
+
+
+def _many_files(data) -> bool:
+    """Whether DATA names many files: a folder, or a glob pattern that is no file."""
+    if is_stdio(data):
+        return False
+    return Path(data).is_dir() or (
+        not Path(data).exists() and bool(_GLOB_CHARACTERS & set(str(data)))
+    )
+
+
+def _data_files(data) -> list[Path]:
+    """The data files DATA names, in name order: a folder's files with a data extension
+    (hidden files left out), or the files a glob pattern matches."""
+    extensions = {ext for file_format in FILE_FORMATS for ext in file_format.extensions}
+    if Path(data).is_dir():
+        found = [
+            path
+            for path in Path(data).iterdir()
+            if path.suffix.lower() in extensions and not path.name.startswith(".")
+        ]
+    else:
+        found = [Path(name) for name in glob.glob(str(data))]
+    files = sorted(path for path in found if path.is_file())
+    if not files:
+        what = "folder" if Path(data).is_dir() else "pattern"
+        raise InputError(
+            f"{data}: the {what} names no data file (extensions {', '.join(sorted(extensions))})"
+        )
+    return files
+
+
+def _output_paths(files: list[Path], out_dir, file_format, cal_path, force) -> list[Path]:
+    """One output in ``out_dir`` per data file, ``<stem>.<ext of the format>``; all
+    checked before any work (two inputs may not share an output, an existing output
+    needs --force)."""
+    if is_stdio(out_dir):
+        raise InputError("many data files are measured into a folder: give -o OUTDIR, not -")
+    folder = Path(out_dir)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(
+            f"{folder} is a file: many data files are measured into a folder; give -o OUTDIR"
+        )
+    if not folder.parent.is_dir():
+        raise InputError(f"cannot write to {folder}: folder {folder.parent} does not exist")
+    extension = FILE_FORMATS[[f.name for f in FILE_FORMATS].index(file_format)].extensions[0]
+    outputs = [folder / f"{path.stem}{extension}" for path in files]
+    seen: dict[Path, Path] = {}
+    for path, output in zip(files, outputs, strict=True):
+        if output in seen:
+            raise InputError(
+                f"{seen[output]} and {path} would both be measured into {output}: rename one, "
+                "or measure them separately"
+            )
+        seen[output] = path
+        if folder.is_dir():
+            check_output(output, inputs=(cal_path, path), force=force)
+    return outputs
+
+
+def _error_text(exc: Exception) -> str:
+    """An error's message; an OSError's without Python's ``[Errno N]``."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
+    return str(exc)
+
+
+def _measure_many(cal_path, data, out_dir, file_format, force, settings) -> None:
+    """Measure every data file DATA names into ``out_dir``; a file that fails is reported
+    (``error:``) and the others go on; exit code 2 at the end when any failed."""
+    quiet = settings["options"]["quiet"]
+    files = _data_files(data)
+    outputs = _output_paths(files, out_dir, file_format or "csv", cal_path, force)
+    calibration, uncertainty = _checked_calibration(
+        cal_path,
+        settings["coarse_column"],
+        settings["coarse_hz"],
+        settings["temperature_k"],
+        settings["uncertainty"],
+        settings["options"],
+    )
+    settings = {**settings, "uncertainty": uncertainty}
+    Path(out_dir).mkdir(exist_ok=True)
+    failed = 0
+    description = printable(f"measuring {len(files)} files into {out_dir}")
+    with progress_bar(description, len(files), quiet=quiet, unit="files") as advance:
+        for path, output in zip(files, outputs, strict=True):
+            try:
+                summary = _measure_one(
+                    calibration, cal_path, path, output, file_format or "csv", settings, bar=False
+                )
+            except (WavemeterError, OSError) as exc:  # one error line, as main() prints it
+                failed += 1
+                click.echo("error: " + " ".join(printable(_error_text(exc)).split()), err=True)
+            else:
+                say(quiet, f"wrote {output} ({summary.rows} rows)")
+                say(quiet, flag_summary(summary.flag_counts, summary.flagged, summary.rows))
+            advance(1)
+    say(quiet, f"measured {len(files) - failed} of {len(files)} files into {out_dir}")
+    if failed:  # the command's own error line, exit code 2
+        raise InputError(f"{failed} of {len(files)} files failed (see above)")
 
 
 command = measure

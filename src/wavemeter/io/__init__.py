@@ -5,19 +5,23 @@ Parquet files, finds the frequency axis, the port columns, a power monitor and a
 temperature by name (unit from a suffix or bracket: ``frequency_hz``, ``Wavelength (nm)``,
 ``P1_mW``, ``Port 3 [uW]``, ``DC CH1``), converts them to SI and flags invalid rows (NaN,
 power-meter sentinels, implausible dBm, no light). :func:`write_table` writes named columns
-to CSV, TSV, Parquet, HDF5 or NPZ at full float64 precision, atomically. What a file
+to CSV, TSV, Parquet, HDF5 or NPZ at full float64 precision, atomically;
+:func:`iter_readings` and :func:`table_writer` do the same a chunk of rows at a time, in
+memory bounded by the chunk. What a file
 declares is checked against :data:`MAX_BYTES` before anything is allocated. File readers
 know nothing of the numerics.
 
 Modules: ``columns`` (finding columns by name, units in names), ``table`` (the Table),
 ``formats`` (the one table of formats), ``text``, ``hdf5``, ``mat``, ``npz``, ``parquet``
-(one per format), ``source`` (what readers share), ``reading`` (read_table).
+(one per format), ``source`` (what readers share), ``reading`` (read_table), ``streaming``
+(iter_readings).
 """
 
 from .columns import ColumnRequest, port_key, split_unit
-from .formats import FORMATS, table_format, write_table
+from .formats import FORMATS, table_format, table_writer, write_table
 from .reading import MAX_DBM, SENTINEL_DBM, SENTINEL_W, read_table
 from .source import MAX_BYTES
+from .streaming import ReadingStream, iter_readings
 from .table import Table
 
 __all__ = [
@@ -25,6 +29,9 @@ __all__ = [
     "Table",
     "read_table",
     "write_table",
+    "iter_readings",
+    "ReadingStream",
+    "table_writer",
     "table_format",
     "port_key",
     "split_unit",

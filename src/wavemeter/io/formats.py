@@ -4,14 +4,18 @@ A file to read is recognised by its first bytes (HDF5, MATLAB, zip, Parquet sign
 then by its extension; anything else is read as a text table. A file to write takes the
 format asked for, else the one its extension names; an extension no writer knows is an
 error (``q.xlsx`` is not silently written as CSV), a name without extension is CSV.
+:func:`write_table` writes columns at once, :func:`table_writer` one chunk of rows at a
+time; both atomically.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import shutil
 import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,14 +23,22 @@ import numpy as np
 
 from ..atomic import STDOUT, atomic_path
 from ..exceptions import InputError
-from .hdf5 import read_hdf5, write_hdf5
+from .hdf5 import HDF5ChunkWriter, read_hdf5, write_hdf5
 from .mat import read_mat
-from .npz import read_npz, write_npz
-from .parquet import read_parquet, require_pyarrow, write_parquet
+from .npz import NPZChunkWriter, read_npz, write_npz
+from .parquet import ParquetChunkWriter, read_parquet, require_pyarrow, write_parquet
 from .source import RawInput, Source, open_input
-from .text import read_text, refuse_text_chunk, write_csv, write_tsv
+from .text import DelimitedChunkWriter, read_text, refuse_text_chunk, write_csv, write_tsv
 
-__all__ = ["FileFormat", "FILE_FORMATS", "FORMATS", "open_source", "table_format", "write_table"]
+__all__ = [
+    "FileFormat",
+    "FILE_FORMATS",
+    "FORMATS",
+    "open_source",
+    "table_format",
+    "write_table",
+    "table_writer",
+]
 
 
 @dataclass(frozen=True)
@@ -43,21 +55,37 @@ class FileFormat:
         ``read(raw, max_bytes) -> Source``.
     write : callable or None
         ``write(path, columns)`` with 1-D float64, int64 or text columns; None: read only.
+    chunk_writer : callable or None
+        ``chunk_writer(path)`` returns a writer with ``write(columns)`` appending rows and
+        ``close()`` finishing the file, ``abort()`` releasing it after a failure.
     """
 
     name: str
     extensions: tuple[str, ...]
     read: Callable[[RawInput, int], Source]
     write: Callable[[Path, dict[str, np.ndarray]], None] | None
+    chunk_writer: Callable[[Path], object] | None = None
 
 
 #: every format the package reads, and writes where ``write`` is set
 FILE_FORMATS = (
-    FileFormat("csv", (".csv", ".txt", ".dat"), read_text, write_csv),
-    FileFormat("tsv", (".tsv",), read_text, write_tsv),
-    FileFormat("parquet", (".parquet", ".pq"), read_parquet, write_parquet),
-    FileFormat("hdf5", (".h5", ".hdf5", ".hdf"), read_hdf5, write_hdf5),
-    FileFormat("npz", (".npz",), read_npz, write_npz),
+    FileFormat(
+        "csv",
+        (".csv", ".txt", ".dat"),
+        read_text,
+        write_csv,
+        functools.partial(DelimitedChunkWriter, delimiter=","),
+    ),
+    FileFormat(
+        "tsv",
+        (".tsv",),
+        read_text,
+        write_tsv,
+        functools.partial(DelimitedChunkWriter, delimiter="\t"),
+    ),
+    FileFormat("parquet", (".parquet", ".pq"), read_parquet, write_parquet, ParquetChunkWriter),
+    FileFormat("hdf5", (".h5", ".hdf5", ".hdf"), read_hdf5, write_hdf5, HDF5ChunkWriter),
+    FileFormat("npz", (".npz",), read_npz, write_npz, NPZChunkWriter),
     FileFormat("mat", (".mat",), read_mat, None),
 )
 _BY_NAME = {file_format.name: file_format for file_format in FILE_FORMATS}
@@ -176,6 +204,70 @@ def write_table(path, columns: dict[str, np.ndarray], file_format: str | None = 
         return
     with atomic_path(path) as temporary:
         writer(temporary, arrays)
+
+
+@contextlib.contextmanager
+def table_writer(path, file_format: str | None = None) -> Iterator[Callable[[dict], None]]:
+    """Yield ``write(columns)``, which appends rows to a table file; atomic as a whole.
+
+    The rows go to a temporary file beside ``path`` (for ``"-"``, standard output, a
+    temporary folder), renamed onto ``path`` (copied to standard output) when the block
+    ends without error; on any error, also ``KeyboardInterrupt``, no output is left and
+    an existing ``path`` is untouched. One chunk is held in memory at a time (an NPZ
+    archive's columns are spooled to disk beside ``path`` until the end).
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file; ``"-"`` writes to standard output.
+    file_format : {"csv", "tsv", "parquet", "hdf5", "npz"}, optional
+        As for :func:`write_table`.
+
+    Yields
+    ------
+    callable
+        ``write(columns)``: columns as for :func:`write_table`, each shape (m,), the same
+        names in the same order at every call.
+
+    Raises
+    ------
+    InputError
+        As :func:`write_table`; also when a chunk has other columns than the first.
+    """
+    chosen = _BY_NAME[table_format(path, file_format)]
+    if chosen.write is write_parquet:
+        require_pyarrow("writing")
+    with contextlib.ExitStack() as stack:
+        if str(path) == STDOUT:
+            temporary = Path(stack.enter_context(tempfile.TemporaryDirectory())) / "table"
+        else:
+            temporary = stack.enter_context(atomic_path(path))
+        writer = chosen.chunk_writer(temporary)
+        columns: list[str] = []
+
+        def write(chunk: dict) -> None:
+            arrays = {str(name): _column_array(name, values) for name, values in chunk.items()}
+            if len({len(values) for values in arrays.values()}) > 1:
+                lengths = sorted({len(values) for values in arrays.values()})
+                raise InputError(f"columns to write have different lengths: {lengths}")
+            if columns and list(arrays) != columns:
+                raise InputError(
+                    f"a chunk to write has columns {list(arrays)}, the first had {columns}"
+                )
+            columns[:] = list(arrays)
+            writer.write(arrays)
+
+        try:
+            yield write
+        except BaseException:
+            writer.abort()
+            raise
+        writer.close()
+        if str(path) == STDOUT:
+            sys.stdout.flush()
+            with open(temporary, "rb") as handle:
+                shutil.copyfileobj(handle, sys.stdout.buffer)
+            sys.stdout.buffer.flush()
 
 
 def _write_to_stdout(writer, arrays: dict[str, np.ndarray]) -> None:

@@ -7,19 +7,30 @@ datasets whose values live outside the file (external raw storage, virtual datas
 refused. A dataset's declared size is checked against the size limit and, for contiguous
 uncompressed storage, against the file's size before it is read; any error of the HDF5
 library on a damaged file becomes a :class:`~wavemeter.exceptions.FileFormatError`.
+Chunks of an HDF5 file are dataset slices along the samples (a MATLAB v7.3 file is read
+whole); :class:`HDF5ChunkWriter` appends chunks to resizable datasets.
 h5py is imported when a file is read or written.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from ..exceptions import FileFormatError, InputError
-from .source import RawInput, Source, check_allocation, library_errors, library_reason
+from .source import (
+    Chunk,
+    RawInput,
+    Source,
+    check_allocation,
+    library_errors,
+    library_reason,
+    sample_label,
+)
 
-__all__ = ["read_hdf5", "read_mat73", "write_hdf5"]
+__all__ = ["read_hdf5", "read_mat73", "write_hdf5", "HDF5ChunkWriter"]
 
 #: what h5py raises on a damaged or foreign file (HDF5 library errors map to these)
 _H5PY_ERRORS = (OSError, KeyError, ValueError, RuntimeError, TypeError, IndexError)
@@ -74,7 +85,53 @@ def _read(raw: RawInput, max_bytes: int, matlab: bool) -> Source:
                 arrays[name] = array.reshape(shapes[name])
         return arrays
 
-    return Source(shapes, load, unit_attributes=units)
+    if matlab:
+        return Source(shapes, load, unit_attributes=units)
+
+    def chunks(names, chunk_rows, sample_axes=None, text_ok=()) -> Iterator[Chunk]:
+        sample_axes = sample_axes or {}
+        check_allocation(
+            f"{len(names)} fields of {chunk_rows} rows", 8 * chunk_rows * len(names), max_bytes
+        )
+        with library_errors(kind, _H5PY_ERRORS), _h5py().File(raw.file_or_buffer(), "r") as handle:
+            datasets = {name: handle[keys[name]] for name in names}
+            for name, dataset in datasets.items():
+                _check_dataset(dataset, name, raw.size, max_bytes=None)
+            rows = {_samples(dataset, sample_axes.get(name)) for name, dataset in datasets.items()}
+            if len(rows) > 1:
+                raise FileFormatError(f"the fields {list(names)} have different lengths")
+            total = rows.pop() if rows else 0
+            for start in range(0, total, chunk_rows):
+                stop = min(start + chunk_rows, total)
+                columns = {
+                    name: _dataset_rows(dataset, sample_axes.get(name), start, stop)
+                    for name, dataset in datasets.items()
+                }
+                yield Chunk(start, columns, sample_label, stop)
+
+    return Source(shapes, load, unit_attributes=units, chunks=chunks)
+
+
+def _samples(dataset, sample_axis: int | None) -> int:
+    """Samples in a dataset: its length, or that of the sample axis of a 2-D one."""
+    if dataset.ndim == 1:
+        return dataset.shape[0]
+    if sample_axis is None:  # N x 1 or 1 x N: a vector
+        return max(dataset.shape)
+    return dataset.shape[sample_axis]
+
+
+def _dataset_rows(dataset, sample_axis: int | None, start: int, stop: int) -> np.ndarray:
+    """Samples ``start:stop`` of a dataset as float64, samples along the first axis."""
+    if dataset.ndim == 1:
+        values = dataset[start:stop]
+    elif sample_axis is None:  # N x 1 or 1 x N: a vector
+        values = dataset[start:stop, 0] if dataset.shape[1] == 1 else dataset[0, start:stop]
+    elif sample_axis == 0:
+        values = dataset[start:stop, :]
+    else:
+        values = dataset[:, start:stop].T
+    return np.asarray(values, dtype=float)
 
 
 def _h5py():
@@ -83,8 +140,9 @@ def _h5py():
     return h5py
 
 
-def _check_dataset(dataset, name: str, file_size: int, max_bytes: int) -> None:
-    """Refuse a dataset stored outside the file, or larger than the limit or the file."""
+def _check_dataset(dataset, name: str, file_size: int, max_bytes: int | None) -> None:
+    """Refuse a dataset stored outside the file, or larger than the limit (None: no limit,
+    for a dataset read in slices) or the file."""
     h5py = _h5py()
     what = f"dataset {name!r}"
     if dataset.is_virtual:
@@ -98,7 +156,8 @@ def _check_dataset(dataset, name: str, file_size: int, max_bytes: int) -> None:
             f"{what} keeps its values in {plist.get_external_count()} external raw file(s); "
             "only values stored in the file itself are read: copy them into it (h5repack)"
         )
-    check_allocation(f"{what} of shape {dataset.shape}", 8 * dataset.size, max_bytes)
+    if max_bytes is not None:
+        check_allocation(f"{what} of shape {dataset.shape}", 8 * dataset.size, max_bytes)
     stored = dataset.size * dataset.dtype.itemsize
     if plist.get_layout() == h5py.h5d.CONTIGUOUS and plist.get_nfilters() == 0:
         offset = dataset.id.get_offset()
@@ -140,3 +199,56 @@ def write_hdf5(path: Path, arrays: dict[str, np.ndarray]) -> None:
                     f"cannot write column {name!r} to HDF5 ({library_reason(exc)}): rename it, "
                     "or write another format"
                 ) from exc
+
+
+class HDF5ChunkWriter:
+    """Writes 1-D columns to an HDF5 file one chunk at a time, as resizable datasets at
+    the root (text as UTF-8 strings), like :func:`write_hdf5` once complete.
+
+    Parameters
+    ----------
+    path : Path
+        The file to write (a temporary file; the caller renames it).
+    """
+
+    def __init__(self, path: Path):
+        self._handle = _h5py().File(path, "w")
+        self._rows = 0
+        self._created = False
+
+    def write(self, arrays: dict[str, np.ndarray]) -> None:
+        """Append rows: 1-D columns (float64, int64 or text) of one length, the same
+        columns at every call."""
+        h5py = _h5py()
+        count = len(next(iter(arrays.values()))) if arrays else 0
+        for name, values in arrays.items():
+            text = values.dtype.kind == "U"
+            data = values.astype(object) if text else values
+            try:
+                if not self._created:
+                    self._handle.create_dataset(
+                        name,
+                        data=data,
+                        maxshape=(None,),
+                        chunks=(max(min(count, 1 << 16), 1),),
+                        dtype=h5py.string_dtype() if text else values.dtype,
+                    )
+                    continue
+                dataset = self._handle[name]
+                dataset.resize((self._rows + count,))
+                dataset[self._rows :] = data
+            except (ValueError, KeyError, TypeError) as exc:
+                raise InputError(
+                    f"cannot write column {name!r} to HDF5 ({library_reason(exc)}): rename it, "
+                    "or write another format"
+                ) from exc
+        self._created = True
+        self._rows += count
+
+    def close(self) -> None:
+        """Finish the file."""
+        self._handle.close()
+
+    def abort(self) -> None:
+        """Release the file after a failure (the caller removes it)."""
+        self._handle.close()

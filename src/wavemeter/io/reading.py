@@ -3,10 +3,19 @@
 Invalid rows (NaN or inf, power-meter "no reading" codes, dBm readings above
 :data:`MAX_DBM`, no light, a bad monitor reading) are flagged with their reason and file
 line; they are an error unless the caller allows them. Every error names the file.
+
+Whole-file reading (:func:`read_table`) and chunked reading
+(:func:`wavemeter.io.iter_readings`) share the same steps: :func:`plan_columns` finds the
+columns, their units and the ports once from the file's header or metadata;
+:func:`convert_rows` turns any run of consecutive rows into a :class:`Table` in SI units
+with its invalid rows flagged; :class:`ColumnChecks` makes the checks that need a whole
+column, one chunk at a time.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +34,19 @@ from .formats import open_source
 from .source import MAX_BYTES, Source
 from .table import InvalidRows, Table
 
-__all__ = ["read_table", "SENTINEL_W", "SENTINEL_DBM", "MAX_DBM", "MAX_PORTS", "NO_LIGHT_REASON"]
+__all__ = [
+    "read_table",
+    "plan_columns",
+    "convert_rows",
+    "ColumnPlan",
+    "ColumnChecks",
+    "invalid_rows_error",
+    "SENTINEL_W",
+    "SENTINEL_DBM",
+    "MAX_DBM",
+    "MAX_PORTS",
+    "NO_LIGHT_REASON",
+]
 
 #: raw readings above this (any linear unit) are instrument "no reading" codes (9.91e37)
 SENTINEL_W = 1e20
@@ -111,6 +132,100 @@ def _read(
     max_bytes: int,
 ) -> Table:
     source = open_source(path, max_bytes)
+    roles, fields = _roles_and_fields(source, request, need_x, extras)
+    data = source.load(fields, text_ok=set(request.keep))
+    shapes = {name: data[name].shape for name in fields}
+    plan = dataclasses.replace(_complete_plan(source, request, roles, fields, shapes), path=path)
+    for name, axis in plan.sample_axes.items():
+        if axis == 1:
+            data[name] = data[name].T
+    checks = ColumnChecks()
+    table = convert_rows(plan, data, 0, source.row_label, checks)
+    checks.finish()
+    if table.invalid.any() and not allow_invalid:
+        raise invalid_rows_error(int(table.invalid.sum()), table.describe_invalid())
+    return table
+
+
+def invalid_rows_error(count: int, described: str) -> InputError:
+    """The error for invalid rows not allowed: how many, the first with their reasons."""
+    return InputError(
+        f"{count} invalid row(s): {described}; fix or delete them, or allow invalid rows to "
+        "skip them (allow_invalid)",
+        parameter="allow_invalid",
+    )
+
+
+# ---------------------------------------------------------------------------- plan
+@dataclass(frozen=True)
+class ColumnPlan:
+    """What to read from a file and how to convert it, decided once from its header or
+    metadata, before any value is read; shared by whole-file and chunked reading.
+
+    Attributes
+    ----------
+    path : Path
+        The file, named in messages.
+    request : ColumnRequest
+        The user's choices.
+    singles : dict of str to Role
+        The one-column roles found (``"x"``, ``"monitor"``, ``"temperature"``,
+        ``"coarse"``).
+    ports : list of Role
+        The port columns (a 2-D field is one role).
+    role_units : tuple of str
+        The power unit of each port role (``""``: relative).
+    port_names, port_units : tuple of str
+        The name and unit of each port, a 2-D field giving ``P1, P2, ...``.
+    fields : list of str
+        The fields to read, each once.
+    sample_axes : dict of str to int
+        For each 2-D port field, the axis that runs over the samples.
+    monitor_unit, temperature_unit : str or None
+        Units of the monitor and temperature columns.
+    """
+
+    path: Path
+    request: ColumnRequest
+    singles: dict[str, Role]
+    ports: list[Role]
+    role_units: tuple[str, ...]
+    port_names: tuple[str, ...]
+    port_units: tuple[str, ...]
+    fields: list[str]
+    sample_axes: dict[str, int]
+    monitor_unit: str | None = None
+    temperature_unit: str | None = None
+
+
+def plan_columns(
+    source: Source, request: ColumnRequest, *, need_x: bool, extras: tuple[bool, bool]
+) -> ColumnPlan:
+    """Find the columns and their units from a source's field names and shapes.
+
+    Parameters
+    ----------
+    source : Source
+        The opened file.
+    request : ColumnRequest
+        The user's choices.
+    need_x : bool
+        Whether a frequency/wavelength column must exist.
+    extras : tuple of (bool, bool)
+        Whether to look for a monitor, and a temperature column, by name.
+
+    Raises
+    ------
+    InputError
+        For missing, ambiguous or duplicate columns, unknown units, a kept field that is
+        not a vector, fewer than 3 ports, fields of different lengths.
+    """
+    roles, fields = _roles_and_fields(source, request, need_x, extras)
+    return _complete_plan(source, request, roles, fields, source.shapes)
+
+
+def _roles_and_fields(source: Source, request: ColumnRequest, need_x: bool, extras):
+    """The roles found and the fields to read for them, each once."""
     find_extras, find_temperature = extras
     roles = find_roles(
         source.shapes,
@@ -120,44 +235,182 @@ def _read(
         find_extras=find_extras,
         find_temperature=find_temperature,
     )
-    singles = roles.singles()
-    wanted = [role.name for role in singles.values()]
+    wanted = [role.name for role in roles.singles().values()]
     wanted += [role.name for role in roles.ports] + list(request.keep)
-    data = source.load(list(dict.fromkeys(wanted)), text_ok=set(request.keep))
+    return roles, list(dict.fromkeys(wanted))
+
+
+def _complete_plan(source, request, roles, fields, shapes) -> ColumnPlan:
+    """The plan from the roles and the shapes of the fields (declared, or as read)."""
+    singles = roles.singles()
     for name in request.keep:
-        if data[name].ndim != 1:
+        if len(shapes[name]) != 1:
             raise InputError(
-                f"kept column {name!r} must be a vector, has shape {data[name].shape}",
+                f"kept column {name!r} must be a vector, has shape {shapes[name]}",
                 parameter="keep",
             )
-    rows = _sample_count(source, data)
-    if rows is None:
-        first = roles.ports[0].name
-        rows = _orient(data[first], first, None).shape[0]
-    invalid = InvalidRows(rows)
-    powers, port_names, port_units = _ports_array(roles.ports, data, rows, source, invalid)
-    if powers.shape[1] < 3:
+    known = {name: shapes[name] for name in fields if shapes[name] != (-1,)}
+    samples = _declared_samples(source, known)
+    sample_axes: dict[str, int] = {}
+    role_units = tuple(_power_unit(role, source) for role in roles.ports)
+    port_names: list[str] = []
+    port_units: list[str] = []
+    for role, unit in zip(roles.ports, role_units, strict=True):
+        shape = shapes[role.name]
+        if len(shape) == 2:
+            sample_axes[role.name] = axis = _sample_axis(shape, role.name, samples)
+            leaf = role.name.rsplit("/", 1)[-1]
+            base, unit_token = split_unit(leaf)[-1]
+            if unit_token is not None and not known_unit(unit_token, "power"):
+                base = leaf
+            port_names += [f"{base}{k + 1}" for k in range(shape[1 - axis])]
+            port_units += [unit] * shape[1 - axis]
+        else:
+            port_names.append(role.name)
+            port_units.append(unit)
+    if len(port_names) < 3:
         raise InputError(
-            f"found {powers.shape[1]} port column(s) ({', '.join(port_names)}); need at "
+            f"found {len(port_names)} port column(s) ({', '.join(port_names)}); need at "
             "least 3: name them (ports)",
             parameter="ports",
         )
+    units = {}
+    if "monitor" in singles:
+        units["monitor_unit"] = _power_unit(singles["monitor"], source)
+    if "temperature" in singles:
+        temperature = singles["temperature"]
+        unit = temperature.unit or source.unit_attributes.get(temperature.name)
+        if unit is None:
+            raise InputError(
+                f"temperature column {temperature.name!r} has no unit; name it like "
+                "temperature_K or 'Temperature (C)'"
+            )
+        units["temperature_unit"] = unit
+    return ColumnPlan(
+        path=Path(),
+        request=request,
+        singles=singles,
+        ports=list(roles.ports),
+        role_units=role_units,
+        port_names=tuple(port_names),
+        port_units=tuple(port_units),
+        fields=fields,
+        sample_axes=sample_axes,
+        **units,
+    )
+
+
+def _declared_samples(source: Source, known: dict[str, tuple[int, ...]]) -> int | None:
+    """Samples N from the declared lengths of the 1-D fields read (or, failing that, of
+    all 1-D fields); None when only 2-D fields or text columns (length yet unknown)."""
+    lengths = {shape[0] for shape in known.values() if len(shape) == 1}
+    if not lengths and not known:
+        return None
+    if not lengths:
+        lengths = {shape[0] for shape in source.shapes.values() if len(shape) == 1}
+    if len(lengths) > 1:
+        shown = ", ".join(
+            f"{name!r} ({shape[0]})" for name, shape in known.items() if len(shape) == 1
+        )
+        raise InputError(f"columns have different lengths: {shown or sorted(lengths)}")
+    return lengths.pop() if lengths else None
+
+
+# ---------------------------------------------------------------------------- conversion
+class ColumnChecks:
+    """Checks that need every row of a column, made chunk by chunk: each port column must
+    have a positive reading somewhere (else its values are probably dBm), and an axis
+    without a unit keeps the unit its first finite values chose.
+    """
+
+    def __init__(self):
+        self._seen: dict[str, tuple[bool, bool]] = {}  # port -> (finite seen, positive seen)
+        self._units: dict[str, str] = {}
+        self._port_units: dict[str, str] = {}
+
+    def port(self, name: str, raw: np.ndarray, unit: str) -> None:
+        """Note a chunk of a port column's raw readings."""
+        with np.errstate(invalid="ignore"):
+            finite = raw[np.isfinite(raw) & (raw < SENTINEL_W)]
+        seen_finite, seen_positive = self._seen.get(name, (False, False))
+        self._seen[name] = (
+            seen_finite or finite.size > 0,
+            seen_positive or bool(np.any(finite > 0)),
+        )
+        self._port_units[name] = unit
+
+    def axis_unit(self, key: str) -> str | None:
+        """The unit an axis without one was read in so far (None: none chosen yet)."""
+        return self._units.get(key)
+
+    def choose_axis_unit(self, key: str, unit: str) -> None:
+        """Keep ``unit`` for the axis ``key`` from now on."""
+        self._units.setdefault(key, unit)
+
+    def finish(self) -> None:
+        """Raise for a port column that had no positive reading in any row."""
+        for name, (seen_finite, seen_positive) in self._seen.items():
+            unit = self._port_units[name]
+            if unit != "dBm" and seen_finite and not seen_positive:
+                raise InputError(
+                    f"column {name!r}{f' (labelled {unit})' if unit else ''} has no positive "
+                    "reading: are these dBm? give the power unit dBm (power_unit)",
+                    parameter="power_unit",
+                )
+
+
+def convert_rows(
+    plan: ColumnPlan,
+    data: dict[str, np.ndarray],
+    start: int,
+    row_label,
+    checks: ColumnChecks,
+) -> Table:
+    """Consecutive rows of a file as a Table in SI units, invalid rows flagged.
+
+    Parameters
+    ----------
+    plan : ColumnPlan
+        The columns and units.
+    data : dict of str to ndarray, shape (m,) or (m, k)
+        The fields of ``plan.fields`` for these rows, samples along the first axis.
+    start : int
+        Zero-based index of the first row among the file's data rows.
+    row_label : callable
+        Names data row ``i`` (file-wide) as the user finds it.
+    checks : ColumnChecks
+        Whole-column checks, fed with these rows (call its ``finish`` after the last).
+
+    Returns
+    -------
+    Table
+        With ``row_index`` ``start .. start + m - 1`` and ``rows_in_file`` the rows read so
+        far (``start + m``).
+    """
+    rows = len(data[plan.fields[0]])
+    invalid = InvalidRows(rows)
+    powers = _ports_array(plan, data, rows, invalid, checks)
     fields: dict[str, object] = {}
+    singles = plan.singles
     for key in ("x", "coarse"):
         if key in singles:
             role = singles[key]
             raw = data[role.name]
             invalid.add(~np.isfinite(raw), f"{role.name} is NaN, empty or inf")
+            chosen = checks.axis_unit(key)
+            if role.unit is None and chosen is not None:
+                role = dataclasses.replace(role, unit=chosen)
             with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
                 fields[f"{key}_hz"], unit = _axis_hz(role, raw, key)
+            if np.isfinite(raw).any():
+                checks.choose_axis_unit(key, unit)
             invalid.add(~np.isfinite(fields[f"{key}_hz"]), f"{role.name} is not a frequency")
             fields[f"{key}_column"] = role.name
             if key == "x":
                 fields["x_unit"] = unit
     if "monitor" in singles:
         monitor = singles["monitor"]
-        unit = _power_unit(monitor, source)
-        monitor_w, reasons = _power_column(monitor.name, data[monitor.name], unit)
+        monitor_w, reasons = _power_column(monitor.name, data[monitor.name], plan.monitor_unit)
         problems = np.logical_or.reduce([mask for mask, _ in reasons])
         invalid.add(problems, f"{monitor.name} is NaN, inf, implausible or a 'no reading' code")
         with np.errstate(invalid="ignore"):
@@ -167,76 +420,50 @@ def _read(
     if "temperature" in singles:
         temperature = singles["temperature"]
         raw = data[temperature.name]
-        unit = temperature.unit or source.unit_attributes.get(temperature.name)
-        if unit is None:
-            raise InputError(
-                f"temperature column {temperature.name!r} has no unit; name it like "
-                "temperature_K or 'Temperature (C)'"
-            )
         with np.errstate(over="ignore", invalid="ignore"):
-            fields["temperature_k"] = temperature_to_k(raw, unit, temperature.name)
+            fields["temperature_k"] = temperature_to_k(raw, plan.temperature_unit, temperature.name)
         invalid.add(
             ~np.isfinite(fields["temperature_k"]), f"{temperature.name} is NaN, empty or inf"
         )
         fields["temperature_column"] = temperature.name
-    table = Table(
-        source=path,
+    return Table(
+        source=plan.path,
         powers_w=powers,
-        port_names=port_names,
-        port_units=port_units,
+        port_names=plan.port_names,
+        port_units=plan.port_units,
         invalid_code=invalid.code,
         invalid_reasons=tuple(invalid.reasons),
-        row_index=np.arange(rows),
-        rows_in_file=rows,
-        row_label=source.row_label,
-        kept={name: data[name] for name in request.keep},
+        row_index=np.arange(start, start + rows),
+        rows_in_file=start + rows,
+        row_label=row_label,
+        kept={name: data[name] for name in plan.request.keep},
         **fields,
     )
-    if table.invalid.any() and not allow_invalid:
-        raise InputError(
-            f"{int(table.invalid.sum())} invalid row(s): {table.describe_invalid()}; fix or "
-            "delete them, or allow invalid rows to skip them (allow_invalid)",
-            parameter="allow_invalid",
-        )
-    return table
 
 
 # ---------------------------------------------------------------------------- shapes
-def _orient(array: np.ndarray, name: str, samples: int | None) -> np.ndarray:
-    """A 2-D port array as (samples, ports): the axis whose length is ``samples``."""
-    rows, cols = array.shape
+def _sample_axis(shape: tuple[int, int], name: str, samples: int | None) -> int:
+    """The axis of a 2-D port array that runs over the samples (0 or 1)."""
+    rows, cols = shape
     if samples is not None:
         if rows == samples and cols == samples:
             raise InputError(
-                f"cannot tell samples from ports in {name!r} of shape {array.shape}: both axes "
+                f"cannot tell samples from ports in {name!r} of shape {shape}: both axes "
                 f"have {samples} entries"
             )
         if rows == samples:
-            return array
+            return 0
         if cols == samples:
-            return array.T
-        raise InputError(
-            f"{name!r} has shape {array.shape} but the other columns have {samples} samples"
-        )
+            return 1
+        raise InputError(f"{name!r} has shape {shape} but the other columns have {samples} samples")
     if cols <= MAX_PORTS < rows:
-        return array
+        return 0
     if rows <= MAX_PORTS < cols:
-        return array.T
+        return 1
     raise InputError(
-        f"cannot tell samples from ports in {name!r} of shape {array.shape}; store the "
+        f"cannot tell samples from ports in {name!r} of shape {shape}; store the "
         "frequency vector beside it or use more samples than ports"
     )
-
-
-def _sample_count(source: Source, data: dict[str, np.ndarray]) -> int | None:
-    """Samples N from the 1-D columns read (or, failing that, from all 1-D fields)."""
-    lengths = {len(values) for values in data.values() if values.ndim == 1}
-    if not lengths:
-        lengths = {shape[0] for shape in source.shapes.values() if len(shape) == 1}
-    if len(lengths) > 1:
-        shown = ", ".join(f"{name!r} ({len(v)})" for name, v in data.items() if v.ndim == 1)
-        raise InputError(f"columns have different lengths: {shown or sorted(lengths)}")
-    return lengths.pop() if lengths else None
 
 
 # ---------------------------------------------------------------------------- units
@@ -297,44 +524,26 @@ def _power_column(name: str, raw: np.ndarray, unit: str) -> tuple[np.ndarray, li
     return values, reasons
 
 
-def _check_linear_column(name: str, raw: np.ndarray, unit: str) -> None:
-    with np.errstate(invalid="ignore"):
-        finite = raw[np.isfinite(raw) & (raw < SENTINEL_W)]
-    if unit != "dBm" and finite.size and np.all(finite <= 0):
-        raise InputError(
-            f"column {name!r}{f' (labelled {unit})' if unit else ''} has no positive reading: "
-            "are these dBm? give the power unit dBm (power_unit)",
-            parameter="power_unit",
-        )
-
-
-def _ports_array(roles, data, samples, source, invalid: InvalidRows):
-    """Port readings (N, n) in W with names and units; flags bad readings in ``invalid``."""
-    columns, names, units = [], [], []
-    for role in roles:
+def _ports_array(
+    plan: ColumnPlan, data: dict, rows: int, invalid: InvalidRows, checks: ColumnChecks
+) -> np.ndarray:
+    """Port readings (m, n) in W; flags bad readings in ``invalid``."""
+    columns = []
+    names = iter(plan.port_names)
+    for role, unit in zip(plan.ports, plan.role_units, strict=True):
         values = data[role.name]
-        unit = _power_unit(role, source)
-        if values.ndim == 2:
-            block = _orient(values, role.name, samples)
-            leaf = role.name.rsplit("/", 1)[-1]
-            base, unit_token = split_unit(leaf)[-1]
-            if unit_token is not None and not known_unit(unit_token, "power"):
-                base = leaf
-            parts = [(f"{base}{k + 1}", block[:, k]) for k in range(block.shape[1])]
-        else:
-            parts = [(role.name, values)]
-        for name, raw in parts:
-            _check_linear_column(name, raw, unit)
-            values, reasons = _power_column(name, raw, unit)
+        parts = [values[:, k] for k in range(values.shape[1])] if values.ndim == 2 else [values]
+        for raw in parts:
+            name = next(names)
+            checks.port(name, raw, unit)
+            values_w, reasons = _power_column(name, raw, unit)
             for mask, reason in reasons:
                 invalid.add(mask, reason)
-            columns.append(values)
-            names.append(name)
-            units.append(unit)
-    powers = np.column_stack(columns)
+            columns.append(values_w)
+    powers = np.column_stack(columns) if rows else np.empty((0, len(columns)))
     with np.errstate(invalid="ignore", over="ignore"):
         invalid.add(~(powers.sum(axis=1) > 0), NO_LIGHT_REASON)
-    return powers, tuple(names), tuple(units)
+    return powers
 
 
 def _first(raw: np.ndarray, mask: np.ndarray) -> str:

@@ -15,7 +15,7 @@ import os
 import stat
 import struct
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
@@ -29,6 +29,8 @@ __all__ = [
     "STDIN",
     "RawInput",
     "Source",
+    "Chunk",
+    "whole_chunks",
     "open_input",
     "check_allocation",
     "array_source",
@@ -249,12 +251,89 @@ class Source:
         (``line 7`` in a text file, ``row 5`` elsewhere).
     unit_attributes : dict of str to str
         Units stored beside the data (HDF5 ``units`` attributes).
+    chunks : callable or None
+        ``chunks(names, chunk_rows, sample_axes, text_ok)`` yields :class:`Chunk` s of at
+        most ``chunk_rows`` rows, in file order, reading the file once and holding only
+        one chunk at a time; ``sample_axes[name]`` is the axis of a 2-D field that runs
+        over the samples. None: the format reads whole fields only
+        (:func:`whole_chunks` slices them).
+    progress_total : tuple of (int, str) or None
+        How far a read through :attr:`chunks` has to go and in what unit, when not in
+        rows (``(size, "bytes")`` for a text file, whose rows are not counted
+        beforehand); None: the rows the fields declare.
     """
 
     shapes: dict[str, tuple[int, ...]]
     load: Callable[..., dict[str, np.ndarray]]
     row_label: Callable[[int], str] = sample_label
     unit_attributes: dict[str, str] = field(default_factory=dict)
+    chunks: Callable[..., Iterator[Chunk]] | None = None
+    progress_total: tuple[int, str] | None = None
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """Consecutive data rows of a file, read by :attr:`Source.chunks`.
+
+    Attributes
+    ----------
+    start : int
+        Zero-based index of the first row among the file's data rows.
+    columns : dict of str to ndarray, shape (m,) or (m, k)
+        The fields asked for, samples along the first axis (a 2-D field already turned
+        so), float64 or, for a field allowed to be text, str.
+    row_label : callable
+        ``row_label(i)`` names data row ``i`` (zero-based, file-wide, ``start <= i <
+        start + m``) as the user finds it (``line 7``, ``row 5``).
+    progress : int
+        How far the read is after this chunk: rows, or the unit of
+        :attr:`Source.progress_total`.
+    """
+
+    start: int
+    columns: dict[str, np.ndarray]
+    row_label: Callable[[int], str]
+    progress: int
+
+    @property
+    def n_rows(self) -> int:
+        """Rows m in this chunk."""
+        return len(next(iter(self.columns.values())))
+
+
+def whole_chunks(
+    source: Source, names, chunk_rows: int, sample_axes: dict[str, int], text_ok=()
+) -> Iterator[Chunk]:
+    """Chunks of a source read whole (formats that cannot read part of a field: MAT, and
+    fields stored in an order that cannot be read row by row): the memory is that of the
+    whole fields, the rows come out in chunks all the same.
+
+    Parameters
+    ----------
+    source : Source
+        The file.
+    names : list of str
+        Fields to read.
+    chunk_rows : int
+        Rows per chunk.
+    sample_axes : dict of str to int
+        For each 2-D field, the axis that runs over the samples.
+    text_ok : collection of str
+        Fields that may come back as text.
+    """
+    data = source.load(list(names), text_ok=set(text_ok))
+    for name, axis in sample_axes.items():
+        if axis == 1:
+            data[name] = data[name].T
+    rows = len(next(iter(data.values()))) if data else 0
+    for start in range(0, rows, chunk_rows):
+        stop = min(start + chunk_rows, rows)
+        yield Chunk(
+            start,
+            {name: values[start:stop] for name, values in data.items()},
+            source.row_label,
+            stop,
+        )
 
 
 def array_source(arrays: dict[str, object], max_bytes: int) -> Source:

@@ -19,20 +19,20 @@ import io
 import itertools
 import re
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..exceptions import FileFormatError
-from .source import RawInput, Source
+from .source import Chunk, RawInput, Source
 
-__all__ = ["read_text", "write_csv", "write_tsv", "refuse_text_chunk"]
+__all__ = ["read_text", "write_csv", "write_tsv", "refuse_text_chunk", "DelimitedChunkWriter"]
 
 _HEAD_BYTES = 1 << 16
 _TAIL_BYTES = 1 << 16
-_WRITE_CHUNK_ROWS = 1 << 16
+_WRITE_CHUNK_ROWS = 1 << 13  # rows turned into text at a time: bounds the strings held
 _DELIMITERS = ("\t", ",", ";", None)  # None: runs of whitespace; ties go to the first
 _LINE_END = re.compile(r"\r\n|\n|\r")  # as Python's universal newlines: LF, CRLF, CR
 _LINE_END_BYTES = re.compile(rb"\r\n|\n|\r")
@@ -130,20 +130,43 @@ def _column_names(raw: list[str]) -> list[str]:
 def read_text(raw: RawInput, max_bytes: int) -> Source:
     """The columns of a delimited text table, each a 1-D field of yet unknown length.
 
+    Whole fields (``load``) are read by pyarrow's CSV reader, else numpy's, else the exact
+    line parser. Chunks (``chunks``) are read by pyarrow's CSV reader a block of whole
+    lines at a time (cut into chunks of exact row counts), else by lines, each chunk parsed
+    by numpy, else exactly; when a block does not parse, the rest of the file is read by
+    lines, so that a bad cell is named by its line as in a whole read. A field allowed to
+    be text (``text_ok``) comes back from ``chunks`` as text always (cells stripped), for
+    the caller to turn into numbers when every cell is one. The progress of a chunked read
+    is counted in bytes of the file.
+
     Parameters
     ----------
     raw : RawInput
         The file.
     max_bytes : int
-        The largest text file read (its values take up to a few times its size).
+        The largest text file read whole (its values take up to a few times its size);
+        a chunked read holds only one chunk and has no file size limit.
     """
-    if raw.size > max_bytes:
-        raise FileFormatError(
-            f"the file holds {raw.size} bytes, more than the {max_bytes}-byte size limit for "
-            "a text table: split it, or raise the limit (max_bytes)",
-            parameter="max_bytes",
-        )
     layout = _sniff_layout(raw)
+
+    def chunks(names, chunk_rows, sample_axes=None, text_ok=frozenset()):
+        return _stream_text(raw, layout, list(names), chunk_rows, set(text_ok))
+
+    if raw.size > max_bytes:
+
+        def refuse(names, text_ok=frozenset()):
+            raise FileFormatError(
+                f"the file holds {raw.size} bytes, more than the {max_bytes}-byte size limit "
+                "for a text table read whole: split it, or raise the limit (max_bytes)",
+                parameter="max_bytes",
+            )
+
+        return Source(
+            {name: (-1,) for name in layout.names},
+            refuse,
+            chunks=chunks,
+            progress_total=(raw.size, "bytes"),
+        )
     line_numbers = functools.cache(lambda: _data_line_numbers(raw, layout))
 
     def load(names, text_ok=frozenset()):
@@ -162,7 +185,13 @@ def read_text(raw: RawInput, max_bytes: int) -> Source:
         numbers = line_numbers()
         return f"line {numbers[row]}" if row < len(numbers) else f"data row {row + 1}"
 
-    return Source({name: (-1,) for name in layout.names}, load, row_label)
+    return Source(
+        {name: (-1,) for name in layout.names},
+        load,
+        row_label,
+        chunks=chunks,
+        progress_total=(raw.size, "bytes"),
+    )
 
 
 def _parse_text_with_arrow(raw: RawInput, layout: _TextLayout, columns: list[int]):
@@ -307,6 +336,218 @@ def _numbers(
     return values
 
 
+# ---------------------------------------------------------------------------- chunks
+#: bytes of a text file parsed by pyarrow at a time (its default block size): larger
+#: blocks are not faster
+_BLOCK_BYTES = 1 << 20
+
+
+class _LineFinder:
+    """The file line of data row ``i`` (zero-based, blank lines not counted), found by
+    reading the file forward from the last row asked for (rows are asked for in order)."""
+
+    def __init__(self, raw: RawInput, layout: _TextLayout):
+        self._raw = raw
+        self._layout = layout
+        self._lines = None
+        self._row = -1
+        self._number = 0
+
+    def __call__(self, row: int) -> str:
+        if self._lines is None or row < self._row:
+            self._lines = _data_lines(self._raw, self._layout)
+            self._row, self._number = -1, 0
+        while self._row < row:
+            found = next(self._lines, None)
+            if found is None:
+                return f"data row {row + 1}"
+            self._number = found[0]
+            self._row += 1
+        return f"line {self._number}"
+
+
+def _stream_text(
+    raw: RawInput, layout: _TextLayout, names: list[str], chunk_rows: int, text_ok: set[str]
+) -> Iterator[Chunk]:
+    """Chunks of at most ``chunk_rows`` rows of the columns ``names``, in file order."""
+    done = 0
+    finder = _LineFinder(raw, layout)
+    arrow = _arrow_chunks(raw, layout, names, chunk_rows, text_ok, finder)
+    if arrow is not None:
+        try:
+            for chunk in arrow:
+                done = chunk.start + chunk.n_rows
+                yield chunk
+        except _ArrowFailed:
+            yield from _line_chunks(raw, layout, names, chunk_rows, text_ok, skip=done)
+            return
+        if done == 0:
+            raise FileFormatError("the file has a header row but no data rows")
+        _check_not_truncated(raw, layout, lambda: finder(done - 1))
+        return
+    yield from _line_chunks(raw, layout, names, chunk_rows, text_ok, skip=0)
+
+
+class _ArrowFailed(Exception):
+    """pyarrow could not parse a block: the lines from the first row not yet given are
+    read by the line parser, which names what is wrong."""
+
+
+def _arrow_chunks(raw, layout, names, chunk_rows, text_ok, finder):
+    """Chunks parsed by pyarrow's CSV reader, one block of whole lines at a time (not its
+    streaming reader, which reads tens of MB ahead); None when pyarrow is missing or the
+    file is whitespace-delimited. Raises :class:`_ArrowFailed` when a block does not
+    parse, after the chunks before it."""
+    if layout.delimiter is None or layout.data_offset is None:
+        return None
+    try:
+        import pyarrow as pa
+        import pyarrow.csv as pa_csv
+    except ImportError:
+        return None
+    options = {
+        "read_options": pa_csv.ReadOptions(column_names=layout.names, use_threads=False),
+        "parse_options": pa_csv.ParseOptions(delimiter=layout.delimiter),
+        "convert_options": pa_csv.ConvertOptions(
+            include_columns=names,
+            column_types={name: pa.string() if name in text_ok else pa.float64() for name in names},
+            null_values=[""],
+        ),
+    }
+
+    def chunks():
+        pending: list = []  # parsed tables not yet given out
+        pending_rows = 0
+        start = 0
+        with raw.open() as handle:
+            handle.seek(layout.data_offset)
+            for block, position in _line_blocks(handle, layout.data_offset):
+                if block is not None:
+                    try:
+                        table = pa_csv.read_csv(pa.py_buffer(block), **options)
+                    except pa.ArrowException:
+                        raise _ArrowFailed from None
+                    pending.append(table)
+                    pending_rows += table.num_rows
+                while pending_rows >= chunk_rows or (block is None and pending_rows):
+                    table = pa.concat_tables(pending)
+                    size = min(chunk_rows, pending_rows)
+                    columns = {
+                        name: _arrow_column(table.column(name)[:size], name in text_ok)
+                        for name in names
+                    }
+                    rest = table.slice(size)
+                    pending, pending_rows = [rest], rest.num_rows
+                    yield Chunk(start, columns, finder, min(position, raw.size))
+                    start += size
+
+    return chunks()
+
+
+def _line_blocks(handle, offset: int):
+    """``(block, position)``: blocks of about :data:`_BLOCK_BYTES` of whole lines (cut
+    after a line end; blank blocks left out), each with the byte position after it; a
+    last ``(None, size)`` marks the end."""
+    rest = b""
+    position = offset
+    while True:
+        data = handle.read(_BLOCK_BYTES)
+        if not data:
+            if rest.strip():
+                yield rest, position + len(rest)
+            yield None, position + len(rest)
+            return
+        data = rest + data
+        cut = max(data.rfind(b"\n"), data.rfind(b"\r")) + 1
+        block, rest = data[:cut], data[cut:]
+        position += len(block)
+        if block.strip():
+            yield block, position
+
+
+def _arrow_column(column, text: bool) -> np.ndarray:
+    """A parsed column as float64 (nulls NaN) or, for a text column, stripped text."""
+    if text:
+        return np.char.strip(np.asarray(column.to_pylist(), dtype=str))
+    return column.to_numpy()
+
+
+def _line_chunks(raw, layout, names, chunk_rows, text_ok, skip: int) -> Iterator[Chunk]:
+    """Chunks of data lines from data row ``skip`` on, each parsed by numpy or, when it
+    does not parse, exactly (naming the line of a bad cell). The progress is the bytes
+    read (characters of the lines before the last chunk: close enough for a bar)."""
+    columns = [layout.names.index(name) for name in names]
+    lines = _data_lines(raw, layout)
+    position = layout.data_offset or 0
+    start = 0
+    if skip:
+        position += sum(len(line) for _, line in itertools.islice(lines, skip))
+        start = skip
+    batch = list(itertools.islice(lines, chunk_rows))
+    if not batch:
+        raise FileFormatError("the file has a header row but no data rows")
+    while batch:
+        following = list(itertools.islice(lines, chunk_rows))
+        numbers = [number for number, _ in batch]
+        position += sum(len(line) for _, line in batch)
+        data = None if text_ok else _parse_lines_with_numpy(batch, layout, columns)
+        if data is None:
+            cut = numbers[-1] if not batch[-1][1].endswith(("\n", "\r")) else None
+            arrays = _parse_lines_exactly(batch, layout, names, text_ok, cut)
+        else:
+            arrays = {name: data[:, k] for k, name in enumerate(names)}
+        if not following:
+            last_line = f"line {numbers[-1]}"
+            _check_not_truncated(raw, layout, lambda last_line=last_line: last_line)
+        done = raw.size if not following else min(position, raw.size)
+        yield Chunk(start, arrays, _chunk_labels(start, numbers), done)
+        start += len(batch)
+        batch = following
+
+
+def _chunk_labels(start: int, numbers: list[int]) -> Callable[[int], str]:
+    return lambda row: f"line {numbers[row - start]}"
+
+
+def _parse_lines_with_numpy(batch, layout: _TextLayout, columns: list[int]):
+    """Columns (m, k) of some data lines parsed by numpy; None when any does not parse or
+    has another number of fields than the header."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            data = np.loadtxt(
+                [line for _, line in batch],
+                delimiter=layout.delimiter,
+                comments=None,
+                quotechar='"',
+                ndmin=2,
+            )
+    except ValueError:
+        return None
+    if data.shape[1] != len(layout.names):
+        return None
+    return data[:, columns]
+
+
+def _parse_lines_exactly(batch, layout, names, text_ok, cut_line) -> dict[str, np.ndarray]:
+    """Data lines parsed cell by cell (see :func:`_parse_text_exactly`); a column in
+    ``text_ok`` comes back as text always."""
+    columns = [layout.names.index(name) for name in names]
+    cells: list[list[str]] = [[] for _ in names]
+    numbers = []
+    for number, line in batch:
+        fields = _fields(line, number, layout)
+        numbers.append(number)
+        for k, column in enumerate(columns):
+            cells[k].append(fields[column].strip())
+    return {
+        name: np.array(values, dtype=str)
+        if name in text_ok
+        else _numbers(name, values, False, numbers, cut_line)
+        for name, values in zip(names, cells, strict=True)
+    }
+
+
 # ---------------------------------------------------------------------------- truncation
 _EXPONENT = re.compile(r"[eE][-+]?\d*$")
 
@@ -393,16 +634,52 @@ def _text_cells(values: np.ndarray, delimiter: str) -> list[str]:
     return [_quoted(cell, delimiter) for cell in values.tolist()]
 
 
-def _write_delimited(path: Path, arrays: dict[str, np.ndarray], delimiter: str) -> None:
-    rows = len(next(iter(arrays.values()))) if arrays else 0
-    with open(path, "w", encoding="utf-8", newline="\n") as handle:
-        handle.write(delimiter.join(_quoted(name, delimiter) for name in arrays) + "\n")
+class DelimitedChunkWriter:
+    """Writes 1-D columns (float64, int64 or text) as delimited text one chunk at a time:
+    the header row with the first chunk, then the rows, as :func:`write_csv` does at once.
+
+    Parameters
+    ----------
+    path : Path
+        The file to write.
+    delimiter : str
+        ``","`` or ``"\\t"``.
+    """
+
+    def __init__(self, path: Path, delimiter: str):
+        self._handle = open(path, "w", encoding="utf-8", newline="\n")  # noqa: SIM115
+        self._delimiter = delimiter
+        self._started = False
+
+    def write(self, arrays: dict[str, np.ndarray]) -> None:
+        """Append rows (the header row first, with the first chunk)."""
+        delimiter = self._delimiter
+        if not self._started:
+            self._handle.write(delimiter.join(_quoted(name, delimiter) for name in arrays) + "\n")
+            self._started = True
+        rows = len(next(iter(arrays.values()))) if arrays else 0
         for start in range(0, rows, _WRITE_CHUNK_ROWS):
             block = [
                 _text_cells(values[start : start + _WRITE_CHUNK_ROWS], delimiter)
                 for values in arrays.values()
             ]
-            handle.write("\n".join(map(delimiter.join, zip(*block, strict=True))) + "\n")
+            self._handle.write("\n".join(map(delimiter.join, zip(*block, strict=True))) + "\n")
+
+    def close(self) -> None:
+        """Finish the file."""
+        self._handle.close()
+
+    def abort(self) -> None:
+        """Release the file after a failure (the caller removes it)."""
+        self._handle.close()
+
+
+def _write_delimited(path: Path, arrays: dict[str, np.ndarray], delimiter: str) -> None:
+    writer = DelimitedChunkWriter(path, delimiter)
+    try:
+        writer.write(arrays)
+    finally:
+        writer.close()
 
 
 def write_csv(path: Path, arrays: dict[str, np.ndarray]) -> None:

@@ -1,0 +1,336 @@
+"""Measuring a file of readings with a calibration, chunk by chunk, in bounded memory.
+
+:func:`measure_file` reads the readings with :func:`~wavemeter.io.iter_readings`, turns each
+chunk into frequency with the calibration and appends it to the output with
+:func:`~wavemeter.io.table_writer`: the memory it takes is that of one chunk (and of the
+calibration), whatever the size of the file; the output appears, complete, only when
+every row is written (any error, also an interrupt, leaves no output and an existing one
+untouched). Rows stay in file order, one output row per input row.
+
+The output columns: ``frequency_hz``, ``wavelength_nm`` (vacuum), ``phase_rad``,
+``frequency_std_hz`` (when asked for or given by the calibration), for a cascade
+``order_error_probability``, ``flags`` (:class:`~wavemeter.calibration.flags.ReadingFlag`
+bits; a row skipped as invalid has ``INVALID`` and NaN values), for a calibration that
+needs the chip temperature ``temperature_k``, then the kept columns.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..calibration.flags import ReadingFlag
+from ..exceptions import CalibrationWarning, InputError, WavemeterError
+from ..io import ColumnRequest, ReadingStream, iter_readings, table_writer
+from ..units import SPEED_OF_LIGHT_M_S, frequency_text
+
+__all__ = ["measure_file", "MeasureSummary", "MEASURE_CHUNK_ROWS", "READING_NOISE_CAUSE"]
+
+#: rows measured per chunk by default (a few MB of readings and results)
+MEASURE_CHUNK_ROWS = 1 << 16
+#: cause of the warning that a cascade's readings are noisier than its calibration sweep
+READING_NOISE_CAUSE = "reading_noise"
+
+
+@dataclass
+class MeasureSummary:
+    """What :func:`measure_file` did.
+
+    Attributes
+    ----------
+    source : Path
+        The readings file.
+    out_path : Path
+        The output written (``-``: standard output).
+    rows : int
+        Rows written, one per data row of the file.
+    invalid_rows : int
+        Rows skipped as invalid (flag ``INVALID``).
+    invalid_examples : list of str
+        The first (up to 5) of them with their reasons, ``line 5 (P2_mW is NaN)``.
+    flag_counts : dict of str to int
+        Rows with each flag bit set, by bit name, in the order of the bits (bits no row
+        has are left out).
+    flagged : int
+        Rows with any flag.
+    warnings : list of Warning
+        The warnings the measurement gave (each once), also issued with
+        :func:`warnings.warn`.
+    """
+
+    source: Path
+    out_path: Path
+    rows: int = 0
+    invalid_rows: int = 0
+    invalid_examples: list[str] = field(default_factory=list)
+    flag_counts: dict[str, int] = field(default_factory=dict)
+    flagged: int = 0
+    warnings: list[Warning] = field(default_factory=list)
+
+
+def measure_file(
+    calibration,
+    readings,
+    out_path,
+    *,
+    request: ColumnRequest | None = None,
+    file_format: str | None = None,
+    chunk_rows: int = MEASURE_CHUNK_ROWS,
+    coarse_hz: float | None = None,
+    temperature_k: float | None = None,
+    uncertainty: bool | None = None,
+    drop_invalid: bool = False,
+    progress: Callable | None = None,
+) -> MeasureSummary:
+    """Turn a file of port readings into frequencies, a chunk of rows at a time.
+
+    Parameters
+    ----------
+    calibration : BaseCalibrator
+        A fitted calibration.
+    readings : str, Path or ReadingStream
+        The readings file (``"-"``: standard input), or one opened with
+        :func:`~wavemeter.io.iter_readings` (not yet iterated; ``request``, ``chunk_rows``
+        and ``drop_invalid`` are then those it was opened with).
+    out_path : str or Path
+        The output file (``"-"``: standard output), written atomically.
+    request : ColumnRequest, optional
+        Columns chosen by the user (ports, power unit, coarse and temperature columns,
+        kept columns).
+    file_format : {"csv", "tsv", "parquet", "hdf5", "npz"}, optional
+        Output format; default from the extension of ``out_path``.
+    chunk_rows : int
+        Rows read, measured and written at a time.
+    coarse_hz : float, optional
+        Coarse frequency (Hz) of every reading, for a calibration that needs one (a
+        calibration set, a wide-band calibration) when the file has no coarse column.
+    temperature_k : float, optional
+        Chip temperature (K) of every reading, for a calibration that needs it, instead
+        of the file's temperature column.
+    uncertainty : bool, optional
+        Write ``frequency_std_hz``; default: when the calibration gives it.
+    drop_invalid : bool
+        Write invalid rows as NaN with the ``INVALID`` flag instead of failing.
+    progress : callable, optional
+        ``progress(description, total, unit=...)`` returning a context manager that
+        yields ``advance(steps)`` (as :func:`wavemeter.progress.progress_bar`); it is
+        advanced in the units of the read (rows, or bytes of a text file). None: silent.
+
+    Returns
+    -------
+    MeasureSummary
+
+    Raises
+    ------
+    InputError
+        For what :func:`~wavemeter.io.iter_readings` refuses, ports other than the
+        calibration's, a missing temperature or coarse frequency, ``uncertainty`` asked
+        of a calibration that gives none; no output is written then.
+    """
+    offered = "frequency_std" in calibration.capabilities
+    if uncertainty and not offered:
+        raise InputError(
+            f"uncertainty needs a learned calibration (single or per FSR), not a "
+            f"{calibration.method_label} calibration",
+            parameter="uncertainty",
+        )
+    uncertainty = offered if uncertainty is None else uncertainty
+    thermal = "temperature_k" in calibration.requires
+    if isinstance(readings, ReadingStream):
+        stream = readings
+    else:
+        stream = iter_readings(
+            readings,
+            request,
+            chunk_rows=chunk_rows,
+            allow_invalid=drop_invalid,
+            find_temperature=thermal and temperature_k is None,
+        )
+    _check_stream(calibration, stream, coarse_hz, temperature_k)
+    summary = MeasureSummary(source=stream.source, out_path=Path(out_path))
+    measured = _Measurement(calibration, uncertainty, coarse_hz, temperature_k)
+    counts = np.zeros(len(ReadingFlag), dtype=np.int64)
+    total, unit = stream.progress_total
+    bar = progress(f"measuring {stream.source}", total, unit=unit) if progress else None
+    with contextlib.ExitStack() as stack:
+        advance = stack.enter_context(bar) if bar is not None else None
+        write = stack.enter_context(table_writer(out_path, file_format))
+        done = 0
+        for table in stream:
+            columns = measured.chunk(table)
+            flags = columns["flags"]
+            counts += [np.count_nonzero(flags & bit) for bit in ReadingFlag]
+            summary.flagged += int(np.count_nonzero(flags))
+            write(columns)
+            if advance is not None:
+                advance(stream.progress - done)
+            done = stream.progress
+        summary.warnings = measured.finish()
+        for warning in summary.warnings:
+            warnings.warn(warning, stacklevel=2)
+    summary.rows = stream.rows
+    summary.invalid_rows = stream.invalid_rows
+    summary.invalid_examples = list(stream.invalid_examples)
+    summary.flag_counts = {
+        bit.name: int(count) for bit, count in zip(ReadingFlag, counts, strict=True) if count
+    }
+    return summary
+
+
+def _check_stream(calibration, stream: ReadingStream, coarse_hz, temperature_k) -> None:
+    """The file gives what the calibration needs: its ports, a temperature, a coarse
+    frequency (the command line checks these first, with its own options in the
+    messages)."""
+    if len(stream.port_names) != calibration.n_ports_:
+        raise InputError(
+            f"{stream.source} has {len(stream.port_names)} ports "
+            f"({', '.join(stream.port_names)}) but the calibration has "
+            f"{calibration.n_ports_} ({', '.join(calibration.port_names_)}); choose the "
+            "port columns in the calibration's order (ports)",
+            parameter="ports",
+        )
+    if "temperature_k" in calibration.requires:
+        if temperature_k is None and stream.temperature_column is None:
+            raise InputError(
+                f"a {calibration.method_label} calibration needs the chip temperature of each "
+                f"reading, and {stream.source} has no temperature column; name it "
+                "(temperature) or give one temperature for the file (temperature_k)",
+                parameter="temperature_k",
+            )
+    if "coarse_hz" in calibration.requires:
+        if coarse_hz is None and stream.coarse_column is None:
+            raise InputError(
+                f"a {calibration.method_label} calibration needs a coarse frequency of each "
+                f"reading; {stream.source} has no coarse column: name it (coarse) or give "
+                "one for the file (coarse_hz)",
+                parameter="coarse_hz",
+            )
+    elif calibration.absolute_frequency and (coarse_hz is not None or stream.coarse_column):
+        raise InputError(
+            f"a {calibration.method_label} calibration reads the absolute frequency: it "
+            "takes no coarse frequency (coarse_hz)",
+            parameter="coarse_hz",
+        )
+
+
+class _Measurement:
+    """Measures chunks of readings; keeps what the whole file decides (the cascade's
+    noise scale, the warnings, each given once)."""
+
+    def __init__(self, calibration, uncertainty: bool, coarse_hz, temperature_k):
+        self.calibration = calibration
+        self.uncertainty = uncertainty
+        self.coarse_hz = coarse_hz
+        self.temperature_k = temperature_k
+        self.thermal = "temperature_k" in calibration.requires
+        self.cascade = hasattr(calibration, "stages_")
+        self.noise_scale = np.ones(len(calibration.stages_)) if self.cascade else None
+        self.warnings: dict[tuple[type, str], Warning] = {}
+
+    def chunk(self, table) -> dict[str, np.ndarray]:
+        """The output columns of one chunk of readings (m rows)."""
+        rows = table.n_rows
+        frequency = np.full(rows, np.nan)
+        phase = np.full(rows, np.nan)
+        std = np.full(rows, np.nan)
+        flags = np.where(table.invalid, int(ReadingFlag.INVALID), 0)
+        order_error = np.full(rows, np.nan) if self.cascade else None
+        temperature = None
+        if self.thermal:
+            temperature = (
+                table.temperature_k
+                if self.temperature_k is None
+                else np.full(rows, float(self.temperature_k))
+            )
+        valid = np.flatnonzero(~table.invalid)
+        powers = table.powers_w[valid]
+        extra = {}
+        if "coarse_hz" in self.calibration.requires:
+            coarse = table.coarse_hz
+            extra["coarse_hz"] = (
+                np.full(valid.size, self.coarse_hz) if coarse is None else coarse[valid]
+            )
+        if temperature is not None:
+            extra["temperature_k"] = temperature[valid]
+        if valid.size:
+            with _about(table.source), warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                if self.cascade:  # every stage in one pass
+                    found = self.calibration.read(powers)
+                    frequency[valid] = found.frequency_hz[-1]
+                    phase[valid] = found.phase_rad[-1]
+                    std[valid] = found.std_hz[-1]
+                    order_error[valid] = found.order_error_probability
+                    flags[valid] = found.flags
+                    self.noise_scale = np.maximum(self.noise_scale, found.noise_scale)
+                else:
+                    frequency[valid] = self.calibration.predict(powers, **extra)
+                    phase[valid] = self.calibration.phase(powers, **extra)
+                    if self.uncertainty:
+                        std[valid] = self.calibration.frequency_std_hz(powers, **extra)
+                    flags[valid] = self.calibration.flags(powers, **extra)
+            for warning in caught:
+                key = (warning.category, str(warning.message))
+                self.warnings.setdefault(key, warning.message)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            wavelength = SPEED_OF_LIGHT_M_S / frequency * 1e9
+        columns = {
+            "frequency_hz": frequency,
+            "wavelength_nm": wavelength,
+            "phase_rad": phase,
+            **({"frequency_std_hz": std} if self.uncertainty else {}),
+            **({} if order_error is None else {"order_error_probability": order_error}),
+            "flags": flags,
+            **({} if temperature is None else {"temperature_k": temperature}),
+        }
+        for name, values in table.kept.items():
+            columns.setdefault(name, values)
+        return columns
+
+    def finish(self) -> list[Warning]:
+        """The warnings of the whole file: those the chunks gave, each once, then the
+        cascade's reading-noise warning decided from every chunk."""
+        found = list(self.warnings.values())
+        if self.cascade and (noisier := _noise_warning(self.calibration, self.noise_scale)):
+            found.append(noisier)
+        return found
+
+
+def _noise_warning(calibration, noise_scale: np.ndarray) -> CalibrationWarning | None:
+    """The warning that a cascade's readings are noisier than its calibration sweep, from
+    the largest noise scale of each stage over the chunks (K,); None when none is."""
+    noisier = np.flatnonzero(noise_scale > 1.0)
+    if noisier.size == 0:
+        return None
+    fsrs = calibration.stage_fsrs_hz_
+    stages = ", ".join(
+        f"{noise_scale[index]:.3g}x in stage {index + 1} ({frequency_text(fsrs[index])})"
+        for index in noisier
+    )
+    return CalibrationWarning(
+        f"the readings are noisier than the calibration sweep: their detector noise is "
+        f"{stages} the calibrated one (estimated from the readings' distances to each stage's "
+        "model); frequency_std_hz and order_error_probability follow the readings' noise, "
+        "and wrong orders grow more likely with it",
+        cause=READING_NOISE_CAUSE,
+        remedy="lower the readings' noise (more power, averaging) or recalibrate in the "
+        "conditions of use",
+    )
+
+
+@contextlib.contextmanager
+def _about(path):
+    """Prefix an error the calibration raises with the file it concerns."""
+    try:
+        yield
+    except WavemeterError as exc:
+        if str(exc).startswith(str(path)):
+            raise
+        renamed = type(exc)(f"{path}: {exc}")
+        renamed.parameter = getattr(exc, "parameter", None)
+        raise renamed from exc
