@@ -4,19 +4,35 @@ confidence.
 The C band 191.0-195.4 THz (centre 193.2 THz). Hidden-truth cascades
 ``wm.CascadeInterferometer.table1`` (independent Table 1 impairments per stage, the
 silicon-nitride spectral preset ``"sin"`` per stage, equal power split), source power 1 mW,
-detector noise 5e-7 W per port at the design noise. Every cascade is calibrated from one
-sweep of ``--sweep`` readings evenly over the band (both ends included) at the design noise
-by ``wm.CascadeCalibrator(fsr_hz=<its design FSRs>)``, and read by ``cal.read`` in chunks
-of 100 000 readings: test frequencies uniform over the band, the same frequencies at every
+detector noise 5e-7 W per port at the design noise (a design: the noise it was made for,
+below). Every cascade is calibrated from one sweep of ``--sweep`` readings evenly over the
+band (both ends included) at its design noise by ``wm.CascadeCalibrator(fsr_hz=<its design
+FSRs>)`` (a design: with ``max_order_error`` below), and read by ``cal.read`` in chunks of
+100 000 readings: test frequencies uniform over the band, the same frequencies at every
 noise level, fresh noise at each.
 
 - **issue cascade**: 5 THz / 500 GHz / 50 GHz, 3 and 4 ports per stage, ``--devices``
   devices per port count; ``--test`` readings at 1x, 3x and 10x the design noise, and
   100 000 at 30x (where wrong orders occur, so that the prediction is tested).
 - **designs**: ``wm.design_cascade(band_hz=(191.0e12, 195.4e12), finest_fsr_hz=50e9,
-  ports=3, power_w=1e-3, noise_w=5e-7, wrong_order_rate=r)`` for ``r`` = 1e-9 and 1e-3, one
-  device each (``CascadeInterferometer.table1(fsrs_hz=design.fsrs_hz, ports=3)``); ``--test``
-  readings at 1x, 100 000 at 3x and 10x (where wrong orders abound).
+  ports=3, power_w=1e-3, noise_w=n, wrong_order_rate=r)`` for ``r`` = 1e-9 at ``n`` = 5e-7 W
+  and ``r`` = 1e-3 at a bisected ``n`` (below), one device each
+  (``CascadeInterferometer.table1(fsrs_hz=design.fsrs_hz, ports=3)``) swept and read at
+  ``n``; ``--test`` readings at 1x, 100 000 at 3x and 10x ``n`` (where wrong orders
+  abound). Each is calibrated with ``max_order_error`` = 10 ``r`` (at most 0.1), so that a
+  design made for a rate is not refused for that rate (the default 1e-6 refuses the design
+  for 1e-3, whose hand-over rate is above it).
+
+  The bisection: at 5e-7 W the fewest-stage design for 1e-3 (two stages) predicts a rate
+  far below 1e-3 (1e-7: the stage count is discrete), and no wrong order could be seen in
+  1e6 readings; so the design noise of ``r`` = 1e-3 is where that design predicts 0.5 ``r``.
+  The predicate "the fewest-stage design at noise ``n`` has as many stages as at 5e-7 W
+  and predicts at most 0.5 ``r``" holds at 5e-7 W; ``n`` is doubled until it fails (a
+  noisier design needs more stages, or predicts more), then the bracket is halved 40 times
+  in ``log n`` and its low end is taken. Within one stage count the predicted rate rises
+  continuously with ``n`` and reaches ``r`` only where a stage is added, so the predicate
+  fails first where the rate crosses 0.5 ``r``. Should the rate found lie outside 0.1-1
+  ``r``, the design is not simulated and its rate target fails.
 - **side by side**: ``wm.CalibrationSet(fsr_hz=50e9)`` fitted on the finest stage's columns of
   the issue cascade's sweep and read with ``coarse_hz`` = the true frequency (the best a
   method that needs a coarse input can do), next to the cascade on the same 100 000
@@ -39,9 +55,10 @@ std`` the standard deviation of error / ``std_hz`` of the finest stage among the
 
 Targets (issue 12): wrong orders seen / predicted within 0.5-2 where >= 20 are seen; none
 seen where the predicted total is < 1e-7; RMS among correctly ordered readings <= 1.05x the
-CRLB (at 1x, 3x and 10x); each design meets its requested rate at the design noise (the
+CRLB (at 1x, 3x and 10x); each design meets its requested rate at its design noise (the
 count seen is not improbably high under a binomial at the requested rate: one-sided p-value
->= 0.01); ``ORDER_AMBIGUOUS`` holds >= 90 % of the wrong-order readings at 10x noise.
+>= 0.01; the design's and the calibration's predictions are printed beside it);
+``ORDER_AMBIGUOUS`` holds >= 90 % of the wrong-order readings at 10x noise.
 A status is ``n/a`` where the run holds nothing the target applies to; a case whose every
 calibration refused its sweep fails its targets, and refusals are counted in the cells (the
 targets are measured on the cascades that were calibrated). Stdout carries only the tables
@@ -62,6 +79,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import dataclasses
+import math
 import re
 import sys
 import time
@@ -107,6 +125,19 @@ CHUNK = 100_000
 #: requested wrong-order rates of the designs, and their ports per stage
 DESIGN_RATES = (1e-9, 1e-3)
 DESIGN_PORTS = 3
+#: the designs whose noise is bisected (module docstring); the others are made at NOISE_W
+BISECTED_RATES = (1e-3,)
+#: the bisection aims the design's predicted rate at this fraction of the requested one,
+#: and must end with it within BISECTION_WINDOW (fractions of the requested rate)
+BISECTION_TARGET = 0.5
+BISECTION_WINDOW = (0.1, 1.0)
+#: doublings of the noise that bracket the target, and halvings of the bracket (log noise)
+BISECTION_DOUBLINGS = 10
+BISECTION_STEPS = 40
+#: a design's calibration flags and refuses above this multiple of its requested rate,
+#: capped (a flag that fires only above 10 % means little)
+ORDER_ERROR_FACTOR = 10.0
+ORDER_ERROR_CAP = 0.1
 #: the fit-time refusal: a 2-stage cascade whose ratio is too large for this sweep noise
 REFUSED_FSRS_HZ = (5e12, 50e9)
 REFUSAL_NOISE_FACTOR = 10.0
@@ -248,27 +279,33 @@ def add_cascade_chunk(tally: Tally, cal, device, frequency_hz, powers_w, crlb_hz
     )
 
 
-def read_level(cal, device, frequency_hz, crlb_1x_hz, noise_factor: float, rng) -> Tally:
+def read_level(
+    cal, device, frequency_hz, crlb_1x_hz, noise_factor: float, rng, noise_w: float = NOISE_W
+) -> Tally:
     """Read fresh readings of ``device`` at ``frequency_hz`` (Hz) and ``noise_factor`` x the
-    design noise with ``cal``, in chunks of ``CHUNK``; the bound is ``crlb_1x_hz`` (Hz, at
-    the design noise) scaled by the factor."""
+    design noise ``noise_w`` (W per port) with ``cal``, in chunks of ``CHUNK``; the bound is
+    ``crlb_1x_hz`` (Hz, at the design noise) scaled by the factor."""
     tally = Tally()
     for start in range(0, frequency_hz.size, CHUNK):
         chunk = slice(start, start + CHUNK)
         frequency = frequency_hz[chunk]
-        powers = device.powers(frequency, POWER_W, noise_factor * NOISE_W, rng)
+        powers = device.powers(frequency, POWER_W, noise_factor * noise_w, rng)
         add_cascade_chunk(tally, cal, device, frequency, powers, noise_factor * crlb_1x_hz[chunk])
     return tally
 
 
-def read_levels(cal, device, frequency_hz, readings: dict, rng, label: str) -> dict:
+def read_levels(
+    cal, device, frequency_hz, readings: dict, rng, label: str, noise_w: float = NOISE_W
+) -> dict:
     """Tallies by noise factor: at each factor of ``readings`` (factor -> count), the first
-    ``count`` of ``frequency_hz`` (Hz) with fresh noise."""
-    crlb_1x = finest_crlb_hz(device, frequency_hz, NOISE_W)
+    ``count`` of ``frequency_hz`` (Hz) with fresh noise, the factor times ``noise_w`` (W)."""
+    crlb_1x = finest_crlb_hz(device, frequency_hz, noise_w)
     levels = {}
     for factor, count in readings.items():
         progress(f"{label}: {count} readings at {factor:g}x noise")
-        levels[factor] = read_level(cal, device, frequency_hz[:count], crlb_1x[:count], factor, rng)
+        levels[factor] = read_level(
+            cal, device, frequency_hz[:count], crlb_1x[:count], factor, rng, noise_w
+        )
     return levels
 
 
@@ -426,6 +463,11 @@ class DesignRun:
     ----------
     requested_rate : float
         The wrong-order rate asked for (per reading).
+    noise_w : float
+        The design noise (W per port): the design's ``noise_w``, the noise of its sweep and
+        of its readings at 1x.
+    max_order_error : float
+        The calibration's ``max_order_error`` (:func:`design_max_order_error`).
     design : CascadeDesign or None
         None when no design was made (``scenario.problem`` says why).
     true_fsrs_hz : tuple of float
@@ -434,31 +476,99 @@ class DesignRun:
     """
 
     requested_rate: float
+    noise_w: float
+    max_order_error: float
     design: object | None
     true_fsrs_hz: tuple
     scenario: Scenario
 
 
-def design_case(rate: float) -> str:
-    return f"design for {rate:g}"
+def design_case(rate: float, noise_w: float) -> str:
+    return f"design for {rate:g} at {noise_w:.3g} W"
+
+
+def design_max_order_error(rate: float) -> float:
+    """The ``max_order_error`` a design for ``rate`` is calibrated with: ``ORDER_ERROR_FACTOR``
+    x the rate, at most ``ORDER_ERROR_CAP`` (and never below the rate)."""
+    return max(rate, min(ORDER_ERROR_FACTOR * rate, ORDER_ERROR_CAP))
+
+
+def make_design(rate: float, noise_w: float):
+    """``wm.design_cascade`` over the band for ``rate`` at ``noise_w`` (W per port)."""
+    return wm.design_cascade(
+        band_hz=BAND_HZ,
+        finest_fsr_hz=FINEST_FSR_HZ,
+        ports=DESIGN_PORTS,
+        power_w=POWER_W,
+        noise_w=noise_w,
+        wrong_order_rate=rate,
+    )
+
+
+def bisected_noise_w(rate: float) -> float:
+    """The design noise (W per port) at which the fewest-stage design for ``rate`` predicts
+    ``BISECTION_TARGET`` x ``rate`` (module docstring).
+
+    Raises
+    ------
+    InputError
+        No design at ``NOISE_W``, or the bisection ends outside ``BISECTION_WINDOW``.
+    """
+    stages = make_design(rate, NOISE_W).stages
+    target = BISECTION_TARGET * rate
+
+    def below(noise_w: float) -> bool:
+        """The fewest-stage design at ``noise_w`` has ``stages`` stages and at most the
+        target rate."""
+        try:
+            design = make_design(rate, noise_w)
+        except wm.InputError:
+            return False
+        return design.stages == stages and design.wrong_order_rate <= target
+
+    low, high = NOISE_W, 2.0 * NOISE_W
+    if not below(low):
+        raise wm.InputError(
+            f"the {stages}-stage design for {rate:g} at {NOISE_W:g} W already predicts more "
+            f"than {target:.3g}: no noise to bisect above it"
+        )
+    for _ in range(BISECTION_DOUBLINGS):
+        if not below(high):
+            break
+        low, high = high, 2.0 * high
+    else:
+        raise wm.InputError(f"the design for {rate:g} stays below {target:.3g} up to {low:.3g} W")
+    for _ in range(BISECTION_STEPS):
+        middle = math.sqrt(low * high)
+        low, high = (middle, high) if below(middle) else (low, middle)
+    predicted = make_design(rate, low).wrong_order_rate
+    window = tuple(fraction * rate for fraction in BISECTION_WINDOW)
+    if not window[0] <= predicted <= window[1]:
+        raise wm.InputError(
+            f"the bisection for {rate:g} ended at {low:.4g} W, where the design predicts "
+            f"{predicted:.3g}, outside {window[0]:.3g}-{window[1]:.3g}"
+        )
+    return low
 
 
 def evaluate_design(index: int, rate: float, seed: int, sizes: Sizes) -> DesignRun:
-    """Design a cascade for ``rate``, simulate it (Table 1 stages, ``DESIGN_PORTS`` ports),
-    calibrate it at the design noise and read it at ``NOISE_FACTORS``."""
-    case = design_case(rate)
+    """Design a cascade for ``rate`` at its design noise (``NOISE_W``, or bisected for
+    ``BISECTED_RATES``), simulate it (Table 1 stages, ``DESIGN_PORTS`` ports), calibrate it
+    at the design noise with ``design_max_order_error(rate)`` and read it at
+    ``NOISE_FACTORS`` x the design noise."""
+    key = f"design for {rate:g}"
+    max_order_error = design_max_order_error(rate)
+    noise_w = NOISE_W
     try:
-        design = wm.design_cascade(
-            band_hz=BAND_HZ,
-            finest_fsr_hz=FINEST_FSR_HZ,
-            ports=DESIGN_PORTS,
-            power_w=POWER_W,
-            noise_w=NOISE_W,
-            wrong_order_rate=rate,
-        )
+        if rate in BISECTED_RATES:
+            progress(f"{key}: bisection of the design noise")
+            noise_w = bisected_noise_w(rate)
+        design = make_design(rate, noise_w)
     except wm.WavemeterError as error:
         problem = f"not simulated: design_cascade refused: {type(error).__name__}: {error}"
-        return DesignRun(rate, None, (), Scenario(case, "-", (), None, {}, problem=problem))
+        scenario = Scenario(design_case(rate, noise_w), "-", (), None, {}, problem=problem)
+        return DesignRun(rate, noise_w, max_order_error, None, (), scenario)
+    case = design_case(rate, noise_w)
     fsrs = tuple(float(fsr) for fsr in design.fsrs_hz)
     device_rng = np.random.default_rng(
         np.random.SeedSequence([seed, DESIGN_PORTS, DESIGN_STREAM, index])
@@ -466,19 +576,20 @@ def evaluate_design(index: int, rate: float, seed: int, sizes: Sizes) -> DesignR
     device = wm.CascadeInterferometer.table1(
         fsrs, DESIGN_PORTS, seed=device_rng, center_hz=CENTER_HZ, spectral=SPECTRAL
     )
-    rng = data_rng(seed, DESIGN_PORTS, DESIGN_STREAM, case)
+    rng = data_rng(seed, DESIGN_PORTS, DESIGN_STREAM, key)
     sweep_hz = sizes.sweep_hz()
-    sweep_w = device.powers(sweep_hz, POWER_W, NOISE_W, rng)
+    sweep_w = device.powers(sweep_hz, POWER_W, noise_w, rng)
     progress(f"{case}: fit")
-    fit = fit_recorded(wm.CascadeCalibrator(fsr_hz=fsrs), sweep_w, sweep_hz)
+    calibrator = wm.CascadeCalibrator(fsr_hz=fsrs, max_order_error=max_order_error)
+    fit = fit_recorded(calibrator, sweep_w, sweep_hz)
     levels = {}
     if fit.calibrator is not None:
         frequency = sizes.test_hz(rng)
         # wrong orders abound above the design noise: fewer readings tell their rate there
         readings = {NOISE_FACTORS[0]: sizes.test, **dict.fromkeys(NOISE_FACTORS[1:], sizes.high)}
-        levels = read_levels(fit.calibrator, device, frequency, readings, rng, case)
+        levels = read_levels(fit.calibrator, device, frequency, readings, rng, case, noise_w)
     scenario = Scenario(case, "1", fsrs, fit, levels)
-    return DesignRun(rate, design, device.true_fsrs_hz, scenario)
+    return DesignRun(rate, noise_w, max_order_error, design, device.true_fsrs_hz, scenario)
 
 
 @dataclass(frozen=True)
@@ -683,6 +794,7 @@ def fit_table(scenarios: list[Scenario]) -> str:
 
 DESIGN_HEADERS = (
     "requested rate",
+    "design noise (W per port)",
     "design FSRs",
     "design rate",
     "design margins: hand-over, edge (std)",
@@ -691,6 +803,7 @@ DESIGN_HEADERS = (
     "calibrated stage median std",
     "calibrated margins: hand-over median, edge (std)",
     "calibrated prediction at 1x (per reading)",
+    "max_order_error",
     "calibration",
 )
 
@@ -699,10 +812,12 @@ def design_row(run: DesignRun) -> list[str]:
     """The design against the simulated and calibrated cascade: ideal stages are quieter than
     Table 1 ones, and Table 1 draws each delay 5 % about its design."""
     scenario, design = run.scenario, run.design
+    max_order_error = f"{run.max_order_error:g}"
     if design is None:
-        return [f"{run.requested_rate:g}", *["-"] * 8, scenario.problem]
+        return [f"{run.requested_rate:g}", *["-"] * 8, max_order_error, scenario.problem]
     cells = [
         f"{run.requested_rate:g}",
+        f"{run.noise_w:.4g}",
         fsrs_text(design.fsrs_hz),
         f"{design.wrong_order_rate:.3g}",
         ", ".join(f"{margin:.3g}" for margin in (*design.handover_margins, design.edge_margin)),
@@ -711,7 +826,7 @@ def design_row(run: DesignRun) -> list[str]:
     ]
     fit = scenario.fit
     if fit.calibrator is None:
-        return [*cells, "-", "-", "-", f"refused: {fit.refused}"]
+        return [*cells, "-", "-", "-", max_order_error, f"refused: {fit.refused}"]
     cal = fit.calibrator
     stages = cal.diagnostics_["cascade"]["stages"]
     margins = [h["margin_std"] for h in cal.handovers_] + [cal.edge_margin_std_]
@@ -721,6 +836,7 @@ def design_row(run: DesignRun) -> list[str]:
         ", ".join(hz_text(s["median_std_hz"]) for s in stages),
         ", ".join(f"{margin:.3g}" for margin in margins),
         f"{design_noise.predicted_wrong / design_noise.readings:.3g}",
+        max_order_error,
         "fitted",
     ]
 
@@ -892,7 +1008,7 @@ def rms_target(group: list[Scenario]) -> tuple[str, str]:
 
 def design_rate_target(run: DesignRun) -> tuple[str, str]:
     """Seen at the design noise against the requested rate: one-sided binomial p-value (the
-    calibrated cascade's own prediction is printed beside it)."""
+    design's and the calibrated cascade's own predictions are printed beside it)."""
     scenario = run.scenario
     if scenario.problem:
         return scenario.problem, status(False)
@@ -901,9 +1017,10 @@ def design_rate_target(run: DesignRun) -> tuple[str, str]:
     tally = scenario.levels[NOISE_FACTORS[0]]
     p_value = float(stats.binom.sf(tally.wrong - 1, tally.readings, run.requested_rate))
     cell = (
-        f"{tally.wrong} of {count_text(tally.readings)} (expected at the requested rate "
-        f"{tally.readings * run.requested_rate:.3g}, p = {p_value:.3g}; the calibration "
-        f"predicts {tally.predicted_wrong:.3g})"
+        f"{tally.wrong} of {count_text(tally.readings)} (expected "
+        f"{tally.readings * run.requested_rate:.3g} at the requested rate, p = {p_value:.3g}; "
+        f"the design predicts {tally.readings * run.design.wrong_order_rate:.3g}, the "
+        f"calibration {tally.predicted_wrong:.3g})"
     )
     return cell, status(p_value >= DESIGN_P_VALUE)
 
@@ -1018,7 +1135,8 @@ def main(argv=None) -> None:
     print(
         f"## Cascade calibration: {low / 1e12:.4g}-{high / 1e12:.4g} THz without a coarse "
         f"input; Table 1 stages with the {SPECTRAL!r} spectral preset, equal power split, "
-        f"{POWER_W:g} W source, design noise {NOISE_W:g} W per port; one sweep of "
+        f"{POWER_W:g} W source, design noise {NOISE_W:g} W per port (a design: the one in "
+        "its label); one sweep of "
         f"{count_text(sizes.sweep)} readings evenly over the band at the design noise; "
         f"{count_text(sizes.test)} test readings uniform over the band per cascade at "
         f"{', '.join(noise_text(f) for f in NOISE_FACTORS)} noise and "
@@ -1037,8 +1155,11 @@ def main(argv=None) -> None:
             print(f"\n{scenario.case}, device {scenario.device_label}: {scenario.fit.refused}")
     print(
         f"\n### Designs of wm.design_cascade (band {low / 1e12:.4g}-{high / 1e12:.4g} THz, "
-        f"finest {hz_text(FINEST_FSR_HZ)}, {DESIGN_PORTS} ports, {POWER_W:g} W, "
-        f"{NOISE_W:g} W) simulated with Table 1 stages\n"
+        f"finest {hz_text(FINEST_FSR_HZ)}, {DESIGN_PORTS} ports, {POWER_W:g} W; noise "
+        f"{NOISE_W:g} W, or bisected so that the design predicts "
+        f"{BISECTION_TARGET:g}x its requested rate) simulated with Table 1 stages and "
+        f"calibrated with max_order_error {ORDER_ERROR_FACTOR:g}x the requested rate "
+        f"(at most {ORDER_ERROR_CAP:g})\n"
     )
     print(design_table(runs))
     print(
