@@ -19,8 +19,8 @@ import pytest
 
 import wavemeter as wm
 from wavemeter.cli import main
-from wavemeter.cli._common import printable
-from wavemeter.cli.app import _error_text, _option_hint
+from wavemeter.cli._common import error_text, printable
+from wavemeter.cli.app import _option_hint
 from wavemeter.exceptions import InputError
 from wavemeter.progress import busy, chunked, progress_bar, progress_line
 
@@ -224,11 +224,11 @@ def test_no_control_characters_reach_the_terminal(files, tmp_path, capsys):
 
 
 def test_os_errors_without_python_internals():
-    assert _error_text(FileNotFoundError(2, "No such file or directory", "x.csv")) == (
+    assert error_text(FileNotFoundError(2, "No such file or directory", "x.csv")) == (
         "x.csv: No such file or directory"
     )
     renamed = OSError(16, "Device or resource busy", "/d/.x.tmp", None, "/d/x")
-    assert _error_text(renamed) == "/d/x: Device or resource busy"
+    assert error_text(renamed) == "/d/x: Device or resource busy"
 
 
 # ---------------------------------------------------------------------------- progress

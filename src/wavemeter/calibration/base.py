@@ -19,13 +19,18 @@ which keeps the delay search bounded), then every port's fringe
 
 from __future__ import annotations
 
+import contextlib
 import inspect
+import itertools
+import numbers
 import warnings
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
-from ..exceptions import InputError, WavemeterError
+from ..exceptions import CalibrationWarning, InputError, WavemeterError
 from ..model.cone import phase_to_frequency_hz, wrap_to_period
 from ..validation import (
     MIN_SAMPLES,
@@ -47,7 +52,14 @@ from .misfit import MisfitReport, misfit_report
 from .registry import register
 from .summary import FitReport, FitValue
 
-__all__ = ["BaseCalibrator", "MIN_SPAN_FSR", "READING_INPUTS", "CAPABILITIES"]
+__all__ = [
+    "BaseCalibrator",
+    "StreamReading",
+    "MIN_SPAN_FSR",
+    "READING_INPUTS",
+    "CAPABILITIES",
+    "INVALID_READING_CAUSE",
+]
 
 #: largest condition number of a loaded map: beyond it the map has lost a dimension
 MAX_MAP_CONDITION = 1e10
@@ -55,6 +67,33 @@ MAX_MAP_CONDITION = 1e10
 READING_INPUTS = ("coarse_hz", "temperature_k")
 #: what a calibrator may offer besides predict/phase
 CAPABILITIES = ("frequency_std", "power_monitor")
+#: cause of the warning that a streamed reading could not be read (:meth:`BaseCalibrator.stream`)
+INVALID_READING_CAUSE = "invalid_reading"
+
+
+@dataclass(frozen=True, slots=True)
+class StreamReading:
+    """What :meth:`BaseCalibrator.stream` found for one reading.
+
+    Attributes
+    ----------
+    frequency_hz : float
+        Source frequency (Hz), as ``predict`` gives it; NaN for a reading that cannot be read.
+    frequency_std_hz : float
+        Its standard deviation (Hz), as ``frequency_std_hz`` gives it; NaN where the
+        calibration gives none or the reading cannot be read.
+    flags : int
+        Quality bits (:class:`~wavemeter.calibration.flags.ReadingFlag`), as ``flags``
+        gives them; ``INVALID`` for a reading that cannot be read.
+    order_error_probability : float or None
+        For a cascade: the probability that some stage picked a wrong fringe order (NaN
+        for a reading that cannot be read); None for other calibrations.
+    """
+
+    frequency_hz: float
+    frequency_std_hz: float
+    flags: int
+    order_error_probability: float | None = None
 
 
 class BaseCalibrator:
@@ -660,3 +699,135 @@ class BaseCalibrator:
         from .files import save_calibration
 
         save_calibration(self, path)
+
+    # ------------------------------------------------------------------ live readout
+    def stream(self, rows, *, coarse_hz=None, temperature_k=None) -> Iterator[StreamReading]:
+        """Read readings one at a time, as they arrive: one record out for each row in.
+
+        Each row is read only when its record is asked for, so ``rows`` may be endless (a
+        live source). A row is read with this calibration's own ``predict``,
+        ``frequency_std_hz`` and ``flags`` on a (1, n) array (a cascade: one pass of
+        :meth:`~wavemeter.calibration.cascade.CascadeCalibrator.read`), so the records hold
+        the numbers those give for the row alone.
+
+        Parameters
+        ----------
+        rows : iterable of array_like, each shape (n,)
+            Port readings, in the unit of the calibration sweep.
+        coarse_hz, temperature_k : None, float or iterable of float
+            Per-reading inputs (Hz, K); required when named in ``requires``. One value for
+            every row, or an iterable consumed in step with ``rows``, one value per row.
+
+        Returns
+        -------
+        iterator of StreamReading
+            One record per row, in order.
+
+        Raises
+        ------
+        InputError
+            At the call, for a missing required input or a single value that is not a
+            finite number; while iterating, when an iterable of inputs ends before ``rows``.
+
+        Warns
+        -----
+        CalibrationWarning
+            Cause :data:`INVALID_READING_CAUSE`, once per stream, at the first row that
+            cannot be read: not ``n`` finite numbers, a per-reading input that is not
+            finite, or a reading the calibration refuses (no light, a coarse frequency it
+            has no map for). Such a row gives NaN values and the ``INVALID`` flag, with the
+            other bits ``flags`` gives it where it gives any.
+        """
+        check_fitted(self)
+        given = {"coarse_hz": coarse_hz, "temperature_k": temperature_k}
+        # only whether each input is given matters to this check of the required ones
+        self._reading_inputs(*(None if value is None else 0.0 for value in given.values()), 1)
+        sources = {}
+        for name, value in given.items():
+            if value is None:
+                sources[name] = itertools.repeat(None)
+            elif isinstance(value, (numbers.Real, np.ndarray)) and np.ndim(value) == 0:
+                sources[name] = itertools.repeat(float(check_per_reading(name, value, 1)[0]))
+            elif isinstance(value, Iterable):
+                sources[name] = iter(value)
+            else:
+                raise InputError(
+                    f"{name} must be None, a number or an iterable of numbers (one per row), "
+                    f"got {type(value).__name__}"
+                )
+        if not isinstance(rows, Iterable):
+            raise InputError(f"rows must be an iterable of readings, got {type(rows).__name__}")
+        ports = self.n_ports_
+        cascade = hasattr(self, "order_error_probability")
+        uncertainty = "frequency_std" in self.capabilities
+        nan = float("nan")
+
+        def read(powers: np.ndarray, inputs: dict) -> StreamReading:
+            if cascade:  # every stage in one pass
+                found = self.read(powers)
+                return StreamReading(
+                    float(found.frequency_hz[-1, 0]),
+                    float(found.std_hz[-1, 0]),
+                    int(found.flags[0]),
+                    float(found.order_error_probability[0]),
+                )
+            frequency = float(self.predict(powers, **inputs)[0])
+            std = float(self.frequency_std_hz(powers, **inputs)[0]) if uncertainty else nan
+            return StreamReading(frequency, std, int(self.flags(powers, **inputs)[0]))
+
+        def unread(powers: np.ndarray | None, inputs: dict) -> StreamReading:
+            flags = int(ReadingFlag.INVALID)
+            if powers is not None:  # the other bits, where flags can tell them
+                with contextlib.suppress(InputError):
+                    flags |= int(self.flags(powers, **inputs)[0])
+            return StreamReading(nan, nan, flags, nan if cascade else None)
+
+        def records() -> Iterator[StreamReading]:
+            warned = False
+            for index, row in enumerate(rows):
+                inputs = {}
+                for name, source in sources.items():
+                    try:
+                        inputs[name] = next(source)
+                    except StopIteration:
+                        raise InputError(
+                            f"{name} ended at reading {index} (zero-based) while rows went on: "
+                            "give one value per row"
+                        ) from None
+                powers = None
+                try:
+                    try:
+                        array = np.asarray(row, dtype=float)
+                    except (TypeError, ValueError):
+                        raise InputError(f"its port powers are not numbers: {row!r:.60}") from None
+                    try:
+                        inputs = {n: None if v is None else float(v) for n, v in inputs.items()}
+                    except (TypeError, ValueError):
+                        raise InputError(f"its inputs are not numbers: {inputs!r:.80}") from None
+                    if array.shape != (ports,):
+                        raise InputError(f"it has shape {array.shape}, not {ports} port powers")
+                    if not np.all(np.isfinite(array)):
+                        raise InputError(f"a port power is NaN or inf: {array.tolist()}")
+                    bad = [n for n, v in inputs.items() if v is not None and not np.isfinite(v)]
+                    if bad:
+                        raise InputError(f"{' and '.join(bad)} is not a finite number")
+                    powers = array[np.newaxis]
+                    record = read(powers, inputs)
+                except InputError as exc:
+                    record = unread(powers, inputs)
+                    if not warned:
+                        warned = True
+                        warnings.warn(
+                            CalibrationWarning(
+                                f"reading {index} of the stream (zero-based) cannot be read: "
+                                f"{exc}; it, and every later reading that cannot be read, gets "
+                                "NaN values and the INVALID flag (without another warning)",
+                                cause=INVALID_READING_CAUSE,
+                                remedy="check the readings' source: its port count and units, "
+                                "and that the light is on",
+                            ),
+                            stacklevel=2,
+                        )
+                yield record
+
+        return records()

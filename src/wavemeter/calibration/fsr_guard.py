@@ -23,7 +23,9 @@ delays below one fringe per sweep (which the periodogram cannot resolve) they ar
 by the learned-map cost ``J`` and the best is refined by bounded Brent. Periodogram and
 ``J`` agree for sweeps of many fringes; ``J`` alone decides for partial spans. At most
 ``MAX_ESTIMATE_POINTS`` resampled readings and ``J`` evaluations on ~40 trial delays keep
-its time and memory bounded.
+its time and memory bounded; ``J`` comes from one pass of binned moments
+(:class:`~wavemeter.calibration.moments.FringeMoments`), or from direct fits when the
+trial delays are so long that the bins would hold about one reading each.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from scipy import optimize
 from ..exceptions import InputError
 from .delay_search import MIN_EXPLAINED_FRACTION, frequency_text
 from .linear_map import map_cost, object_vectors, unfitted_cost
+from .moments import FringeMoments, binning_pays
 
 __all__ = [
     "AGREEMENT_MARGIN",
@@ -136,9 +139,14 @@ def estimate_fsr(powers, frequency_hz, scale=None) -> FsrEstimate | None:
     long_periods = np.arange(MIN_SPAN_FSR, 1.0, 1.0 / PADDING) / span
     trials = np.concatenate([_periodogram_delays(relative, frequency, span), long_periods])
     center = 0.5 * (frequency.max() + frequency.min())
+    largest = float(trials.max()) + step
+    if binning_pays(largest, span, powers.shape[0]):
+        # one pass: J at every trial delay and in the refinement from the sweep's moments
+        cost = FringeMoments(largest, center).add(frequency, powers, scale).cost
+    else:  # fringes of a few readings each (noise peaks of the periodogram): fit directly
 
-    def cost(delay_s: float) -> float:
-        return map_cost(object_vectors(frequency, center, delay_s, scale), powers)[1]
+        def cost(delay_s: float) -> float:
+            return map_cost(object_vectors(frequency, center, delay_s, scale), powers)[1]
 
     costs = [cost(delay) for delay in trials]
     start = float(trials[int(np.argmin(costs))])

@@ -29,15 +29,23 @@ The pure functions here and the :class:`Calibrator` methods compute the same num
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 from scipy import linalg
 
+from ..exceptions import InputError
 from ..model.cone import cone_vectors, phase_to_frequency_hz
+from ..model.kernels import (
+    fused_ml_frequency_hz,
+    fused_ml_phase_rad,
+    fused_pinv_frequency_hz,
+    fused_pinv_phase_rad,
+)
 from ..model.limits import crlb_frequency_std
-from ..model.retrieval import cone_ml_phase_rad, source_power_ratio
+from ..model.retrieval import source_power_ratio
 from ..model.uncertainty import (
     calibration_variance_hz2,
     fit_parameter_covariance,
@@ -47,13 +55,18 @@ from ..model.uncertainty import (
     pinv_phase_gradient,
     student_factor,
 )
-from ..validation import check_choice, check_fitted, check_positive
+from ..validation import (
+    MIN_SAMPLES,
+    check_choice,
+    check_fitted,
+    check_positive,
+    reading_array,
+)
 from .base import BaseCalibrator
-from .delay_search import SEARCH_METHODS, DelaySearchResult, search_delay
+from .delay_search import SEARCH_METHODS, DelaySearchResult
 from .files import state_array, state_float
 from .flags import off_model_threshold
 from .linear_map import (
-    delay_information,
     fit_map,
     map_cost,
     object_delay_derivative,
@@ -61,6 +74,7 @@ from .linear_map import (
     unfitted_cost,
 )
 from .misfit import MisfitReport, misfit_report
+from .moments import FringeMoments, largest_search_delay_s, search_moment_delay
 from .reanchor import check_reference_readings, fit_reanchor, reanchored_copy
 from .summary import FitValue
 
@@ -78,6 +92,7 @@ __all__ = [
     "port_noise_std_w",
     "RETRIEVALS",
     "fit_learned_map",
+    "fit_learned_map_chunks",
     "object_vectors",
     "fit_map",
     "map_cost",
@@ -178,6 +193,11 @@ def fit_learned_map(
 ) -> LearnedFit:
     """Search the delay minimising ``J`` and fit the map there (paper Section II.C).
 
+    One pass accumulates the sweep's moments (:class:`~wavemeter.calibration.moments.
+    FringeMoments`); the delay search runs on them
+    (:func:`~wavemeter.calibration.moments.search_moment_delay`), so its time does not grow
+    with ``N``; the map and ``J`` at the delay found are one direct least-squares fit.
+
     Parameters
     ----------
     powers : ndarray, shape (N, n)
@@ -201,27 +221,93 @@ def fit_learned_map(
     -------
     LearnedFit
     """
-
-    def objects(delay_s: float) -> np.ndarray:
-        return object_vectors(frequency_hz, center_hz, delay_s, scale, affine)
-
-    def cost(delay_s: float) -> float:
-        return map_cost(objects(delay_s), powers)[1]
-
-    result = search_delay(
-        cost,
+    moments = FringeMoments(largest_search_delay_s(fsr_hz, fsr_tolerance), center_hz)
+    result = search_moment_delay(
+        moments.add(frequency_hz, powers, scale),
         fsr_hz=fsr_hz,
         fsr_tolerance=fsr_tolerance,
-        span_hz=float(np.ptp(frequency_hz)),
         method=search,
         xtol=xtol,
-        unfitted_cost=unfitted_cost(powers, scale, affine),
+        affine=affine,
     )
-    matrix, cost_value = map_cost(objects(result.delay_s), powers)
-    samples, ports = powers.shape
-    dof = max(samples * ports - matrix.size - 1, 1)
-    noise = float(np.sqrt(cost_value * samples / dof))
-    information = delay_information(frequency_hz, center_hz, result.delay_s, matrix, scale)
+    objects = object_vectors(frequency_hz, center_hz, result.delay_s, scale, affine)
+    matrix, cost_value = map_cost(objects, powers)
+    return _learned_fit(moments, result, matrix, cost_value)
+
+
+def fit_learned_map_chunks(
+    chunks,
+    center_hz: float,
+    *,
+    fsr_hz: float,
+    fsr_tolerance: float,
+    search: str = "golden",
+    xtol: float = 1e-12,
+    affine: bool = False,
+) -> LearnedFit:
+    """:func:`fit_learned_map` on a sweep read in chunks, in memory bounded by the chunk.
+
+    Each chunk is binned into the sweep's moments
+    (:class:`~wavemeter.calibration.moments.FringeMoments`) and dropped; everything else
+    comes from them. Nothing else is checked (no FSR guard, port health or misfit report:
+    those need the readings).
+
+    Parameters
+    ----------
+    chunks : iterable of (frequency_hz, powers_w, scale)
+        ``frequency_hz`` (N_c,) in Hz, ``powers_w`` (N_c, n) in W, ``scale`` (N_c,) the
+        monitored source power in any linear unit or None (the same for every chunk); any
+        order, any sizes.
+    center_hz : float
+        Phase origin (Hz), e.g. the middle of the sweep.
+    fsr_hz, fsr_tolerance, search, xtol, affine
+        As for :func:`fit_learned_map`.
+
+    Returns
+    -------
+    LearnedFit
+        ``delay_s`` as :func:`fit_learned_map` finds it (the same search on the same
+        moments); ``map_`` the least-squares map from the moments' normal equations, for
+        the monitored power relative to its mean over all chunks (as
+        :class:`Calibrator` uses it); ``cost`` ``J`` from the moments, whose absolute error
+        is a few ``2^-53 sum |p|^2 / N`` (about ``1e-9 J`` at Table 1 noise);
+        ``noise_std_w`` and ``delay_std_s`` from these.
+
+    Raises
+    ------
+    InputError
+        For a malformed chunk, fewer than ``MIN_SAMPLES`` readings in all, or as
+        :func:`fit_learned_map`.
+    EdgeMinimumError
+        As :func:`fit_learned_map`.
+    """
+    moments = FringeMoments(largest_search_delay_s(fsr_hz, fsr_tolerance), center_hz)
+    for frequency, readings, monitor in chunks:
+        moments.add(frequency, readings, monitor)
+    if moments.samples < MIN_SAMPLES:
+        raise InputError(f"need at least {MIN_SAMPLES} samples, got {moments.samples}")
+    result = search_moment_delay(
+        moments,
+        fsr_hz=fsr_hz,
+        fsr_tolerance=fsr_tolerance,
+        method=search,
+        xtol=xtol,
+        affine=affine,
+    )
+    fit = _learned_fit(moments, result, moments.map_at(result.delay_s, affine), result.cost)
+    relative = fit.map_.copy()
+    relative[:, :3] *= moments.mean_scale  # objects of the scale relative to its mean
+    return dataclasses.replace(fit, map_=relative)
+
+
+def _learned_fit(
+    moments: FringeMoments, result: DelaySearchResult, matrix: np.ndarray, cost_value: float
+) -> LearnedFit:
+    """The fit at the searched delay: noise from ``J``, the delay's standard error."""
+    ports = matrix.shape[0]
+    dof = max(moments.samples * ports - matrix.size - 1, 1)
+    noise = float(np.sqrt(cost_value * moments.samples / dof))
+    information = moments.delay_information(result.delay_s, matrix)
     return LearnedFit(
         delay_s=result.delay_s,
         delay_std_s=noise / np.sqrt(information) if information > 0 else None,
@@ -442,10 +528,51 @@ class Calibrator(BaseCalibrator):
         self.map_ = matrix
         self.map_pinv_ = linalg.pinv(matrix)
 
+    def predict(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
+        """Source frequency (Hz) of each reading, within ``center_hz_ +- fsr_hz_/2``.
+
+        The check of the readings, the offsets and the retrieval are one pass
+        (:mod:`wavemeter.model.kernels`; numba on every core when installed): the numbers
+        and errors of the steps taken one by one.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Port readings, in the unit of the calibration sweep.
+        coarse_hz, temperature_k : None, float or array_like, shape (N,)
+            Accepted for the common prediction API; not needed by this calibrator.
+
+        Returns
+        -------
+        ndarray, shape (N,), Hz
+        """
+        # a subclass that models the phase further (thermal) takes the steps one by one
+        if type(self)._predict_checked is not Calibrator._predict_checked:
+            return super().predict(powers, coarse_hz=coarse_hz, temperature_k=temperature_k)
+        check_fitted(self)
+        readings = reading_array(powers, ports=self.n_ports_)
+        frequency = self._fused_frequency_hz(readings, self._reading_offset_w(), check=True)
+        self._reading_inputs(coarse_hz, temperature_k, readings.shape[0])
+        return frequency
+
+    def _predict_checked(self, powers, temperature_k=None) -> np.ndarray:
+        return self._fused_frequency_hz(powers, None, check=False)
+
+    def _fused_frequency_hz(self, readings, offset_w, *, check: bool) -> np.ndarray:
+        args = (self.center_hz_, self.fsr_hz_)
+        if self.retrieval == "ml":
+            noise = self.port_noise_std_w_
+            return fused_ml_frequency_hz(
+                readings, self.map_, *args, noise_std_w=noise, offset_w=offset_w, check=check
+            )
+        return fused_pinv_frequency_hz(
+            readings, self.map_pinv_, *args, offset_w=offset_w, check=check
+        )
+
     def _phase(self, powers):
         if self.retrieval == "ml":
-            return cone_ml_phase_rad(powers, self.map_, noise_std_w=self.port_noise_std_w_)
-        return retrieve_phase_rad(powers, self.map_pinv_)
+            return fused_ml_phase_rad(powers, self.map_, noise_std_w=self.port_noise_std_w_)
+        return fused_pinv_phase_rad(powers, self.map_pinv_)
 
     def _phase_gradient(self, powers, phase) -> np.ndarray:
         """``dt / dp`` (N, n) of the retrieval used, at each reading."""
@@ -600,7 +727,7 @@ class Calibrator(BaseCalibrator):
     def _off_model(self, readings):
         """Weighted squared distance of each reading to the calibrated cone, tested."""
         noise = self.port_noise_std_w_
-        phase = cone_ml_phase_rad(readings, self.map_, noise_std_w=noise)
+        phase = fused_ml_phase_rad(readings, self.map_, noise_std_w=noise)
         power = source_power_ratio(readings, self.map_, phase, noise)
         residual = (readings - power[:, None] * (cone_vectors(phase) @ self.map_.T)) / noise
         distance = np.einsum("ij,ij->i", residual, residual)

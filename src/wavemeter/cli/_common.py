@@ -21,6 +21,7 @@ from ._params import FREQUENCY, FSR, AliasedOption, FrequencyParam
 from ._streams import STDIN_LABEL, is_stdio
 
 __all__ = [
+    "error_text",
     "FREQUENCY",
     "FSR",
     "FrequencyParam",
@@ -269,8 +270,10 @@ def out_option(help_text: str):
     )
 
 
-def column_options(*, axis: bool = True):
-    """Options that choose columns and units of an input file (see DESIGN, input files)."""
+def column_options(*, axis: bool = True, drop_invalid: bool = True):
+    """Options that choose columns and units of an input file (see DESIGN, input files);
+    ``axis``: the frequency axis, monitor and temperature columns; ``drop_invalid``: the
+    --drop-invalid switch (a stream always writes invalid rows as NaN)."""
 
     def decorate(command):
         options = [
@@ -285,12 +288,16 @@ def column_options(*, axis: bool = True):
                 metavar="UNIT",
                 help="Unit of the port columns: W, mW, uW, nW, dBm or V (default: from names).",
             ),
-            click.option(
-                "--drop-invalid",
-                is_flag=True,
-                help="Skip rows with NaN, power-meter sentinels or no light instead of failing.",
-            ),
         ]
+        if drop_invalid:
+            options.append(
+                click.option(
+                    "--drop-invalid",
+                    is_flag=True,
+                    help="Skip rows with NaN, power-meter sentinels or no light instead of "
+                    "failing.",
+                )
+            )
         if axis:
             options += [
                 click.option(
@@ -447,3 +454,11 @@ def check_ports(calibration, cal_path, table, explicit: bool) -> None:
             f"{table.source} has ports {names} but {cal_path} was calibrated on ports "
             f"{expected}; {hint}"
         )
+
+
+def error_text(exc: Exception) -> str:
+    """The message of an error, without Python's ``[Errno N]`` decoration."""
+    if isinstance(exc, OSError) and exc.strerror:
+        name = exc.filename2 if exc.filename2 is not None else exc.filename
+        return f"{name}: {exc.strerror}" if name is not None else exc.strerror
+    return str(exc) or type(exc).__name__

@@ -25,7 +25,6 @@ file is measured into OUTDIR, and a file that fails is reported while the others
 
 from __future__ import annotations
 
-import glob
 from pathlib import Path
 
 import click
@@ -43,77 +42,22 @@ from ._common import (
     check_ports,
     column_options,
     column_request,
-    load,
+    error_text,
     names,
     note,
     output_format,
     printable,
     say,
 )
+from ._data_files import data_files, names_many_files
 from ._params import OPTICAL_FREQUENCY, AliasedOption
+from ._readings import check_coarse, checked_calibration, flag_summary
 from ._streams import STDIN_LABEL, is_stdio
 from ._temperature import (
-    check_temperature_options,
     missing_temperature,
     needs_temperature,
     temperature_k_option,
 )
-
-#: how to give the coarse frequencies, as the messages say it
-COARSE_OPTIONS = "pass --coarse COL or --coarse-frequency VALUE"
-
-
-def _check_coarse(calibration, cal_path, stream, coarse_hz) -> None:
-    """A calibration that needs a coarse frequency per reading (``"coarse_hz"`` in its
-    ``requires``: a calibration set, a wide-band calibration) gets it from a column or
-    --coarse-frequency."""
-    if "coarse_hz" not in calibration.requires:
-        return
-    if stream.coarse_column is not None or coarse_hz is not None:
-        return
-    if hasattr(calibration, "windows_"):
-        low, high = calibration.covered_hz()
-        raise InputError(
-            f"{cal_path} is a per-FSR calibration set ({len(calibration.windows_)} windows, "
-            f"{low / 1e12:.6f} to {high / 1e12:.6f} THz): it needs a coarse frequency per "
-            f"reading to pick the window; {COARSE_OPTIONS}"
-        )
-    low, high = calibration.span_hz_
-    raise InputError(
-        f"{cal_path} is a {calibration.method_label} calibration ({low / 1e12:.6f} to "
-        f"{high / 1e12:.6f} THz, FSR {calibration.fsr_hz_ / 1e9:.6f} GHz): it needs a coarse "
-        "frequency per reading, within half an FSR of the truth (e.g. the laser set point), "
-        f"to pick the fringe order; {COARSE_OPTIONS}"
-    )
-
-
-def _refuse_coarse(calibration, cal_path, coarse_column, coarse_hz) -> None:
-    """A calibration that reads absolute frequency (a cascade) takes no coarse frequency."""
-    if calibration.absolute_frequency and (coarse_column is not None or coarse_hz is not None):
-        option = "--coarse" if coarse_column is not None else "--coarse-frequency"
-        raise InputError(
-            f"{cal_path} is a {calibration.method_label} calibration: its stages read the "
-            f"absolute frequency and pick every fringe order themselves, so it has no use for a "
-            f"coarse frequency; leave {option} out"
-        )
-
-
-def flag_summary(counts: dict[str, int], flagged: int, rows: int) -> str:
-    """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2`` (a reading may have
-    several bits, so the counts can add up to more than the readings flagged).
-
-    Parameters
-    ----------
-    counts : dict of str to int
-        Readings with each flag bit, by bit name (bits no reading has left out).
-    flagged : int
-        Readings with any bit.
-    rows : int
-        Readings measured.
-    """
-    text = f"flagged {flagged} of {rows} readings"
-    listed = ", ".join(f"{name} {count}" for name, count in counts.items())
-    return f"{text}: {listed}" if listed else text
 
 
 @click.command()
@@ -229,41 +173,18 @@ def measure(
         "uncertainty": uncertainty,
         "options": options,
     }
-    if _many_files(data):
+    if names_many_files(data):
         _measure_many(calibration_file, data, out_path, file_format, force, settings)
         return
     file_format = output_format(
         out_path, file_format, inputs=(calibration_file, data), force=force
     )  # before any work
-    calibration, settings["uncertainty"] = _checked_calibration(*calibration_check, options)
+    calibration, settings["uncertainty"] = checked_calibration(*calibration_check, options)
     summary = _measure_one(calibration, calibration_file, data, out_path, file_format, settings)
     err = is_stdio(out_path)
     written = "stdout" if err else out_path
     say(quiet, f"wrote {written} ({summary.rows} rows)", err=err)
     say(quiet, flag_summary(summary.flag_counts, summary.flagged, summary.rows), err=err)
-
-
-def _checked_calibration(cal_path, coarse_column, coarse_hz, temperature_k, uncertainty, options):
-    """The calibration and whether to write frequency_std_hz, after the checks of the
-    options that need no readings."""
-    calibration = load(cal_path)
-    _refuse_coarse(calibration, cal_path, coarse_column, coarse_hz)
-    offered = "frequency_std" in calibration.capabilities
-    if uncertainty and not offered:
-        raise InputError(
-            f"{cal_path}: --uncertainty needs a learned calibration (single or per "
-            f"FSR), not a {calibration.method_label} calibration"
-        )
-    column = options["temperature_column"]
-    check_temperature_options(calibration, cal_path, column=column, given=temperature_k)
-    if column is not None and not needs_temperature(calibration):
-        raise InputError(
-            f"--temperature names the chip temperature column for a calibration that needs "
-            f"it (a thermal calibration); {cal_path} is a "
-            f"{calibration.method_label} calibration, which does not use it: leave "
-            "--temperature out"
-        )
-    return calibration, offered if uncertainty is None else uncertainty
 
 
 def _measure_one(calibration, cal_path, data, out_path, file_format, settings, *, bar=True):
@@ -289,7 +210,7 @@ def _measure_one(calibration, cal_path, data, out_path, file_format, settings, *
             stream.source,
             "pass --temperature COL, or --temperature-k T for one temperature for the file",
         )
-    _check_coarse(calibration, cal_path, stream, settings["coarse_hz"])
+    check_coarse(calibration, cal_path, stream, settings["coarse_hz"])
 
     def progress(description, total, unit):
         return progress_bar(printable(description), total, quiet=quiet or not bar, unit=unit)
@@ -311,41 +232,6 @@ def _measure_one(calibration, cal_path, data, out_path, file_format, settings, *
             f"{', '.join(summary.invalid_examples[:3])}",
         )
     return summary
-
-
-# ---------------------------------------------------------------------------- many files
-#: characters that make DATA a glob pattern
-_GLOB_CHARACTERS = frozenset("*?[")
-
-
-def _many_files(data) -> bool:
-    """Whether DATA names many files: a folder, or a glob pattern that is no file."""
-    if is_stdio(data):
-        return False
-    return Path(data).is_dir() or (
-        not Path(data).exists() and bool(_GLOB_CHARACTERS & set(str(data)))
-    )
-
-
-def _data_files(data) -> list[Path]:
-    """The data files DATA names, in name order: a folder's files with a data extension
-    (hidden files left out), or the files a glob pattern matches."""
-    extensions = {ext for file_format in FILE_FORMATS for ext in file_format.extensions}
-    if Path(data).is_dir():
-        found = [
-            path
-            for path in Path(data).iterdir()
-            if path.suffix.lower() in extensions and not path.name.startswith(".")
-        ]
-    else:
-        found = [Path(name) for name in glob.glob(str(data))]
-    files = sorted(path for path in found if path.is_file())
-    if not files:
-        what = "folder" if Path(data).is_dir() else "pattern"
-        raise InputError(
-            f"{data}: the {what} names no data file (extensions {', '.join(sorted(extensions))})"
-        )
-    return files
 
 
 def _output_paths(files: list[Path], out_dir, file_format, cal_path, force) -> list[Path]:
@@ -376,20 +262,13 @@ def _output_paths(files: list[Path], out_dir, file_format, cal_path, force) -> l
     return outputs
 
 
-def _error_text(exc: Exception) -> str:
-    """An error's message; an OSError's without Python's ``[Errno N]``."""
-    if isinstance(exc, OSError) and exc.strerror:
-        return f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
-    return str(exc)
-
-
 def _measure_many(cal_path, data, out_dir, file_format, force, settings) -> None:
     """Measure every data file DATA names into ``out_dir``; a file that fails is reported
     (``error:``) and the others go on; exit code 2 at the end when any failed."""
     quiet = settings["options"]["quiet"]
-    files = _data_files(data)
+    files = data_files(data)
     outputs = _output_paths(files, out_dir, file_format or "csv", cal_path, force)
-    calibration, uncertainty = _checked_calibration(
+    calibration, uncertainty = checked_calibration(
         cal_path,
         settings["coarse_column"],
         settings["coarse_hz"],
@@ -409,7 +288,7 @@ def _measure_many(cal_path, data, out_dir, file_format, force, settings) -> None
                 )
             except (WavemeterError, OSError) as exc:  # one error line, as main() prints it
                 failed += 1
-                click.echo("error: " + " ".join(printable(_error_text(exc)).split()), err=True)
+                click.echo("error: " + " ".join(printable(error_text(exc)).split()), err=True)
             else:
                 say(quiet, f"wrote {output} ({summary.rows} rows)")
                 say(quiet, flag_summary(summary.flag_counts, summary.flagged, summary.rows))

@@ -66,7 +66,8 @@ def _decode(head: bytes) -> tuple[str, str]:
         return head.decode("latin-1"), "latin-1"
 
 
-def _split(line: str, delimiter: str | None) -> list[str]:
+def split_cells(line: str, delimiter: str | None) -> list[str]:
+    """The cells of one text line: CSV quoting with ``delimiter``, or whitespace when None."""
     if delimiter is None:
         return [cell.strip('"') for cell in line.split()]
     return next(csv.reader([line], delimiter=delimiter, skipinitialspace=True), [])
@@ -97,9 +98,9 @@ def _sniff_layout(raw: RawInput) -> _TextLayout:
     header = lines[header_line]
     candidates = []  # (rows agreeing with the header, priority, delimiter, names)
     for priority, delimiter in enumerate(_DELIMITERS):
-        names = _split(header, delimiter)
+        names = split_cells(header, delimiter)
         if len(names) >= 2:
-            widths = (len(_split(line, delimiter)) for line in sample)
+            widths = (len(split_cells(line, delimiter)) for line in sample)
             agreeing = sum(width in (len(names), len(names) + 1) for width in widths)
             candidates.append((agreeing, -priority, delimiter, names))
     if not candidates:
@@ -110,10 +111,12 @@ def _sniff_layout(raw: RawInput) -> _TextLayout:
     _, _, delimiter, names = max(candidates, key=lambda candidate: candidate[:2])
     ends = [end.end() for end in itertools.islice(_LINE_END_BYTES.finditer(head), header_line + 1)]
     data_offset = ends[header_line] if len(ends) > header_line else None
-    return _TextLayout(encoding, delimiter, _column_names(names), header_line, data_offset)
+    return _TextLayout(encoding, delimiter, column_names(names), header_line, data_offset)
 
 
-def _column_names(raw: list[str]) -> list[str]:
+def column_names(raw: list[str]) -> list[str]:
+    """Header cells as column names (unquoted, ``column k`` for an empty one); a duplicate
+    name raises FileFormatError naming both columns."""
     names = [name.strip().strip('"').strip() or f"column {k + 1}" for k, name in enumerate(raw)]
     seen: dict[str, int] = {}
     for k, name in enumerate(names):
@@ -271,7 +274,7 @@ def _data_line_numbers(raw: RawInput, layout: _TextLayout) -> list[int]:
 def _fields(line: str, number: int, layout: _TextLayout) -> list[str]:
     """The fields of a data line, checked against the header's number of columns."""
     try:
-        fields = _split(line.rstrip("\r\n"), layout.delimiter)
+        fields = split_cells(line.rstrip("\r\n"), layout.delimiter)
     except csv.Error as exc:
         raise FileFormatError(f"line {number} cannot be split into fields ({exc})") from None
     width = len(layout.names)
@@ -577,8 +580,8 @@ def _check_not_truncated(raw: RawInput, layout: _TextLayout, last_line: Callable
     if len(lines) < 2:
         return
     try:
-        last = _split(lines[-1], layout.delimiter)
-        previous = [_split(line, layout.delimiter) for line in lines[:-1]]
+        last = split_cells(lines[-1], layout.delimiter)
+        previous = [split_cells(line, layout.delimiter) for line in lines[:-1]]
     except csv.Error:
         return
     column = len(last) - 1

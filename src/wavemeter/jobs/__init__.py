@@ -4,6 +4,18 @@ The command line runs these; they know files (``wavemeter.io``) and calibrations
 (``wavemeter.calibration``), and nothing about the command line.
 """
 
+from .calibrate import DeviceResult, calibrate_device, calibrate_file
 from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, measure_file
+from .stream import StreamSummary, follow_lines, stream_lines
 
-__all__ = ["measure_file", "MeasureSummary", "MEASURE_CHUNK_ROWS"]
+__all__ = [
+    "measure_file",
+    "MeasureSummary",
+    "MEASURE_CHUNK_ROWS",
+    "stream_lines",
+    "follow_lines",
+    "StreamSummary",
+    "calibrate_file",
+    "calibrate_device",
+    "DeviceResult",
+]

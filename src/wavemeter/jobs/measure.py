@@ -151,7 +151,7 @@ def measure_file(
             allow_invalid=drop_invalid,
             find_temperature=thermal and temperature_k is None,
         )
-    _check_stream(calibration, stream, coarse_hz, temperature_k)
+    check_stream(calibration, stream, coarse_hz, temperature_k)
     summary = MeasureSummary(source=stream.source, out_path=Path(out_path))
     measured = _Measurement(calibration, uncertainty, coarse_hz, temperature_k)
     counts = np.zeros(len(ReadingFlag), dtype=np.int64)
@@ -182,7 +182,7 @@ def measure_file(
     return summary
 
 
-def _check_stream(calibration, stream: ReadingStream, coarse_hz, temperature_k) -> None:
+def check_stream(calibration, stream: ReadingStream, coarse_hz, temperature_k) -> None:
     """The file gives what the calibration needs: its ports, a temperature, a coarse
     frequency (the command line checks these first, with its own options in the
     messages)."""
@@ -258,7 +258,7 @@ class _Measurement:
         if temperature is not None:
             extra["temperature_k"] = temperature[valid]
         if valid.size:
-            with _about(table.source), warnings.catch_warnings(record=True) as caught:
+            with about_file(table.source), warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 if self.cascade:  # every stage in one pass
                     found = self.calibration.read(powers)
@@ -324,7 +324,7 @@ def _noise_warning(calibration, noise_scale: np.ndarray) -> CalibrationWarning |
 
 
 @contextlib.contextmanager
-def _about(path):
+def about_file(path):
     """Prefix an error the calibration raises with the file it concerns."""
     try:
         yield

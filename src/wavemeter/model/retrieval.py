@@ -60,6 +60,8 @@ __all__ = [
     "source_power_ratio",
     "pinv_phase_rad",
     "stacked_pinv",
+    "cone_frame",
+    "noise_weighted_map",
     "TOLERANCE",
     "MAX_STEPS",
 ]
@@ -138,7 +140,7 @@ def _check_stacked_phase(phase_rad, samples: int) -> np.ndarray:
     return t
 
 
-def _weighted_map(matrix: np.ndarray, noise_std_w) -> np.ndarray:
+def noise_weighted_map(matrix: np.ndarray, noise_std_w) -> np.ndarray:
     """``W A`` (n, 3) or (N, n, 3); equal weights (None or one noise for all ports) leave
     ``A`` as is."""
     if noise_std_w is None:
@@ -147,7 +149,7 @@ def _weighted_map(matrix: np.ndarray, noise_std_w) -> np.ndarray:
     return matrix if np.ndim(noise) == 0 else matrix / noise[:, None] ** 2
 
 
-def _cone_frame(matrix: np.ndarray, weighted: np.ndarray):
+def cone_frame(matrix: np.ndarray, weighted: np.ndarray):
     """Eigenvalues ``k`` of ``Q`` (scaled to max |k| = 1), readings -> ``y``, ``z`` -> objects.
 
     The eigenvectors ``w`` of ``Q = L^-1 J L^-T`` map back to objects as ``v = L^-T w``: the
@@ -180,7 +182,7 @@ def _lower_triangular_inverse(factor: np.ndarray) -> np.ndarray:
 
 
 def _stacked_cone_frame(matrix: np.ndarray, weighted: np.ndarray):
-    """:func:`_cone_frame` of every map of a stack (N, n, 3).
+    """:func:`cone_frame` of every map of a stack (N, n, 3).
 
     For the map ``A_r`` of reading ``r``: ``M_r = A_r' W A_r = L_r L_r'`` (Cholesky),
     ``Q_r = L_r^-1 J L_r^-T = V_r diag(k_r) V_r'`` (batched symmetric eigenproblem) and
@@ -270,13 +272,13 @@ def cone_ml_phase_rad(
     """
     readings, matrix = _check_inputs(powers, map_)
     if matrix.ndim == 2:
-        kappa, to_frame, to_objects = _cone_frame(matrix, _weighted_map(matrix, noise_std_w))
+        kappa, to_frame, to_objects = cone_frame(matrix, noise_weighted_map(matrix, noise_std_w))
         frame = readings @ to_frame
         root = _secular_root(frame, kappa)
         objects = (frame / (1.0 + root[:, None] * kappa)) @ to_objects
     else:
         kappa, to_frame, to_objects = _stacked_cone_frame(
-            matrix, _weighted_map(matrix, noise_std_w)
+            matrix, noise_weighted_map(matrix, noise_std_w)
         )
         frame = np.einsum("kj,kji->ki", readings, to_frame)
         root = _secular_root(frame, kappa)
@@ -307,7 +309,7 @@ def source_power_ratio(powers, map_: np.ndarray, phase_rad, noise_std_w=None) ->
     ndarray, shape (N,)
     """
     readings, matrix = _check_inputs(powers, map_)
-    weighted_map = _weighted_map(matrix, noise_std_w)
+    weighted_map = noise_weighted_map(matrix, noise_std_w)
     if matrix.ndim == 2:
         u = cone_vectors(phase_rad)
         image = u @ matrix.T

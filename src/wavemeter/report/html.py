@@ -47,7 +47,7 @@ def _input_files(sweep, test, input_files: Mapping | None) -> dict[str, object]:
     return {role: path for role, path in files.items() if path is not None}
 
 
-def _png(figure, dpi: int) -> bytes:
+def png_bytes(figure, dpi: int) -> bytes:
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=dpi)
     return buffer.getvalue()
@@ -119,7 +119,7 @@ def write_report(
     for path in outputs:
         check_output(path, inputs=list(files.values()), force=force)
     figures, summary = report_content(calibration, sweep, test, port_phases_rad)
-    images = {name: _png(figures[name], dpi) for name in figure_names(calibration)}
+    images = {name: png_bytes(figures[name], dpi) for name in figure_names(calibration)}
     page = render_page(calibration, summary, images, files)
     for path, png in zip(outputs[1:], images.values(), strict=True):
         with atomic_path(path) as temporary:

@@ -83,7 +83,7 @@ RETRIEVAL_NAMES = {
 }
 INPUT_ROLES = (("calibration", "calibration file"), ("sweep", "sweep"), ("test", "test"))
 
-_STYLE = """
+PAGE_STYLE = """
 body { font-family: sans-serif; max-width: 66em; margin: 1.5em auto; padding: 0 1em;
        color: #222; line-height: 1.35; }
 h1 { font-size: 1.6em; } h2 { font-size: 1.2em; margin-top: 1.6em; }
@@ -122,7 +122,7 @@ def figure_names(calibration: BaseCalibrator | None = None) -> list[str]:
     ]
 
 
-def _table(header: list[str] | None, rows: list[list[str]]) -> str:
+def html_table(header: list[str] | None, rows: list[list[str]]) -> str:
     head = ""
     if header:
         head = "<tr>" + "".join(f"<th>{html.escape(cell)}</th>" for cell in header) + "</tr>"
@@ -284,7 +284,7 @@ def _wideband_html(calibration: BaseCalibrator) -> str:
             ]
             for candidate in candidates
         ]
-        choice = f"<p>{html.escape(str(orders['reason']))}.</p>" + _table(header, rows)
+        choice = f"<p>{html.escape(str(orders['reason']))}.</p>" + html_table(header, rows)
     else:
         choice = f"<p>No cross-validation: {html.escape(str(orders['reason']))}.</p>"
     residual = record["residual_phase"]
@@ -379,8 +379,8 @@ def _cascade_html(calibration: BaseCalibrator, summary: dict) -> str:
     )
     return (
         "<h2>Cascade: stages and hand-overs</h2>"
-        + _table(stage_header, stage_rows)
-        + _table(handover_header, handover_rows)
+        + html_table(stage_header, stage_rows)
+        + html_table(handover_header, handover_rows)
         + f"<p>{html.escape(text)}</p>"
     )
 
@@ -437,7 +437,7 @@ def _records_table(records: list[Mapping]) -> str:
     """A table of records (e.g. one per port) with the union of their keys as columns."""
     keys = list(dict.fromkeys(key for record in records for key in record))
     rows = [[_value_text(record.get(key, ""), key) for key in keys] for record in records]
-    return _table([_key_title(key) for key in keys], rows)
+    return html_table([_key_title(key) for key in keys], rows)
 
 
 def _warning_row(note) -> list[str]:
@@ -470,7 +470,7 @@ def _diagnostics_html(calibration: BaseCalibrator) -> str:
             tables.append(f"<h3>{html.escape(_key_title(key))}</h3>" + _records_table(value))
         else:
             rows.append([_key_title(key), _value_text(value, key)])
-    return "<h2>Diagnostics of the calibration</h2>" + _table(None, rows) + "".join(tables)
+    return "<h2>Diagnostics of the calibration</h2>" + html_table(None, rows) + "".join(tables)
 
 
 def _window_rows(calibration: BaseCalibrator) -> list[list[str]]:
@@ -534,7 +534,7 @@ def _adjacent_html(adjacent: dict | str) -> str:
     return (
         "<h2>Maps applied to the neighbouring FSRs ([1], Fig. 9)</h2>"
         f"<p>Adjacent over own RMS: {significant(adjacent['degradation_rms'])}.</p>"
-        + _table(header, rows)
+        + html_table(header, rows)
     )
 
 
@@ -594,17 +594,17 @@ def render_page(
     windows = ""
     if hasattr(calibration, "windows_"):
         header = ["window", "centre (THz)", "FSR (GHz)", "samples", "RMS (MHz)", "noise (W)"]
-        windows = "<h2>Windows of the set</h2>" + _table(header, _window_rows(calibration))
+        windows = "<h2>Windows of the set</h2>" + html_table(header, _window_rows(calibration))
     errors_header = ["method", "RMS (MHz)", "max (MHz)", "p95 (MHz)", "p99 (MHz)", "RMS / CRLB"]
     adjacent = _adjacent_html(summary["adjacent"]) if "adjacent" in summary else ""
     return (
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">'
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
-        f"<title>wavemeter calibration report</title><style>{_STYLE}</style></head><body>"
+        f"<title>wavemeter calibration report</title><style>{PAGE_STYLE}</style></head><body>"
         "<h1>wavemeter calibration report</h1>"
-        f'<div class="header"><div><h2>Inputs</h2>{_table(None, _input_rows(input_files))}'
+        f'<div class="header"><div><h2>Inputs</h2>{html_table(None, _input_rows(input_files))}'
         "</div>"
-        f"<div><h2>Calibration</h2>{_table(None, _calibration_rows(calibration, summary))}"
+        f"<div><h2>Calibration</h2>{html_table(None, _calibration_rows(calibration, summary))}"
         "</div></div>"
         + _diagnostics_html(calibration)
         + _wideband_html(calibration)
@@ -612,7 +612,7 @@ def render_page(
         + windows
         + f"<h2>Frequency error on the {html.escape(summary['evaluated_on'])} "
         f"({summary['samples']} readings)</h2>"
-        + _table(errors_header, _error_rows(summary))
+        + html_table(errors_header, _error_rows(summary))
         + '<p class="note">RMS / CRLB near 1.00: limited by detector noise. The bound uses the '
         "noise estimated from the calibration residual and the learned map as the true one.</p>"
         + _comparison_note(summary)

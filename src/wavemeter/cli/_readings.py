@@ -1,0 +1,90 @@
+"""What ``measure`` and ``stream`` check before any reading: the calibration, and that the
+options give what it needs (a coarse frequency, a temperature) and nothing it refuses; and
+the line that sums up the flags of the readings measured."""
+
+from __future__ import annotations
+
+from ..exceptions import InputError
+from ._common import load
+from ._temperature import check_temperature_options, needs_temperature
+
+__all__ = ["COARSE_OPTIONS", "check_coarse", "refuse_coarse", "checked_calibration", "flag_summary"]
+
+#: how to give the coarse frequencies, as the messages say it
+COARSE_OPTIONS = "pass --coarse COL or --coarse-frequency VALUE"
+
+
+def check_coarse(calibration, cal_path, stream, coarse_hz) -> None:
+    """A calibration that needs a coarse frequency per reading (``"coarse_hz"`` in its
+    ``requires``: a calibration set, a wide-band calibration) gets it from a column or
+    --coarse-frequency."""
+    if "coarse_hz" not in calibration.requires:
+        return
+    if stream.coarse_column is not None or coarse_hz is not None:
+        return
+    if hasattr(calibration, "windows_"):
+        low, high = calibration.covered_hz()
+        raise InputError(
+            f"{cal_path} is a per-FSR calibration set ({len(calibration.windows_)} windows, "
+            f"{low / 1e12:.6f} to {high / 1e12:.6f} THz): it needs a coarse frequency per "
+            f"reading to pick the window; {COARSE_OPTIONS}"
+        )
+    low, high = calibration.span_hz_
+    raise InputError(
+        f"{cal_path} is a {calibration.method_label} calibration ({low / 1e12:.6f} to "
+        f"{high / 1e12:.6f} THz, FSR {calibration.fsr_hz_ / 1e9:.6f} GHz): it needs a coarse "
+        "frequency per reading, within half an FSR of the truth (e.g. the laser set point), "
+        f"to pick the fringe order; {COARSE_OPTIONS}"
+    )
+
+
+def refuse_coarse(calibration, cal_path, coarse_column, coarse_hz) -> None:
+    """A calibration that reads absolute frequency (a cascade) takes no coarse frequency."""
+    if calibration.absolute_frequency and (coarse_column is not None or coarse_hz is not None):
+        option = "--coarse" if coarse_column is not None else "--coarse-frequency"
+        raise InputError(
+            f"{cal_path} is a {calibration.method_label} calibration: its stages read the "
+            f"absolute frequency and pick every fringe order themselves, so it has no use for a "
+            f"coarse frequency; leave {option} out"
+        )
+
+
+def checked_calibration(cal_path, coarse_column, coarse_hz, temperature_k, uncertainty, options):
+    """The calibration and whether to write frequency_std_hz, after the checks of the
+    options that need no readings."""
+    calibration = load(cal_path)
+    refuse_coarse(calibration, cal_path, coarse_column, coarse_hz)
+    offered = "frequency_std" in calibration.capabilities
+    if uncertainty and not offered:
+        raise InputError(
+            f"{cal_path}: --uncertainty needs a learned calibration (single or per "
+            f"FSR), not a {calibration.method_label} calibration"
+        )
+    column = options["temperature_column"]
+    check_temperature_options(calibration, cal_path, column=column, given=temperature_k)
+    if column is not None and not needs_temperature(calibration):
+        raise InputError(
+            f"--temperature names the chip temperature column for a calibration that needs "
+            f"it (a thermal calibration); {cal_path} is a "
+            f"{calibration.method_label} calibration, which does not use it: leave "
+            "--temperature out"
+        )
+    return calibration, offered if uncertainty is None else uncertainty
+
+
+def flag_summary(counts: dict[str, int], flagged: int, rows: int) -> str:
+    """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2`` (a reading may have
+    several bits, so the counts can add up to more than the readings flagged).
+
+    Parameters
+    ----------
+    counts : dict of str to int
+        Readings with each flag bit, by bit name (bits no reading has left out).
+    flagged : int
+        Readings with any bit.
+    rows : int
+        Readings measured.
+    """
+    text = f"flagged {flagged} of {rows} readings"
+    listed = ", ".join(f"{name} {count}" for name, count in counts.items())
+    return f"{text}: {listed}" if listed else text

@@ -1,0 +1,182 @@
+"""`wavemeter fleet calibrate`: calibrate every device of a fleet, in parallel.
+
+Each sweep file is one device, named by the file's stem. The devices are calibrated on a
+``distributed.LocalCluster`` of ``--workers`` processes (default: one per core), on a
+running dask scheduler with ``--scheduler ADDRESS``, or in this process with
+``--workers 0`` (:func:`wavemeter.fleet.calibrate_fleet`). OUTDIR gets
+``<device>.wmcal.json`` per device, ``summary.csv`` and ``summary.parquet`` (one row per
+device) and ``fleet.html``.
+
+A device that fails is a row of the summary with its error; the others go on. When the run
+completes and some devices failed, one ``warning:`` line says how many (exit code 0); when
+none calibrated, an ``error:`` line (exit code 2). A second run skips the devices already
+calibrated with the same options (resume); ``--force`` recalibrates every one. Ctrl-C
+stops the run (exit code 130): the calibrations written stay, each complete, and no
+summary is written.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import click
+
+from ..exceptions import InputError
+from ..fleet import calibrate_fleet
+from ..progress import progress_bar
+from ._common import FSR, QUIET, column_options, column_request, printable, say, setting
+from ._data_files import data_files, names_many_files
+
+#: the methods a fleet calibrates with (one design FSR, nothing but the sweep file)
+METHODS = ("learned", "conventional", "wideband", "thermal")
+
+
+def _sweep_files(sweeps) -> list:
+    """Every sweep file the arguments name: files as given, a folder's data files, the
+    files a quoted glob pattern matches; in argument order, each pattern's in name order."""
+    files = []
+    for sweep in sweeps:
+        files += data_files(sweep) if names_many_files(sweep) else [sweep]
+    return files
+
+
+def _check_method_options(method: str, fsr_tolerance, retrieval) -> None:
+    """``--fsr-tolerance`` and ``--retrieval`` only for a method that has them."""
+    from ..calibration import registered
+
+    settings = registered()[method]().get_params()
+    for option, name, value in (
+        ("--fsr-tolerance", "fsr_tolerance", fsr_tolerance),
+        ("--retrieval", "retrieval", retrieval),
+    ):
+        if value is not None and name not in settings:
+            raise InputError(f"--method {method} has no {option}: leave {option} out")
+
+
+def _workers(workers, scheduler):
+    """The library's ``workers``: None (a cluster's own, or one per core) unless given."""
+    if scheduler is not None and workers is not None:
+        raise InputError(
+            "--workers sets the size of a local cluster; --scheduler runs on a cluster's own "
+            "workers: give one of them"
+        )
+    return workers
+
+
+@click.group()
+def fleet():
+    """Work on many devices at once (a wafer of chips), in parallel on dask.
+
+    \b
+    Example:
+      wavemeter fleet calibrate wafer7/ -o wafer7-cal
+    """
+
+
+@fleet.command()
+@click.argument("sweeps", metavar="DIR_OR_GLOB [...]", nargs=-1, required=True)
+@click.option(
+    "-o",
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Output folder (created if missing): <device>.wmcal.json, summary.csv, "
+    "summary.parquet, fleet.html.",
+)
+@click.option(
+    "--method",
+    type=click.Choice(METHODS),
+    default="learned",
+    show_default=True,
+    help="Calibration method of every device, as in calibrate (thermal: from each file's "
+    "temperature column).",
+)
+@setting("--fsr", "50GHz", FSR, "Design FSR of every device: 50GHz, '49.69 GHz'.")
+@click.option(
+    "--fsr-tolerance",
+    type=click.FloatRange(0, 1, min_open=True, max_open=True),
+    help="Relative half width of the FSR search (default 0.2; not for conventional).",
+)
+@click.option(
+    "--retrieval",
+    type=click.Choice(("pinv", "ml")),
+    help="Phase retrieval, as in calibrate (default pinv; not for conventional).",
+)
+@click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    help="Run on this running dask scheduler (tcp://host:8786) instead of a local cluster; "
+    "its workers must see the sweep files by the same paths.",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(0),
+    help="Worker processes of the local cluster (default: one per core); 0: calibrate in "
+    "this process, one device after the other, without dask.",
+)
+@column_options()
+@click.option("--force", is_flag=True, help="Recalibrate every device and replace its calibration.")
+@QUIET
+def calibrate(
+    sweeps, out_dir, method, fsr, fsr_tolerance, retrieval, scheduler, workers, force, **options
+):
+    """Calibrate every device (one sweep file each) into OUTDIR, in parallel.
+
+    DIR_OR_GLOB is a folder (its data files), a quoted glob pattern ('wafer/*.csv') or a
+    file; several may be given. Every device is named by its file's stem (die_x03_y12.csv
+    is device die_x03_y12; names must be unique); x/y in the name place it on the wafer
+    map. The devices share the method, FSR and column options.
+
+    \b
+    Example:
+      wavemeter fleet calibrate wafer7/ -o wafer7-cal
+      wavemeter fleet calibrate 'runs/*.csv' -o cal --fsr 49.7GHz --workers 8
+      wavemeter fleet calibrate wafer7/ -o wafer7-cal --scheduler tcp://10.0.0.5:8786
+    """
+    quiet = options["quiet"]
+    _check_method_options(method, fsr_tolerance, retrieval)
+    files = _sweep_files(sweeps)
+
+    def progress(description, total, unit):
+        return progress_bar(printable(description), total, quiet=quiet, unit=unit)
+
+    result = calibrate_fleet(
+        files,
+        out_dir,
+        workers=_workers(workers, scheduler),
+        scheduler=scheduler,
+        force=force,
+        progress=progress,
+        method=method,
+        fsr_hz=fsr,
+        fsr_tolerance=fsr_tolerance,
+        retrieval=retrieval,
+        request=column_request(options),
+        drop_invalid=options["drop_invalid"],
+    )
+    total = len(result.rows)
+    say(
+        quiet,
+        f"calibrated {result.calibrated} of {total} devices into {result.out_dir} "
+        f"({result.resumed} resumed, {result.failed} failed)",
+    )
+    causes = Counter(cause for row in result.rows for cause in row.warnings)
+    if causes:
+        listed = ", ".join(f"{cause} ({count})" for cause, count in causes.most_common())
+        say(quiet, f"calibration warnings by cause (devices): {listed}")
+    say(quiet, f"wrote {result.summary_csv}, {result.summary_parquet} and {result.page}")
+    failed = [row for row in result.rows if not row.ok]
+    if not failed:
+        return
+    first = failed[0]
+    text = (
+        f"{len(failed)} of {total} devices failed (first: {first.device}: {first.error}); "
+        f"see {result.summary_csv}"
+    )
+    if result.calibrated == 0:
+        raise InputError(f"no device calibrated: {text}")
+    click.echo("warning: " + " ".join(printable(text).split()), err=True)
+
+
+command = fleet

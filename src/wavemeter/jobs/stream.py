@@ -1,0 +1,402 @@
+"""Live readout: lines of port readings in, one line of frequency out per reading, at once.
+
+:func:`stream_lines` reads a header line, finds the columns in it as the file readers do
+(:func:`wavemeter.io.reading.plan_columns`: ports, their units, a temperature or coarse
+column), then turns every data line into an output line the moment it arrives, written and
+flushed before the next line is read: ``frequency_hz,wavelength_nm,frequency_std_hz``, for
+a cascade ``order_error_probability``, then ``flags``, floats at full precision (the
+shortest text that reads back to the same float64, as the table writer writes them). Each
+reading goes through the calibration's :meth:`~wavemeter.calibration.base.BaseCalibrator.stream`,
+so it gets the numbers ``predict``, ``frequency_std_hz`` and ``flags`` give it.
+
+A line that is no reading (another number of cells than the header, text where a number
+should be) or an invalid one (NaN, a power-meter sentinel, no light, as in files) is written
+as NaN with the ``INVALID`` flag, with a warning naming its line; blank lines and ``#``
+comment lines are skipped. :func:`follow_lines` gives the lines of a file that is being
+appended to, like ``tail -n +1 -f``.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+import warnings
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from ..calibration.base import INVALID_READING_CAUSE
+from ..calibration.flags import ReadingFlag
+from ..exceptions import CalibrationWarning, InputError
+from ..io import ColumnRequest
+from ..io.reading import ColumnChecks, ColumnPlan, convert_rows, plan_columns
+from ..io.source import Source
+from ..io.text import column_names, split_cells
+from ..units import SPEED_OF_LIGHT_M_S
+from .measure import about_file, check_stream
+
+__all__ = [
+    "stream_lines",
+    "follow_lines",
+    "StreamHeader",
+    "StreamSummary",
+    "STREAM_COLUMNS",
+    "MAX_LINE_WARNINGS",
+]
+
+#: the output columns, in order; a cascade adds ``order_error_probability`` before ``flags``
+STREAM_COLUMNS = ("frequency_hz", "wavelength_nm", "frequency_std_hz", "flags")
+#: invalid lines warned about one by one; later ones are written and counted silently
+MAX_LINE_WARNINGS = 10
+_CASCADE_COLUMN = "order_error_probability"
+
+
+@dataclass(frozen=True)
+class StreamHeader:
+    """The columns a stream's header line gives, found as in files.
+
+    Attributes
+    ----------
+    source : Path
+        What the input is called in messages (``<stdin>``, a file name).
+    line : int
+        The header's line number (1-based).
+    names : tuple of str
+        Every column of the header, in order.
+    delimiter : str
+        ``","`` or ``"\\t"``.
+    port_names, port_units : tuple of str
+        The port columns and the unit each is read in (``""``: relative).
+    temperature_column, coarse_column : str or None
+        The columns found for these roles.
+    plan : ColumnPlan
+        What to read from each line and how to convert it.
+    """
+
+    source: Path
+    line: int
+    names: tuple[str, ...]
+    delimiter: str
+    port_names: tuple[str, ...]
+    port_units: tuple[str, ...]
+    temperature_column: str | None
+    coarse_column: str | None
+    plan: ColumnPlan
+
+
+@dataclass
+class StreamSummary:
+    """What :func:`stream_lines` did.
+
+    Attributes
+    ----------
+    source : Path
+        The input, as named in messages.
+    rows : int
+        Readings written, one per data line.
+    invalid_rows : int
+        Lines written as NaN with the ``INVALID`` flag because they held no valid reading.
+    flag_counts : dict of str to int
+        Readings with each flag bit set, by bit name (bits no reading has are left out).
+    flagged : int
+        Readings with any flag.
+    interrupted : bool
+        The stream was ended by Ctrl-C (KeyboardInterrupt), not by the end of the lines.
+    """
+
+    source: Path
+    rows: int = 0
+    invalid_rows: int = 0
+    flag_counts: dict[str, int] = field(default_factory=dict)
+    flagged: int = 0
+    interrupted: bool = False
+
+
+def stream_lines(
+    calibration,
+    lines: Iterable[str],
+    out: TextIO,
+    *,
+    request: ColumnRequest | None = None,
+    coarse_hz: float | None = None,
+    temperature_k: float | None = None,
+    name: str = "<input>",
+    check: Callable[[StreamHeader], None] | None = None,
+) -> StreamSummary:
+    """Turn lines of port readings into lines of frequency, each as soon as it arrives.
+
+    Parameters
+    ----------
+    calibration : BaseCalibrator
+        A fitted calibration.
+    lines : iterable of str
+        Text lines, the header first (blank lines and ``#`` comment lines are skipped
+        anywhere); comma- or tab-separated. May be endless (:func:`follow_lines`, a pipe):
+        each line is read only after the output of the one before it is written.
+    out : text file
+        Where the output goes: the header line, then one line per data line, each flushed.
+    request : ColumnRequest, optional
+        Columns chosen by the user (ports, power unit, coarse and temperature columns).
+    coarse_hz : float, optional
+        Coarse frequency (Hz) of every reading, for a calibration that needs one, when the
+        lines have no coarse column.
+    temperature_k : float, optional
+        Chip temperature (K) of every reading, for a calibration that needs it, instead of
+        a temperature column.
+    name : str
+        What the input is called in messages (``<stdin>``, a file name).
+    check : callable, optional
+        ``check(header)`` is called with the :class:`StreamHeader` before anything is
+        written (the command line checks it against the calibration with its own
+        messages); what it raises ends the stream.
+
+    Returns
+    -------
+    StreamSummary
+        Also when Ctrl-C (KeyboardInterrupt) ended the stream, which it does as the end of
+        the lines does (``interrupted`` says so): every line written so far is complete.
+
+    Raises
+    ------
+    InputError
+        Before any output, for lines without a header, a header whose columns cannot be
+        found (as in files), ports other than the calibration's, a missing temperature or
+        coarse frequency.
+
+    Warns
+    -----
+    CalibrationWarning
+        Cause :data:`~wavemeter.calibration.base.INVALID_READING_CAUSE` for each of the
+        first :data:`MAX_LINE_WARNINGS` invalid lines, naming the line and what is wrong.
+    """
+    source = Path(name)
+    summary = StreamSummary(source=source)
+    numbered = iter(enumerate(lines, start=1))
+    thermal = "temperature_k" in calibration.requires
+    try:
+        with about_file(source):
+            header = _read_header(numbered, source, request, thermal and temperature_k is None)
+            if check is not None:
+                check(header)
+            check_stream(calibration, header, coarse_hz, temperature_k)
+        _Stream(calibration, header, out, coarse_hz, temperature_k).run(numbered, summary)
+    except KeyboardInterrupt:
+        summary.interrupted = True
+    return summary
+
+
+def _read_header(numbered, source: Path, request, find_temperature: bool) -> StreamHeader:
+    """The first line that is not blank or a comment, its columns found as in files."""
+    for number, text in numbered:
+        line = text.lstrip("\ufeff").strip()
+        if not line or line.startswith("#"):
+            continue
+        delimiter = "\t" if "\t" in line else ","
+        try:
+            names = column_names(split_cells(line, delimiter))
+        except csv.Error as exc:
+            raise InputError(
+                f"line {number}: the header cannot be split into names ({exc})"
+            ) from None
+        # the header's columns as a text file's: of unknown length, values line by line
+        columns = Source({column: (-1,) for column in names}, load=None)
+        plan = plan_columns(
+            columns, request or ColumnRequest(), need_x=False, extras=(False, find_temperature)
+        )
+        singles = plan.singles
+        return StreamHeader(
+            source=source,
+            line=number,
+            names=tuple(names),
+            delimiter=delimiter,
+            port_names=plan.port_names,
+            port_units=plan.port_units,
+            temperature_column=singles["temperature"].name if "temperature" in singles else None,
+            coarse_column=singles["coarse"].name if "coarse" in singles else None,
+            plan=plan,
+        )
+    raise InputError(
+        "no header line: the input ended before a line naming the columns (e.g. P1_mW,P2_mW,P3_mW)"
+    )
+
+
+class _Latest:
+    """An endless iterator of the value set last. It hands ``calibration.stream`` (one
+    record for each row it takes) the rows one at a time; lines that hold no valid reading
+    never reach it."""
+
+    __slots__ = ("value",)
+
+    def __init__(self):
+        self.value = None
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        return self.value
+
+
+class _Stream:
+    """Reads data lines and writes their output lines (one stream)."""
+
+    def __init__(self, calibration, header: StreamHeader, out: TextIO, coarse_hz, temperature_k):
+        self.header = header
+        self.out = out
+        plan = header.plan
+        self.width = len(header.names)
+        self.fields = [(name, header.names.index(name)) for name in plan.fields]
+        self.checks = ColumnChecks()
+        self.powers = _Latest()
+        self.temperature = self.coarse = None
+        temperature = coarse = None
+        if "temperature_k" in calibration.requires:
+            temperature = temperature_k
+            if temperature_k is None:
+                temperature = self.temperature = _Latest()
+        if "coarse_hz" in calibration.requires:
+            coarse = coarse_hz
+            if coarse_hz is None:
+                coarse = self.coarse = _Latest()
+        self.records = calibration.stream(self.powers, coarse_hz=coarse, temperature_k=temperature)
+        self.cascade = hasattr(calibration, _CASCADE_COLUMN)
+        self.counts = np.zeros(len(ReadingFlag), dtype=np.int64)
+        self.bits = [int(bit) for bit in ReadingFlag]
+        nan = float("nan")
+        self.unread = (nan, nan, nan, *((nan,) if self.cascade else ()), int(ReadingFlag.INVALID))
+
+    def run(self, numbered, summary: StreamSummary) -> None:
+        """Write the header line, then one line per data line until the lines end."""
+        columns = list(STREAM_COLUMNS)
+        if self.cascade:
+            columns.insert(-1, _CASCADE_COLUMN)
+        self._write(",".join(columns))
+        try:
+            for number, text in numbered:
+                line = text.rstrip("\r\n")  # an empty last cell is a cell
+                if not line.strip() or line.lstrip().startswith("#"):
+                    continue
+                values, reason = self._read(line, number)
+                summary.rows += 1
+                if reason is not None:
+                    values = self.unread
+                    summary.invalid_rows += 1
+                    if summary.invalid_rows <= MAX_LINE_WARNINGS:
+                        self._warn(number, reason, last=summary.invalid_rows == MAX_LINE_WARNINGS)
+                *numbers, flags = values
+                self._write(",".join(map(repr, numbers)) + f",{flags}")
+                if flags:
+                    summary.flagged += 1
+                    self.counts += [bool(flags & bit) for bit in self.bits]
+        finally:
+            summary.flag_counts = {
+                bit.name: int(count)
+                for bit, count in zip(ReadingFlag, self.counts, strict=True)
+                if count
+            }
+
+    def _write(self, line: str) -> None:
+        self.out.write(line + "\n")
+        self.out.flush()
+
+    def _warn(self, number: int, reason: str, last: bool) -> None:
+        more = "; further invalid lines are written so without a warning" if last else ""
+        warnings.warn(
+            CalibrationWarning(
+                f"{self.header.source} line {number}: {reason}: written as NaN with the "
+                f"INVALID flag{more}",
+                cause=INVALID_READING_CAUSE,
+                remedy="check the readings' source: one number per column, the light on",
+            ),
+            stacklevel=4,
+        )
+
+    def _read(self, line: str, number: int) -> tuple[tuple, str | None]:
+        """The output values of a data line (the flags last), or why it is no valid reading."""
+        try:
+            cells = split_cells(line, self.header.delimiter)
+        except csv.Error as exc:
+            return (), f"cannot be split into cells ({exc})"
+        if len(cells) == self.width + 1 and not cells[-1].strip():
+            cells.pop()  # a trailing delimiter
+        if len(cells) != self.width:
+            return (), f"{len(cells)} cells, the header has {self.width}"
+        data = {}
+        for name, column in self.fields:
+            cell = cells[column].strip()
+            try:
+                data[name] = np.array([float(cell) if cell else np.nan])
+            except ValueError:
+                return (), f"column {name!r}: {cell[:40]!r} is not a number"
+        table = convert_rows(self.header.plan, data, number - 1, _line_label, self.checks)
+        if table.invalid[0]:
+            return (), table.invalid_reasons[table.invalid_code[0]]
+        self.powers.value = table.powers_w[0]
+        if self.temperature is not None:
+            self.temperature.value = table.temperature_k[0]
+        if self.coarse is not None:
+            self.coarse.value = table.coarse_hz[0]
+        record = next(self.records)
+        frequency = record.frequency_hz
+        values = (frequency, SPEED_OF_LIGHT_M_S / frequency * 1e9, record.frequency_std_hz)
+        if self.cascade:
+            values += (record.order_error_probability,)
+        return (*values, record.flags), None
+
+
+def _line_label(row: int) -> str:
+    """Line ``row + 1`` of the input: data rows are indexed by their line numbers."""
+    return f"line {row + 1}"
+
+
+def follow_lines(path, *, poll_s: float = 0.05, stop=None) -> Iterator[str]:
+    """The lines of a file, then those appended to it later, like ``tail -n +1 -f``.
+
+    Parameters
+    ----------
+    path : str or Path
+        A text file (UTF-8), opened now.
+    poll_s : float
+        Seconds to wait before looking again when the file has no new line.
+    stop : callable or threading.Event, optional
+        Checked whenever every line written so far has been given: the lines end when it
+        returns True (is set). None: they never end (stop with Ctrl-C).
+
+    Returns
+    -------
+    iterator of str
+        Whole lines, each with its newline; a last line still being written is held
+        until its newline arrives (and dropped when the lines end before it does).
+
+    Raises
+    ------
+    InputError
+        When the file does not exist or is a folder.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: file not found")
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, not a data file")
+    stopped = getattr(stop, "is_set", stop) or (lambda: False)
+    handle = open(path, encoding="utf-8", errors="replace")  # noqa: SIM115
+
+    def lines() -> Iterator[str]:
+        with handle:
+            held = ""
+            while True:
+                text = handle.readline()
+                if text:
+                    held += text
+                    if held.endswith("\n"):
+                        yield held
+                        held = ""
+                elif stopped():
+                    return
+                else:
+                    time.sleep(poll_s)
+
+    return lines()
