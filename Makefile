@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench trust thermal wideband cascade peers fuzz clean
+.PHONY: demo test lint bench trust thermal wideband cascade scale peers fuzz clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -50,6 +50,10 @@ wideband: $(BIN)/wavemeter
 # the cascade of issue 12 over the C band: wrong orders seen vs predicted, no coarse input
 cascade: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/cascade.py
+
+# issue 13: fit, predict, measure, stream and fleet at scale, side by side (about 10 min)
+scale: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/scale.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'

@@ -4,16 +4,17 @@ A Table 1 3x3 device (seed 7) calibrated from 20 000 readings over 4 FSRs; readi
 of ``rows`` rows (three port columns ``p1_w..p3_w``, written in chunks by
 :func:`wavemeter.io.table_writer`) in CSV and Parquet. Each file is measured by the command
 line in a child process (``python -m wavemeter measure CAL FILE -o OUT --quiet``); its wall
-time and its peak resident memory (``ru_maxrss`` of that child alone, from ``os.wait4``) are
-recorded, beside the time pyarrow alone takes to read the same file into memory
-(``pyarrow.csv.read_csv`` / ``pyarrow.parquet.read_table``, in this process). The memory
+time and its peak resident memory (``ru_maxrss`` of that child alone, from ``os.wait4`` in a
+small launcher process) are recorded, beside the time pyarrow alone takes to read the same
+file into memory (``pyarrow.csv.read_csv`` / ``pyarrow.parquet.read_table``, in this
+process). The memory
 target (issue 13): a 1e7-row file takes no more than 1.2x the peak memory of a 1e5-row file
 plus the chunk (``wavemeter.jobs.MEASURE_CHUNK_ROWS`` rows of readings and results).
 """
 
 from __future__ import annotations
 
-import os
+import json
 import subprocess
 import sys
 import time
@@ -101,20 +102,38 @@ def readings_file(folder: Path, rows: int, suffix: str) -> Path:
     return path
 
 
+#: runs a command as its child and prints its wall time, peak memory, exit code and stderr:
+#: measured from this small process, the child's peak is its own (a child forked straight
+#: from the benchmark would count the benchmark's memory, which exec does not reset)
+_LAUNCHER = """
+import json, os, subprocess, sys, time
+start = time.perf_counter()
+child = subprocess.Popen(sys.argv[1:], stderr=subprocess.PIPE)
+message = child.stderr.read().decode()
+_, status, usage = os.wait4(child.pid, 0)
+wall = time.perf_counter() - start
+print(json.dumps([wall, usage.ru_maxrss, os.waitstatus_to_exitcode(status), message]))
+"""
+
+
+def child_wall_and_peak(command: list[str]) -> tuple[float, int]:
+    """Wall time (s) and peak resident memory (bytes) of ``command`` run as a child.
+
+    Raises RuntimeError with the command's stderr when it fails.
+    """
+    launched = subprocess.run(
+        [sys.executable, "-c", _LAUNCHER, *command], capture_output=True, text=True, check=True
+    )
+    wall, peak_kb, code, message = json.loads(launched.stdout)
+    if code != 0:
+        raise RuntimeError(f"{command[2:4]} failed ({code}): {message}")
+    return wall, peak_kb * 1024  # Linux reports kilobytes
+
+
 def run_measure(calibration: Path, readings: Path, out: Path) -> tuple[float, int]:
     """Wall time (s) and peak resident memory (bytes) of one ``wavemeter measure`` child."""
     command = [sys.executable, "-m", "wavemeter", "measure", str(calibration), str(readings)]
-    command += ["-o", str(out), "--quiet", "--force"]
-    start = time.perf_counter()
-    child = subprocess.Popen(command, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(child.pid, 0)
-    wall = time.perf_counter() - start
-    child.returncode = os.waitstatus_to_exitcode(status)
-    message = child.stderr.read().decode()
-    child.stderr.close()
-    if child.returncode != 0:
-        raise RuntimeError(f"wavemeter measure failed ({child.returncode}): {message}")
-    return wall, usage.ru_maxrss * 1024  # Linux reports kilobytes
+    return child_wall_and_peak(command + ["-o", str(out), "--quiet", "--force"])
 
 
 def arrow_read_s(path: Path) -> float:

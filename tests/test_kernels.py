@@ -155,6 +155,19 @@ def test_numba_and_numpy_paths_agree(retrieval, ports, offsets):
 
 
 @pytest.mark.parametrize("retrieval", RETRIEVALS)
+def test_parallel_and_single_thread_kernels_give_the_same_bits(monkeypatch, retrieval):
+    """Large batches run on every core, smaller ones on one thread: the same numbers."""
+    needs("numba")
+    cal, device, rng = fitted(3, seed=21, retrieval=retrieval)
+    readings = sample_readings(cal, device, rng, 3 * kernels.BLOCK_ROWS, np.zeros(3))
+    found = {}
+    for parallel, threshold in ((False, readings.shape[0] + 1), (True, 1)):
+        monkeypatch.setitem(kernels.PARALLEL_MIN_READINGS, retrieval, threshold)
+        found[parallel] = fused_frequency(retrieval, cal, readings, backend="numba")
+    np.testing.assert_array_equal(found[True], found[False])
+
+
+@pytest.mark.parametrize("retrieval", RETRIEVALS)
 @pytest.mark.parametrize("backend", kernels.BACKENDS)
 @pytest.mark.parametrize(
     "bad", [np.nan, np.inf, -np.inf, "dark"], ids=["nan", "inf", "-inf", "dark"]

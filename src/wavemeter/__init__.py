@@ -55,7 +55,7 @@ _WHERE = {
 }
 
 #: subpackages reachable as attributes (``wm.model.cone``), loaded on first use
-_SUBPACKAGES = ("analysis", "calibration", "io", "model", "report", "simulation")
+_SUBPACKAGES = ("analysis", "calibration", "fleet", "io", "jobs", "model", "report", "simulation")
 
 __all__ = sorted(_WHERE) + ["__version__"]
 

@@ -75,6 +75,10 @@ NO_NUMBA_VARIABLE = "WAVEMETER_NO_NUMBA"
 NUMBA_MIN_READINGS = {"pinv": 10_000, "ml": 1_000}
 #: readings per block of the numba kernel: its quadratures (3 x 32 kB) stay in the cache
 BLOCK_ROWS = 4096
+#: readings from which the numba kernel runs on every core: waking the other threads costs
+#: tens of microseconds on an idle machine and a scheduler time slice (several ms) when
+#: another process holds a core, which only a large batch amortises
+PARALLEL_MIN_READINGS = {"pinv": 1 << 20, "ml": 1 << 18}
 #: readings per product of the numpy path: its rows (3 x 512 kB) stay in the cache
 NUMPY_CHUNK_ROWS = 1 << 16
 #: ``backend`` values: None picks numba for large batches when it is there
@@ -136,9 +140,10 @@ def kernel_backend() -> str:
 
 
 @functools.cache
-def _build_kernel(ports: int, ml: bool):
+def _build_kernel(ports: int, ml: bool, parallel: bool):
     """The numba kernel for readings of ``ports`` ports, pseudo-inverse or (``ml``)
-    maximum-likelihood retrieval; compiled on its first call, then loaded from the cache.
+    maximum-likelihood retrieval, on every core (``parallel``) or on this thread;
+    compiled on its first call, then loaded from the cache.
 
     ``kernel(readings, offset_w, frame_map, to_objects, kappa, origin, scale, out)`` writes
     ``origin + scale * t`` of each reading ``p`` (a row of the C-contiguous ``readings``,
@@ -155,7 +160,7 @@ def _build_kernel(ports: int, ml: bool):
     numba = _numba_module()
     block_rows = BLOCK_ROWS
 
-    @numba.njit(parallel=True, fastmath=False, error_model="numpy", cache=True)
+    @numba.njit(parallel=parallel, fastmath=False, error_model="numpy", cache=True)
     def kernel(readings, offset_w, frame_map, to_objects, kappa, origin, scale, out):
         rows = readings.shape[0]
         flat = readings.reshape(rows * ports)  # constant stride: a vectorised product
@@ -271,7 +276,8 @@ def _build_kernel(ports: int, ml: bool):
 
 def _numba_path(ml, readings, matrices, offset_w, origin, scale) -> tuple[np.ndarray, bool]:
     out = np.empty(readings.shape[0])
-    kernel = _build_kernel(readings.shape[1], ml)
+    parallel = readings.shape[0] >= PARALLEL_MIN_READINGS["ml" if ml else "pinv"]
+    kernel = _build_kernel(readings.shape[1], ml, parallel)
     _arm_fork_guard()
     refused = kernel(np.ascontiguousarray(readings), offset_w, *matrices, origin, scale, out)
     return out, refused == 0 and out.size > 0
