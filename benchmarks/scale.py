@@ -37,7 +37,6 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
-import statistics  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
@@ -49,7 +48,7 @@ import _fleet_bench  # noqa: E402
 import _scale_measure  # noqa: E402
 import _stream_latency  # noqa: E402
 import numpy as np  # noqa: E402
-from _montecarlo import markdown_table, progress  # noqa: E402
+from _montecarlo import markdown_table, median_time_s, progress  # noqa: E402
 
 import wavemeter as wm  # noqa: E402
 from wavemeter.calibration.delay_search import search_delay  # noqa: E402
@@ -88,16 +87,6 @@ def sweep(samples: int, rng_seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
     device = wm.Interferometer.table1(ports=3, seed=SEED)
     frequency = np.linspace(START_HZ, START_HZ + SPAN_FSR * FSR_HZ, samples)
     return frequency, device.powers(frequency, power_w=POWER_W, noise_w=NOISE_W, rng=rng_seed)
-
-
-def timed(func, runs: int) -> tuple[float, object]:
-    """Median wall time (s) of ``runs`` calls and the last result."""
-    times, result = [], None
-    for _ in range(runs):
-        start = time.perf_counter()
-        result = func()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), result
 
 
 # ---------------------------------------------------------------------------- fit
@@ -148,15 +137,15 @@ def fit_row(samples: int, runs: int) -> list[str]:
     progress(f"fit: {samples:.0e} samples")
     frequency, powers = sweep(samples)
     center = 0.5 * (frequency[0] + frequency[-1])
-    direct_s, (delay, matrix) = timed(partial(direct_fit, powers, frequency, center), 1)
+    direct_s, (delay, matrix) = median_time_s(partial(direct_fit, powers, frequency, center), 1)
     moments = partial(
         fit_learned_map, powers, frequency, center, fsr_hz=FSR_HZ, fsr_tolerance=FSR_TOLERANCE
     )
-    moments_s, fit = timed(moments, repeats)
+    moments_s, fit = median_time_s(moments, repeats)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wm.CalibrationWarning)
         whole = partial(wm.Calibrator(fsr_hz=FSR_HZ).fit, powers, frequency)
-        whole_s, _ = timed(whole, repeats)
+        whole_s, _ = median_time_s(whole, repeats)
     delay_rel = abs(fit.delay_s / delay - 1.0)
     map_rel = np.abs(fit.map_ - matrix).max() / np.abs(matrix).max()
     peak = chunked_fit_peak_bytes(samples)
@@ -235,7 +224,7 @@ def predict_row(samples: int, readings: np.ndarray, cals: dict, runs: int) -> li
     part = readings[:count]
     y, x = np.ascontiguousarray(part[:, 0]), np.ascontiguousarray(part[:, 1])
     progress(f"predict: {samples:.0e} readings")
-    arctan_s, _ = timed(
+    arctan_s, _ = median_time_s(
         partial(repeat_call, lambda pair: np.arctan2(*pair), (y, x), chunks), repeats
     )
     row = [f"{samples:.0e}", f"{arctan_s * 1e3:.3g}"]
@@ -249,7 +238,8 @@ def predict_row(samples: int, readings: np.ndarray, cals: dict, runs: int) -> li
             row.append("-")  # two orders of magnitude slower: seconds per 1e6
             continue
         use_numpy(backend == "numpy")
-        seconds, _ = timed(partial(repeat_call, cals[retrieval].predict, part, chunks), repeats)
+        calls = partial(repeat_call, cals[retrieval].predict, part, chunks)
+        seconds, _ = median_time_s(calls, repeats)
         ratio = seconds / arctan_s
         target = PREDICT_TARGETS.get((retrieval, backend))
         judged = target is not None and samples >= 100_000

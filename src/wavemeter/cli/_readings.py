@@ -4,11 +4,21 @@ the line that sums up the flags of the readings measured."""
 
 from __future__ import annotations
 
+import click
+
 from ..exceptions import InputError
 from ._common import load
-from ._temperature import check_temperature_options, needs_temperature
+from ._params import OPTICAL_FREQUENCY, AliasedOption
+from ._temperature import check_temperature_options, needs_temperature, temperature_k_option
 
-__all__ = ["COARSE_OPTIONS", "check_coarse", "refuse_coarse", "checked_calibration", "flag_summary"]
+__all__ = [
+    "COARSE_OPTIONS",
+    "check_coarse",
+    "refuse_coarse",
+    "checked_calibration",
+    "flag_summary",
+    "reading_input_options",
+]
 
 #: how to give the coarse frequencies, as the messages say it
 COARSE_OPTIONS = "pass --coarse COL or --coarse-frequency VALUE"
@@ -88,3 +98,42 @@ def flag_summary(counts: dict[str, int], flagged: int, rows: int) -> str:
     text = f"flagged {flagged} of {rows} readings"
     listed = ", ".join(f"{name} {count}" for name, count in counts.items())
     return f"{text}: {listed}" if listed else text
+
+
+def reading_input_options(command):
+    """The options that give a calibration its per-reading inputs (``measure``, ``stream``):
+    --coarse, --coarse-frequency, --temperature, --temperature-k."""
+    for option in reversed(
+        [
+            click.option(
+                "--coarse",
+                "coarse_column",
+                metavar="COL",
+                help="Coarse frequency or wavelength column, within half an FSR of the truth "
+                "(calibration sets, wide-band calibrations).",
+            ),
+            click.option(
+                "--coarse-frequency",
+                "--coarse-hz",
+                "coarse_hz",
+                cls=AliasedOption,
+                hidden_aliases=("--coarse-hz",),
+                type=OPTICAL_FREQUENCY,
+                help="One coarse frequency for every reading, 193.4THz or 1550nm; a bare number "
+                "is in Hz (calibration sets, wide-band calibrations).",
+            ),
+            click.option(
+                "--temperature",
+                "temperature_column",
+                metavar="COL",
+                help="Temperature column in K or C, for a thermal calibration (default: found by "
+                "name, e.g. temp_C).",
+            ),
+            temperature_k_option(
+                "Chip temperature of every reading, for a thermal calibration, instead of a "
+                "column: 293.15 (K), 293.15K, 20C."
+            ),
+        ]
+    ):
+        command = option(command)
+    return command

@@ -50,13 +50,11 @@ from ._common import (
     say,
 )
 from ._data_files import data_files, names_many_files
-from ._params import OPTICAL_FREQUENCY, AliasedOption
-from ._readings import check_coarse, checked_calibration, flag_summary
+from ._readings import check_coarse, checked_calibration, flag_summary, reading_input_options
 from ._streams import STDIN_LABEL, is_stdio
 from ._temperature import (
     missing_temperature,
     needs_temperature,
-    temperature_k_option,
 )
 
 
@@ -75,34 +73,7 @@ from ._temperature import (
 )
 @click.option("--keep", metavar="COL,COL,..", help="Input columns to copy into the output.")
 @FORMAT
-@click.option(
-    "--coarse",
-    "coarse_column",
-    metavar="COL",
-    help="Coarse frequency or wavelength column, within half an FSR of the truth "
-    "(calibration sets, wide-band calibrations).",
-)
-@click.option(
-    "--coarse-frequency",
-    "--coarse-hz",
-    "coarse_hz",
-    cls=AliasedOption,
-    hidden_aliases=("--coarse-hz",),
-    type=OPTICAL_FREQUENCY,
-    help="One coarse frequency for every reading, 193.4THz or 1550nm; a bare number is in Hz "
-    "(calibration sets, wide-band calibrations).",
-)
-@click.option(
-    "--temperature",
-    "temperature_column",
-    metavar="COL",
-    help="Temperature column in K or C, for a thermal calibration (default: found by name, "
-    "e.g. temp_C).",
-)
-@temperature_k_option(
-    "Chip temperature of every reading, for a thermal calibration, instead of a column: "
-    "293.15 (K), 293.15K, 20C."
-)
+@reading_input_options
 @click.option(
     "--uncertainty/--no-uncertainty",
     default=None,

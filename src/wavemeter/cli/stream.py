@@ -20,10 +20,9 @@ import click
 
 from ..jobs import follow_lines, stream_lines
 from ._common import QUIET, check_ports, column_options, column_request, say
-from ._params import OPTICAL_FREQUENCY, AliasedOption
-from ._readings import check_coarse, checked_calibration, flag_summary
+from ._readings import check_coarse, checked_calibration, flag_summary, reading_input_options
 from ._streams import STDIN_LABEL
-from ._temperature import missing_temperature, needs_temperature, temperature_k_option
+from ._temperature import missing_temperature, needs_temperature
 
 #: exit code of a stream ended by Ctrl-C (128 + SIGINT), as a shell reports it
 EXIT_INTERRUPTED = 130
@@ -39,34 +38,7 @@ EXIT_INTERRUPTED = 130
     help="Read FILE from its start, then every line appended to it (like tail -f), instead "
     "of standard input; stop with Ctrl-C.",
 )
-@click.option(
-    "--coarse",
-    "coarse_column",
-    metavar="COL",
-    help="Coarse frequency or wavelength column, within half an FSR of the truth "
-    "(calibration sets, wide-band calibrations).",
-)
-@click.option(
-    "--coarse-frequency",
-    "--coarse-hz",
-    "coarse_hz",
-    cls=AliasedOption,
-    hidden_aliases=("--coarse-hz",),
-    type=OPTICAL_FREQUENCY,
-    help="One coarse frequency for every reading, 193.4THz or 1550nm; a bare number is in Hz "
-    "(calibration sets, wide-band calibrations).",
-)
-@click.option(
-    "--temperature",
-    "temperature_column",
-    metavar="COL",
-    help="Temperature column in K or C, for a thermal calibration (default: found by name, "
-    "e.g. temp_C).",
-)
-@temperature_k_option(
-    "Chip temperature of every reading, for a thermal calibration, instead of a column: "
-    "293.15 (K), 293.15K, 20C."
-)
+@reading_input_options
 @column_options(axis=False, drop_invalid=False)
 @QUIET
 def stream(calibration_file, follow_path, coarse_column, coarse_hz, temperature_k, **options):
