@@ -162,16 +162,16 @@ The statistics (model-free noise, nested cosine tests) are computed by
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy import linalg, special, stats
 
 from ..exceptions import CalibrationWarning, InputError
-from ..model.cone import cone_vectors, delay_phase_rad
-from ..model.limits import crlb_frequency_std
+from ..model.cone import cone_vectors
 from ..model.retrieval import stacked_pinv
-from ..model.uncertainty import phase_std_rad, pinv_phase_gradient
 from .residual_tests import (
     RANK_TOLERANCE,
     TEST_P_VALUE,
@@ -179,6 +179,8 @@ from .residual_tests import (
     ResidualTest,
     ResidualTests,
     model_free_noise,
+    orthonormal_columns,
+    row_blocks,
 )
 
 __all__ = [
@@ -431,7 +433,7 @@ def _check_inputs(powers, frequency_hz, center_hz, delay_s, map_, scale, offset_
             f"map of each reading), got shape {matrix.shape}",
             parameter="map_",
         )
-    power = np.ones(samples) if scale is None else _vector("scale", scale, samples)
+    power = None if scale is None else _vector("scale", scale, samples)
     if (offset_w is None) != (offset_std_w is None):
         raise InputError(
             "offset_w and offset_std_w must be given together (fitted offsets with their "
@@ -480,31 +482,96 @@ def _images(matrix: np.ndarray, vectors: np.ndarray) -> np.ndarray:
     return np.einsum("kij,kj->ki", matrix, vectors)
 
 
+def _tangents(matrix: np.ndarray, unit: np.ndarray, power) -> np.ndarray:
+    """Fringe tangents ``m_k A [-sin t_k, cos t_k, 0]`` (N, n) from the unit objects (N, 3)
+    ``[cos t_k, sin t_k, sqrt 2]`` and the relative power ``m_k`` (None: 1)."""
+    if matrix.ndim == 2:
+        tangent = unit[:, :2] @ np.array([matrix[:, 1], -matrix[:, 0]])
+    else:
+        tangent = matrix[:, :, 1] * unit[:, :1]
+        tangent -= matrix[:, :, 0] * unit[:, 1:2]
+    if power is not None:
+        tangent *= power[:, None]
+    return tangent
+
+
+def _harmonic_columns(unit: np.ndarray, power, rows: slice) -> np.ndarray:
+    """``m_k cos h t_k``, ``m_k sin h t_k`` for each order ``h`` of ``HARMONICS`` (L, 2 H) of
+    the readings ``rows``, by angle addition from the unit objects' ``cos t_k``, ``sin t_k``."""
+    unit = unit[rows]
+    power = None if power is None else power[rows]
+    cos, sin = unit[:, 0], unit[:, 1]
+    columns = np.empty((unit.shape[0], 2 * len(HARMONICS)))
+    harmonic_cos, harmonic_sin = cos, sin
+    for order in range(2, max(HARMONICS) + 1):
+        harmonic_cos, harmonic_sin = (
+            harmonic_cos * cos - harmonic_sin * sin,
+            harmonic_sin * cos + harmonic_cos * sin,
+        )
+        if order in HARMONICS:
+            index = 2 * HARMONICS.index(order)
+            columns[:, index], columns[:, index + 1] = harmonic_cos, harmonic_sin
+    if power is not None:
+        columns *= power[:, None]
+    return columns
+
+
 def _span_fsr(phase_rad: np.ndarray) -> float:
-    distinct = np.unique(phase_rad)
-    if distinct.size < 2:
+    steps = np.diff(phase_rad)
+    if np.all(steps >= 0.0) or np.all(steps <= 0.0):
+        # a one-way sweep: its distinct phases without sorting
+        distinct = 1 + np.count_nonzero(steps)
+        extent = abs(float(phase_rad[-1] - phase_rad[0]))
+    else:
+        values = np.unique(phase_rad)
+        distinct, extent = values.size, float(values[-1] - values[0])
+    if distinct < 2:
         return 0.0
-    extent = float(distinct[-1] - distinct[0])
-    return (extent + extent / (distinct.size - 1)) / (2.0 * np.pi)
+    return (extent + extent / (distinct - 1)) / (2.0 * np.pi)
 
 
-def _lag1(residual: np.ndarray) -> np.ndarray:
-    energy = np.einsum("ij,ij->j", residual, residual)
+def _lag1(residual: np.ndarray, energy: np.ndarray) -> np.ndarray:
+    """Lag-1 autocorrelation per port of the residual (N, n); ``energy`` (n,) its sums of
+    squares."""
     lagged = np.einsum("ij,ij->j", residual[1:], residual[:-1])
     return np.divide(lagged, energy, out=np.zeros_like(energy), where=energy > 0)
 
 
-def _pinv_variance_ratio(matrix, phase_rad, power) -> float:
+def _pinv_variance_ratio(matrix, image, tangent) -> float:
     """Mean pseudo-inverse phase variance over the mean Cramer-Rao variance, unit noise, for
-    one map (n, 3) or each reading's (N, n, 3) (their inverses from the normal equations,
-    several times faster than SVDs: a stack with a map of rank < 3 raises InputError)."""
-    images = _images(matrix, cone_vectors(phase_rad, power))
+    one map (n, 3) or each reading's (N, n, 3), at the readings' images ``a_P`` and fringe
+    tangents ``a_t`` (N, n) (their inverses from the normal equations, several times
+    faster than SVDs: a stack with a map of rank < 3 raises InputError).
+
+    With ``x = A+ a_P`` and ``A+`` rows ``g_1``, ``g_2``, the arctangent's gradient is
+    ``(x_1 g_2 - x_2 g_1) / r^2`` (:func:`~wavemeter.model.uncertainty.pinv_phase_gradient`,
+    ``r^2 = x_1^2 + x_2^2``), of squared norm ``(x_1^2 |g_2|^2 - 2 x_1 x_2 g_1 g_2 + x_2^2
+    |g_1|^2) / r^4``; the bound's information is ``|a_t|^2 - (a_t a_P)^2 / |a_P|^2``
+    (:func:`~wavemeter.model.limits.crlb_frequency_std`, the power a nuisance)."""
     inverse = linalg.pinv(matrix) if matrix.ndim == 2 else stacked_pinv(matrix)
-    gradient = pinv_phase_gradient(images, inverse)
-    pinv_variance = phase_std_rad(gradient, 1.0) ** 2
-    # the bound in Hz on an FSR of 2 pi "Hz" is the bound on the phase in rad
-    bound = crlb_frequency_std(matrix, phase_rad, power, 1.0, 2.0 * np.pi) ** 2
-    return float(np.mean(pinv_variance) / np.mean(bound))
+    first, second = inverse[..., 0, :], inverse[..., 1, :]
+    pinv_variance = bound_variance = 0.0
+    for rows in row_blocks(image.shape[0]):
+        images, tangents = image[rows], tangent[rows]
+        # ports x readings: the sums over the ports run down contiguous readings
+        image_rows, tangent_rows = np.ascontiguousarray(images.T), np.ascontiguousarray(tangents.T)
+        if matrix.ndim == 2:
+            x_1, x_2 = images @ first, images @ second
+            gram = first @ first, first @ second, second @ second
+        else:
+            rows_1, rows_2 = first[rows], second[rows]
+            x_1, x_2 = np.einsum("ij,ij->i", images, rows_1), np.einsum("ij,ij->i", images, rows_2)
+            gram = [np.einsum("ij,ij->i", *pair) for pair in ((rows_1, rows_1), (rows_1, rows_2))]
+            gram.append(np.einsum("ij,ij->i", rows_2, rows_2))
+        radius2 = x_1**2 + x_2**2
+        variance = x_1**2 * gram[2] - 2.0 * x_1 * x_2 * gram[1] + x_2**2 * gram[0]
+        pinv_variance += float(np.sum(variance / radius2**2))
+        along = np.einsum("ij,ij->j", image_rows, tangent_rows)
+        information = np.einsum("ij,ij->j", tangent_rows, tangent_rows) - along**2 / np.einsum(
+            "ij,ij->j", image_rows, image_rows
+        )
+        bound_variance += float(np.sum(1.0 / information))
+    return pinv_variance / bound_variance
 
 
 @dataclass(frozen=True)
@@ -527,32 +594,48 @@ def _scatter(residual, image, tangent, dof: float, pooled: bool, phase_noise_rad
     """Tests 6 and 7 (module docstring) on the residual (N, n) and the directions
     ``a_P`` (``image``) and ``a_t`` (``tangent``) of every reading (N, n); ``pooled``: one
     noise level for every port; ``phase_noise_rad`` (N,) the phase scatter the model
-    expects besides the detector noise (zeros for none)."""
-    ports = residual.shape[1]
+    expects besides the detector noise (0 for none).
+
+    Per reading, with ``r``, ``a``, ``t`` whitened by the level: the component along ``a``
+    is ``r a / |a|``, the one along the part of ``t`` orthogonal to ``a`` (of squared norm
+    ``|t|^2 - (a t)^2 / |a|^2``) is ``(r t - (a t)(r a) / |a|^2) / |t - ...|``; these
+    come from row products, block by block (each block whitened into ports x readings, the
+    sums over the ports then run down contiguous readings)."""
+    samples, ports = residual.shape
     level = np.einsum("ij,ij->j", residual, residual) / dof
     level = np.sqrt(np.full(ports, level.mean()) if pooled else level)
-    level = np.maximum(level, np.finfo(float).tiny)
-    whitened, along = residual / level, image / level
-    along_norm = np.linalg.norm(along, axis=1)
-    along = along / along_norm[:, None]
-    across = tangent / level
-    across = across - np.einsum("ij,ij->i", across, along)[:, None] * along
-    across_norm = np.linalg.norm(across, axis=1)
-    across = across / across_norm[:, None]
-    power = np.einsum("ij,ij->i", whitened, along)
-    phase = np.einsum("ij,ij->i", whitened, across)
-    rest = float(np.einsum("ij,ij->", whitened, whitened) - power @ power - phase @ phase)
+    inverse = (1.0 / np.maximum(level, np.finfo(float).tiny))[:, None]
+    along_norm, across_norm, power, phase = np.empty((4, samples))
+    energy = 0.0
+    for rows in row_blocks(samples):
+        whitened, along, across = np.empty((3, ports, rows.stop - rows.start))
+        for values, out in zip((residual, image, tangent), (whitened, along, across), strict=True):
+            np.multiply(values[rows].T, inverse, out=out)
+        squares = np.einsum("ij,ij->j", along, along)
+        cross = np.einsum("ij,ij->j", along, across)
+        on_along = np.einsum("ij,ij->j", whitened, along)
+        along_norm[rows] = np.sqrt(squares)
+        power[rows] = on_along / along_norm[rows]
+        across_norm[rows] = np.sqrt(np.einsum("ij,ij->j", across, across) - cross**2 / squares)
+        on_across = np.einsum("ij,ij->j", whitened, across) - cross * on_along / squares
+        phase[rows] = on_across / across_norm[rows]
+        energy += np.einsum("ij,ij->", whitened, whitened)
+    rest = float(energy - power @ power - phase @ phase)
     rest_dof = dof * (ports - 2)
     unit = max(rest / rest_dof, np.finfo(float).tiny)  # whitened variance per direction
 
     def test(component, norm, expected_rad=0.0):
-        variance = unit + (norm * expected_rad) ** 2
-        statistic = float(np.sum(component**2 / variance))
-        excess_variance = np.mean((component**2 - variance) / norm**2)
+        statistic = excess = 0.0
+        for rows in row_blocks(samples):
+            expected = expected_rad if np.ndim(expected_rad) == 0 else expected_rad[rows]
+            variance = unit + (norm[rows] * expected) ** 2
+            squares = component[rows] ** 2
+            statistic += float(np.sum(squares / variance))
+            excess += float(np.sum((squares - variance) / norm[rows] ** 2))
         return (
             float(stats.f.sf(statistic / dof, dof, rest_dof)),
             statistic - dof,
-            float(np.sqrt(max(excess_variance, 0.0))),
+            float(np.sqrt(max(excess / samples, 0.0))),
         )
 
     power_p, power_excess, power_rms = test(power, along_norm)
@@ -569,10 +652,16 @@ class _Structure:
     phase: ResidualTest
     phase_error_rad: np.ndarray  # (N,)
     dispersion: ResidualTest | None
-    dispersion_rad: np.ndarray | None  # (N,)
+    dispersion_amplitude: Callable[[], np.ndarray] | None  # the dispersion's (N,), rad
     harmonics: ResidualTest
     smooth: ResidualTest
     scatter: _Scatter
+
+    @property
+    def dispersion_rad(self) -> np.ndarray:
+        """The phase error even in ``f - f0`` left in the residual (N,), rad (computed when
+        a warning states it)."""
+        return self.dispersion_amplitude()
 
     def p_values(self) -> dict:
         return {
@@ -607,22 +696,34 @@ def _structure(tests, harmonic_test, image, tangent, frequency, center, span, sc
     samples = frequency.size
     orders = _orders(samples, MAX_COUPLED_ORDER)
     background = _orders(samples, SMOOTH_ORDERS[-1])
-    power, power_error = tests.coupled(tests.cosines(orders[-1], image), image, orders)
-    phase, phase_error = tests.coupled(tests.cosines(orders[-1], tangent), tangent, orders)
-    dispersion = dispersion_rad = None
-    if span > DISPERSION_MIN_SPAN_FSR:
-        offset = frequency - center
-        relative = offset / max(float(np.abs(offset).max()), np.finfo(float).tiny)
-        even = np.column_stack([special.eval_legendre(degree, relative) for degree in (2, 4)])
-        dispersion, dispersion_rad = tests.coupled(tests.columns(even, tangent), tangent, (2,))
+    # first: its columns are the largest set, while the fewest other arrays are held
     smooth, _ = tests.per_port(tests.cosines(background[-1]), background)
+    image_weight, tangent_weight = (np.einsum("ij,ij->i", a, a) for a in (image, tangent))
+    power, power_error = tests.coupled(
+        tests.cosines(orders[-1], image, image_weight), image, orders, image_weight
+    )
+    phase, phase_error = tests.coupled(
+        tests.cosines(orders[-1], tangent, tangent_weight), tangent, orders, tangent_weight
+    )
+    dispersion = dispersion_amplitude = None
+    if span > DISPERSION_MIN_SPAN_FSR:
+        largest = max(float(frequency.max() - center), float(center - frequency.min()))
+        scale = max(largest, np.finfo(float).tiny)
+
+        def even(rows):
+            relative = (frequency[rows] - center) / scale
+            return np.column_stack([special.eval_legendre(degree, relative) for degree in (2, 4)])
+
+        dispersion, dispersion_amplitude = tests.coupled_test(
+            tests.columns(even, tangent), tangent, (2,), tangent_weight
+        )
     return _Structure(
         power=power,
         power_error=power_error,
         phase=phase,
         phase_error_rad=phase_error,
         dispersion=dispersion,
-        dispersion_rad=dispersion_rad,
+        dispersion_amplitude=dispersion_amplitude,
         harmonics=harmonic_test,
         smooth=smooth,
         scatter=scatter,
@@ -878,47 +979,53 @@ def misfit_report(
     )
     samples, ports = readings.shape
     names = [f"p{k + 1}" for k in range(ports)]
-    phase = (
-        delay_phase_rad(frequency, center, delay)
-        if phase_rad is None
-        else _vector("phase_rad", phase_rad, samples)
-    )
+    # 2 pi (f - f0): the phase's derivative in the delay, and t = 2 pi (f - f0) tau
+    frequency_rad = 2.0 * np.pi * (frequency - center)
+    phase = frequency_rad * delay if phase_rad is None else _vector("phase_rad", phase_rad, samples)
     derivatives = (
-        (2.0 * np.pi * (frequency - center))[None]
+        frequency_rad[None]
         if phase_derivatives is None
         else _phase_derivatives(phase_derivatives, samples)
     )
-    objects = cone_vectors(phase, power)
+    unit = cone_vectors(phase)
+    objects = unit if power is None else unit * power[:, None]
     if design is None:
         design = objects if offsets is None else np.column_stack([objects, np.ones(samples)])
-    basis = linalg.orth(_fitted_columns(design, samples))
+    basis = orthonormal_columns(_fitted_columns(design, samples))
+    # (N, ...) arrays are let go as soon as they are used: on long sweeps each one held
+    # costs more to map into memory than to compute
+    del design
     image = _images(matrix, objects)
-    residual = readings - image - (0.0 if offsets is None else offsets)
+    del objects
+    residual = np.subtract(readings, image)
+    if offsets is not None:
+        residual -= offsets
 
     residual_dof = max(samples - basis.shape[1] - derivatives.shape[0] / ports, 1.0)
-    residual_rms = np.sqrt(np.einsum("ij,ij->j", residual, residual) / residual_dof)
+    residual_squares = np.einsum("ij,ij->j", residual, residual)
+    residual_rms = np.sqrt(residual_squares / residual_dof)
     span = _span_fsr(phase)
+    del phase
     dense = samples >= MIN_READINGS_PER_FSR * max(span, 1.0)
     model_free = samples >= MIN_MODEL_FREE_READINGS and dense
     if model_free:
         noise, noise_dof = model_free_noise(residual, basis)
     else:
         noise, noise_dof = residual_rms, residual_dof
-    floor = np.finfo(float).eps * max(float(np.abs(readings).max()), np.finfo(float).tiny)
+    largest = max(float(readings.max()), -float(readings.min()), np.finfo(float).tiny)
+    floor = np.finfo(float).eps * largest
     noise = np.maximum(noise, floor)
     ratio = residual_rms / noise
-    lag1 = _lag1(residual)
-    exact_fit = float(np.sqrt(np.mean(residual**2))) <= ROUNDOFF_EPSILONS * floor
+    lag1 = _lag1(residual, residual_squares)
+    exact_fit = bool(np.sqrt(residual_squares.sum() / residual.size) <= ROUNDOFF_EPSILONS * floor)
 
-    tangent = power[:, None] * _images(
-        matrix, np.stack([-np.sin(phase), np.cos(phase), np.zeros(samples)], axis=1)
-    )
-    expected = (
-        np.zeros(samples)
-        if phase_noise_std_rad is None
-        else np.abs(_vector("phase_noise_std_rad", phase_noise_std_rad, samples))
-    )
-    detector = detector_noise_w(noise, phase_noise_variance_w2(tangent, expected))
+    tangent = _tangents(matrix, unit, power)
+    if phase_noise_std_rad is None:
+        expected, extra_variance = 0.0, np.zeros(ports)
+    else:
+        expected = np.abs(_vector("phase_noise_std_rad", phase_noise_std_rad, samples))
+        extra_variance = phase_noise_variance_w2(tangent, expected)
+    detector = detector_noise_w(noise, extra_variance)
     # a variance less a known share keeps the estimate's absolute error: its degrees of
     # freedom shrink by the square of the share left (Satterthwaite)
     detector_dof = noise_dof * float(np.min(detector / noise)) ** 4
@@ -926,23 +1033,24 @@ def misfit_report(
     # whitening weights: one noise for all ports unless theirs differ (module docstring)
     pooled = unequal_p >= POOLED_NOISE_P_VALUE
     weight = np.full(ports, np.sqrt(np.mean(noise**2))) if pooled else noise
+    scatter = _scatter(residual, image, tangent, residual_dof, pooled, expected)
+    variance_ratio = _pinv_variance_ratio(matrix, image, tangent)
+    # whitened in place from here on: the tests keep no other copy of these (N, n) arrays
+    for values in (residual, image, tangent):
+        values /= weight
     # the directions the nonlinear parameters move the images in, d_i,k a_t,k (N, n, q)
-    coupled = np.stack([derivative[:, None] * tangent for derivative in derivatives], axis=2)
-    projector = Projector(basis, coupled / weight[:, None])
+    projector = Projector(basis, tangent[:, :, None] * derivatives.T[:, None, :])
+    del frequency_rad, derivatives
     # the fitted columns carry the model's phase noise, which the residual carries too: a
     # test column partly inside their span is left with that noise in its direction
     tolerance = NOISY_BASIS_TOLERANCE if np.any(expected > 0) else RANK_TOLERANCE
-    tests = ResidualTests(residual / weight, projector, residual_dof, tolerance)
-    harmonics = np.column_stack(
-        [power * trig(order * phase) for order in HARMONICS for trig in (np.cos, np.sin)]
-    )
-    harmonic_test, harmonic_scores = tests.per_port(tests.columns(harmonics), (harmonics.shape[1],))
+    tests = ResidualTests(residual, projector, residual_dof, tolerance, out=residual)
+    harmonics = tests.columns(partial(_harmonic_columns, unit, power))
+    harmonic_test, harmonic_scores = tests.per_port(harmonics, (2 * len(HARMONICS),))
+    del unit, harmonics
     # relative to each port's own noise
     harmonic_power = harmonic_scores * (weight / noise) ** 2 / max(harmonic_test.dof // ports, 1)
-    scatter = _scatter(residual, image, tangent, residual_dof, pooled, expected)
-    structure = _structure(
-        tests, harmonic_test, image / weight, tangent / weight, frequency, center, span, scatter
-    )
+    structure = _structure(tests, harmonic_test, image, tangent, frequency, center, span, scatter)
 
     notes = []
     if not exact_fit:
@@ -962,7 +1070,6 @@ def misfit_report(
         )
     if not (weighted_retrieval or exact_fit):
         notes.append(noise_note)
-    variance_ratio = _pinv_variance_ratio(matrix, phase, power)
     condition = float(np.max(np.linalg.cond(matrix)))
     if variance_ratio > MAX_PINV_VARIANCE_RATIO and not weighted_retrieval:
         notes.append(

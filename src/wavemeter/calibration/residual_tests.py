@@ -10,26 +10,38 @@ model-free noise comes from second differences of the residual, corrected for th
 The discrete cosines are never formed: their products with the readings are DCTs (they are
 orthogonal, and the product of two is half the sum of two others), so the nested QR
 factors of the cosine columns with the fit projected out come from matrices of ``K`` plus
-the number of fitted directions in size, and a report costs ``O(N log N)`` per port and per
-test instead of the ``O(N K^2)`` of a QR of ``N x K`` columns (:class:`CosineColumns`). Short
-sweeps (``MIN_DCT_READINGS``) and per-reading directions too uneven for the cosines' Gram
-matrix (``MIN_GRAM_WEIGHT``) form the columns instead.
+the number of fitted directions in size, and a report costs ``O(N)`` per port and per test
+instead of the ``O(N K^2)`` of a QR of ``N x K`` columns (:class:`CosineColumns`). Only the
+first few hundred of the N cosine coefficients are needed: on long sweeps they come from
+Taylor series over blocks of readings, a matrix product of ~14 terms per reading
+(:func:`_cosine_analysis`, exact to rounding; 1e6 readings: 1.5 ms a column against 12 ms
+for scipy's DCT). Short sweeps (``MIN_DCT_READINGS``) and per-reading directions too uneven
+for the cosines' Gram matrix (``MIN_GRAM_WEIGHT``) form the columns instead, and so do the
+tests of other functions of the reading (harmonics of the fringe phase, even polynomials
+of the frequency): block by block, each factored by Householder QR beside the residual, the
+blocks' triangles stacked (:class:`Columns`), so that no N x n x K array is held.
+
+Every pass over the readings runs in blocks of ``ROW_BLOCK`` rows (:func:`row_blocks`),
+whose temporaries stay in the cache: on 1e7 readings a temporary of the full length costs
+more to map into memory than to compute.
 
 What the fit absorbs (:class:`Projector`) is each port's fitted columns and one direction
 per nonlinear parameter shared by the ports (the delay; a phase polynomial's coefficients).
 For the tests that couple the ports these are ``r = c n + q`` arrays of N x n: formed while
 they hold at most ``MAX_FORMED_DIRECTIONS`` numbers, applied through their structure beyond
 (:class:`ProjectedCosineColumns`: for a wide-band map of 15 columns and 3 phase coefficients
-on 5 ports and 176000 readings, a report takes 2 s and 0.4 GB so, 27 s and 2.5 GB formed).
+on 5 ports and 176000 readings, a report takes 0.9 s and 0.3 GB so; 27 s and 2.5 GB
+formed, as first measured with scipy's DCTs).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 from scipy import fft, linalg, special
+from scipy.linalg import lapack
 
 __all__ = [
     "TEST_P_VALUE",
@@ -38,6 +50,13 @@ __all__ = [
     "MIN_DCT_READINGS",
     "MAX_FORMED_DIRECTIONS",
     "MIN_OUTSIDE_GRAM",
+    "MIN_TAYLOR_BLOCK",
+    "TAYLOR_HALF_BLOCK_RAD",
+    "TAYLOR_TRUNCATION",
+    "ROW_BLOCK",
+    "row_blocks",
+    "orthonormal_columns",
+    "inner_products",
     "model_free_noise",
     "Projector",
     "Columns",
@@ -64,30 +83,88 @@ MAX_FORMED_DIRECTIONS = 2**24
 #: smallest eigenvalue of the Gram matrix of the fitted directions' part outside the cosine
 #: columns' span along which that part is not formed (:class:`ProjectedCosineColumns`)
 MIN_OUTSIDE_GRAM = 1e-8
+#: fewest readings per block for which cosine coefficients are block Taylor series
+#: (:func:`_cosine_analysis`); scipy's DCT is faster for shorter blocks
+MIN_TAYLOR_BLOCK = 128
+#: largest turn of a cosine from a block's centre to its ends (rad) in the Taylor series
+TAYLOR_HALF_BLOCK_RAD = 0.25
+#: relative size of the first Taylor term left out
+TAYLOR_TRUNCATION = 2.0**-60
+#: rows per block of the passes over the readings (temporaries of a few MB, in cache)
+ROW_BLOCK = 2**15
 
 
-def _second_difference_adjoint(values: np.ndarray) -> np.ndarray:
-    """``D' y`` for second differences ``D`` (rows): (N - 2, ...) -> (N, ...)."""
-    padding = [(2, 2)] + [(0, 0)] * (values.ndim - 1)
-    return np.diff(np.pad(values, padding), n=2, axis=0)
+_GEQRF, _ORGQR = lapack.dgeqrf, lapack.dorgqr
+
+
+def row_blocks(samples: int):
+    """Slices of ``ROW_BLOCK`` consecutive rows covering ``samples`` rows."""
+    for start in range(0, samples, ROW_BLOCK):
+        yield slice(start, min(start + ROW_BLOCK, samples))
+
+
+def orthonormal_columns(columns: np.ndarray) -> np.ndarray:
+    """Orthonormal basis (N, rank) of the span of ``columns`` (N, k), as
+    :func:`scipy.linalg.orth` (the rank counts singular values above ``max(N, k)`` rounding
+    units of the largest), from Householder QR and the SVD of its triangle: one copy of the
+    columns in memory."""
+    triangle, frame = _triangle(np.array(columns, dtype=float, order="F"), frame=True)
+    left, singular, _ = linalg.svd(triangle, check_finite=False)
+    tolerance = np.amax(singular, initial=0.0) * np.finfo(float).eps * max(columns.shape)
+    rank = int(np.count_nonzero(singular > tolerance))
+    for rows in row_blocks(frame.shape[0]):
+        frame[rows, :rank] = frame[rows] @ left[:, :rank]
+    return frame[:, :rank]
+
+
+def inner_products(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """``left' right`` (a, b) of arrays (N, a) and (N, b), block by block."""
+    total = np.zeros((left.shape[1], right.shape[1]))
+    for rows in row_blocks(left.shape[0]):
+        total += left[rows].T @ right[rows]
+    return total
+
+
+def _subtract_products(values, left, coefficients, out) -> np.ndarray:
+    """``values - left @ coefficients`` ((N, b), ``left`` (N, a)) into ``out`` (which may be
+    ``values``), block by block."""
+    for rows in row_blocks(values.shape[0]):
+        np.subtract(values[rows], left[rows] @ coefficients, out=out[rows])
+    return out
 
 
 def model_free_noise(residual: np.ndarray, basis: np.ndarray) -> tuple[np.ndarray, float]:
     """Second-difference noise per port (W) and its degrees of freedom.
 
     ``T = trace(D (I - H) D')`` and ``trace((D (I - H) D')^2)`` are computed from the band
-    matrix ``D D'`` (6, -4, 1) and the low-rank ``U = D Q`` without forming N x N matrices.
+    matrix ``D D'`` (6, -4, 1) and the low-rank ``U = D Q`` without forming N x N matrices:
+    ``trace(U' D D' U) = 6 sum u_k^2 - 8 sum u_k u_(k+1) + 2 sum u_k u_(k+2)`` (rows ``u_k``
+    of ``U``). One pass, block by block.
     """
-    samples = residual.shape[0]
-    differences = np.diff(residual, n=2, axis=0)
-    low_rank = np.diff(basis, n=2, axis=0)
-    trace = 6.0 * (samples - 2) - np.einsum("ij,ij->", low_rank, low_rank)
-    band = 36.0 * (samples - 2) + 32.0 * max(samples - 3, 0) + 2.0 * max(samples - 4, 0)
-    spread = _second_difference_adjoint(low_rank)
-    gram = low_rank.T @ low_rank
-    trace_square = band - 2.0 * np.einsum("ij,ij->", spread, spread) + np.sum(gram**2)
-    noise = np.sqrt(np.einsum("ij,ij->j", differences, differences) / trace)
-    return noise, float(trace**2 / trace_square)
+    samples, ports = residual.shape
+    rows = samples - 2  # rows of D
+    squares = np.zeros(ports)
+    gram = np.zeros((basis.shape[1],) * 2)
+    lagged = np.zeros(3)  # sum u_k u_(k+s), s = 0, 1, 2
+    for block in row_blocks(rows):
+        differences = np.diff(residual[block.start : block.stop + 2], n=2, axis=0)
+        squares += np.einsum("ij,ij->j", differences, differences)
+        # rows of U from two before the block (the pairs ending in it)
+        first = max(block.start - 2, 0)
+        low_rank = np.diff(basis[first : block.stop + 2], n=2, axis=0)
+        own = block.start - first
+        gram += low_rank[own:].T @ low_rank[own:]
+        for shift in (1, 2):
+            start = max(own, shift)
+            lagged[shift] += np.einsum(
+                "ij,ij->", low_rank[start:], low_rank[start - shift : -shift]
+            )
+    lagged[0] = np.trace(gram)
+    trace = 6.0 * rows - lagged[0]
+    band = 36.0 * rows + 32.0 * max(samples - 3, 0) + 2.0 * max(samples - 4, 0)
+    spread = 6.0 * lagged[0] - 8.0 * lagged[1] + 2.0 * lagged[2]
+    trace_square = band - 2.0 * spread + np.sum(gram**2)
+    return np.sqrt(squares / trace), float(trace**2 / trace_square)
 
 
 def _cosines(samples: int, orders: int) -> np.ndarray:
@@ -96,16 +173,115 @@ def _cosines(samples: int, orders: int) -> np.ndarray:
     return np.cos(np.pi * np.outer(index, np.arange(1, orders + 1)) / samples)
 
 
+def _taylor_block(samples: int, orders: int) -> int:
+    """Readings per block of the Taylor transform: the largest power of two over which no
+    cosine of order below ``orders`` turns by more than ``TAYLOR_HALF_BLOCK_RAD`` from the
+    block's centre (1 when none fits)."""
+    top = max(orders - 1, 1)
+    block = 1
+    while 2 * block <= samples and np.pi * top * block <= TAYLOR_HALF_BLOCK_RAD * samples:
+        block *= 2
+    return block
+
+
+@dataclass(frozen=True)
+class _TaylorPlan:
+    """Tables of the block Taylor transform of ``samples`` readings and ``orders`` cosines
+    (:func:`_cosine_analysis`): with ``L`` readings per block, reading ``j`` of block ``b``
+    has the phase ``pi m (k + 1/2) / N = phi_mb + a_m x_j`` (``phi_mb`` at the block's
+    centre, ``a_m = pi m L / N``, ``x_j`` in (-1/2, 1/2)), and ``cos(phi + a x) = sum_p
+    (a x)^p / p! cos^(p)(phi)``."""
+
+    samples: int
+    block: int  # L, a power of two: x_j exact
+    cos: np.ndarray  # (M, B): cos phi_mb
+    sin: np.ndarray  # (M, B)
+    powers: np.ndarray  # (L, P): x_j^p / p!
+    along_cos: np.ndarray  # (M, P): a_m^p times the sign of cos in cos^(p) (0 for p odd)
+    along_sin: np.ndarray  # (M, P): a_m^p times the sign of sin in cos^(p) (0 for p even)
+
+    @property
+    def full_blocks(self) -> int:
+        return self.samples // self.block
+
+    def moments(self, values: np.ndarray) -> np.ndarray:
+        """``sum_j v_(bL + j) x_j^p / p!`` (t, B, P) of ``values`` (N, t)."""
+        full, tail = self.full_blocks, self.samples % self.block
+        moments = np.empty((values.shape[1], self.cos.shape[1], self.powers.shape[1]))
+        for column, out in zip(values.T, moments, strict=True):
+            column = np.ascontiguousarray(column)
+            np.matmul(column[: full * self.block].reshape(full, -1), self.powers, out=out[:full])
+            if tail:
+                out[full] = column[full * self.block :] @ self.powers[:tail]
+        return moments
+
+    def values(self, weights: np.ndarray) -> np.ndarray:
+        """``sum_p x_j^p / p! w_(bp)`` (N, t), Fortran order, for block weights (B, P, t)."""
+        full, tail = self.full_blocks, self.samples % self.block
+        values = np.empty((weights.shape[2], self.samples))
+        for column, index in zip(values, range(weights.shape[2]), strict=True):
+            blocks = column[: full * self.block].reshape(full, -1)
+            np.matmul(weights[:full, :, index], self.powers.T, out=blocks)
+            if tail:
+                column[full * self.block :] = self.powers[:tail] @ weights[full, :, index]
+        return values.T
+
+
+@lru_cache(maxsize=4)
+def _taylor_plan(samples: int, orders: int) -> _TaylorPlan:
+    block = _taylor_block(samples, orders)
+    blocks = -(-samples // block)
+    # phi_mb = pi m (2 k_b + L) / (2 N), reduced exactly in integers to [0, 2 pi)
+    order = np.arange(orders)
+    turns = np.outer(order, 2 * block * np.arange(blocks) + block) % (4 * samples)
+    phase = turns * (np.pi / (2 * samples))
+    half_turn = np.pi * (orders - 1) * block / (2 * samples)  # largest |a_m x_j|
+    terms = 1
+    while half_turn**terms / special.factorial(terms) > TAYLOR_TRUNCATION:
+        terms += 1
+    degree = np.arange(terms)
+    offsets = (2.0 * np.arange(block) + 1.0 - block) / (2.0 * block)
+    powers = offsets[:, None] ** degree / special.factorial(degree)
+    along = (np.pi * block / samples * order)[:, None] ** degree
+    # d^p/dphi^p cos phi: cos, -sin, -cos, sin, ...
+    cos_sign = np.where(degree % 2 == 0, 1.0 - (degree % 4), 0.0)
+    sin_sign = np.where(degree % 2 == 1, (degree % 4) - 2.0, 0.0)
+    return _TaylorPlan(
+        samples, block, np.cos(phase), np.sin(phase), powers, along * cos_sign, along * sin_sign
+    )
+
+
 def _cosine_analysis(values: np.ndarray, orders: int) -> np.ndarray:
-    """``sum_k b_m(k) v_k`` for ``m = 0..orders - 1`` (DCT-II): (N, ...) -> (orders, ...)."""
-    return fft.dct(values, type=2, axis=0)[:orders] / 2.0
+    """``sum_k b_m(k) v_k`` for ``m = 0..orders - 1`` (DCT-II): (N, ...) -> (orders, ...).
+
+    Block Taylor series (:class:`_TaylorPlan`, ``O(N P)`` with ``P`` ~ 14 terms, a matrix
+    product) when the blocks hold ``MIN_TAYLOR_BLOCK`` readings or more, else scipy's DCT
+    (``O(N log N)``, all ``N`` coefficients); both exact to rounding.
+    """
+    samples = values.shape[0]
+    if _taylor_block(samples, orders) < MIN_TAYLOR_BLOCK:
+        return fft.dct(values, type=2, axis=0)[:orders] / 2.0
+    plan = _taylor_plan(samples, orders)
+    moments = plan.moments(values.reshape(samples, -1))
+    coefficients = np.einsum("tmp,mp->mt", plan.cos @ moments, plan.along_cos) + np.einsum(
+        "tmp,mp->mt", plan.sin @ moments, plan.along_sin
+    )
+    return coefficients.reshape((orders,) + values.shape[1:])
 
 
 def _cosine_synthesis(coefficients: np.ndarray, samples: int) -> np.ndarray:
-    """``sum_m c_m b_m(k)`` for ``m = 1..K`` (DCT-III): (K, ...) -> (N, ...)."""
-    padded = np.zeros((samples,) + coefficients.shape[1:])
-    padded[1 : coefficients.shape[0] + 1] = coefficients / 2.0
-    return fft.dct(padded, type=3, axis=0)
+    """``sum_m c_m b_m(k)`` for ``m = 1..K`` (DCT-III): (K, ...) -> (N, ...), by block
+    Taylor series or scipy's DCT as :func:`_cosine_analysis`."""
+    orders = coefficients.shape[0] + 1
+    if _taylor_block(samples, orders) < MIN_TAYLOR_BLOCK:
+        padded = np.zeros((samples, coefficients[0].size), order="F")
+        padded[1:orders] = coefficients.reshape(orders - 1, -1) / 2.0
+        return fft.dct(padded, type=3, axis=0).reshape((samples,) + coefficients.shape[1:])
+    plan = _taylor_plan(samples, orders)
+    flat = coefficients.reshape(orders - 1, -1)
+    weights = np.tensordot(plan.cos[1:], plan.along_cos[1:, :, None] * flat[:, None], (0, 0))
+    weights += np.tensordot(plan.sin[1:], plan.along_sin[1:, :, None] * flat[:, None], (0, 0))
+    return plan.values(weights).reshape((samples,) + coefficients.shape[1:], order="F")
 
 
 class Projector:
@@ -128,18 +304,33 @@ class Projector:
                     column -= np.einsum("ij,ij->", previous, column) * previous
             remaining = np.sqrt(np.einsum("ij,ij->", column, column))
             if remaining > RANK_TOLERANCE * norm:
-                kept.append(column / remaining)
-        self.coupled = np.stack(kept, axis=2) if kept else np.zeros(coupled.shape[:2] + (0,))
+                column /= remaining
+                kept.append(column)
+        if len(kept) == 1:
+            self.coupled = kept[0][:, :, None]
+        else:
+            self.coupled = np.stack(kept, axis=2) if kept else np.zeros(coupled.shape[:2] + (0,))
+        # B' coupled_j per port j (n, c, q): ~0, the coupled directions are off the basis
+        samples, ports, kept_count = self.coupled.shape
+        products = inner_products(basis, self.coupled.reshape(samples, -1))
+        self.basis_coupled = products.reshape(-1, ports, kept_count).transpose(1, 0, 2)
 
-    def per_port(self, values: np.ndarray) -> np.ndarray:
-        return values - np.tensordot(
-            self.basis, np.tensordot(self.basis, values, axes=(0, 0)), axes=(1, 0)
-        )
+    def per_port(self, values: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """``values`` (N, ...) less their projection on the fitted columns, into ``out``
+        (contiguous, may be ``values``) or a new array."""
+        flat = values.reshape(values.shape[0], -1)
+        result = np.empty(flat.shape) if out is None else out.reshape(flat.shape)
+        _subtract_products(flat, self.basis, inner_products(self.basis, flat), result)
+        return result.reshape(values.shape)
 
-    def __call__(self, values: np.ndarray) -> np.ndarray:
-        projected = self.per_port(values)
-        along = np.tensordot(self.coupled, projected, axes=([0, 1], [0, 1]))
-        return projected - np.tensordot(self.coupled, along, axes=(2, 0))
+    def __call__(self, values: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """``values`` (N, n, ...) off every direction removed, into ``out`` or a new array."""
+        projected = self.per_port(values, out)
+        rows = projected.shape[0] * projected.shape[1]
+        flat = projected.reshape(rows, -1)
+        coupled = self.coupled.reshape(rows, -1)
+        _subtract_products(flat, coupled, inner_products(coupled, flat), flat)
+        return projected
 
     @property
     def size(self) -> int:
@@ -149,22 +340,44 @@ class Projector:
     def inner(self, values: np.ndarray) -> np.ndarray:
         """Coordinates ``Z' v`` (:attr:`size`, t) of ``values`` (N, n, t) along the
         directions removed, in the order of :attr:`directions`."""
-        fitted = np.tensordot(self.basis, values, axes=(0, 0))  # (c, n, t)
+        samples, ports, _ = values.shape
+        fitted = inner_products(self.basis, values.reshape(samples, -1))  # (c, n t)
+        fitted = fitted.reshape(fitted.shape[0], ports, -1)
+        coupled = self.coupled.reshape(samples * ports, -1)
         return np.vstack(
             [
-                fitted.transpose(1, 0, 2).reshape(fitted.shape[0] * fitted.shape[1], -1),
-                np.tensordot(self.coupled, values, axes=([0, 1], [0, 1])),
+                fitted.transpose(1, 0, 2).reshape(fitted.shape[0] * ports, -1),
+                inner_products(coupled, values.reshape(samples * ports, -1)),
             ]
         )
 
     def span(self, coefficients: np.ndarray) -> np.ndarray:
         """``Z c`` (N, n, t) for ``coefficients`` (:attr:`size`, t)."""
-        ports = self.coupled.shape[1]
-        fitted = self.basis.shape[1] * ports
-        per_port = coefficients[:fitted].reshape(ports, self.basis.shape[1], -1)
-        return np.tensordot(self.basis, per_port, axes=(1, 1)) + np.tensordot(
-            self.coupled, coefficients[fitted:], axes=(2, 0)
-        )
+        samples, ports, _ = self.coupled.shape
+        vectors = np.empty((samples, ports, coefficients.shape[1]))
+        for rows, block in self._span_blocks(coefficients):
+            vectors[rows] = block
+        return vectors
+
+    def span_along(self, coefficients: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """``(Z c)_k D_k`` (N,) for ``coefficients`` (:attr:`size`,) and a per-reading
+        direction ``D`` (N, n), without forming ``Z c``."""
+        along = np.empty(direction.shape[0])
+        for rows, block in self._span_blocks(coefficients[:, None]):
+            along[rows] = np.einsum("ij,ij->i", block[:, :, 0], direction[rows])
+        return along
+
+    def _span_blocks(self, coefficients: np.ndarray):
+        """``Z c`` block by block: (rows, (L, n, t))."""
+        samples, ports, _ = self.coupled.shape
+        columns = self.basis.shape[1]
+        per_port = coefficients[: columns * ports].reshape(ports, columns, -1)
+        per_port = per_port.transpose(1, 0, 2).reshape(columns, -1)  # (c, n t)
+        along = coefficients[columns * ports :]
+        for rows in row_blocks(samples):
+            block = (self.basis[rows] @ per_port).reshape(-1, ports, coefficients.shape[1])
+            block += np.tensordot(self.coupled[rows], along, axes=(2, 0))
+            yield rows, block
 
     @cached_property
     def directions(self) -> np.ndarray:
@@ -180,21 +393,107 @@ class Projector:
 class Columns:
     """Columns (N, p, K) projected off the fitted directions, as the coordinates ``matrix``
     (M, K) of the projected columns in an orthonormal frame of M arrays (N, p) that holds
-    them, with the ``norms`` (K,) of the columns before projection. This base class is the
-    frame of every reading and port (M = N p): the projected columns themselves."""
+    them and a target (N, p, t), with the ``norms`` (K,) of the columns before projection.
 
-    def __init__(self, projected: np.ndarray, norms: np.ndarray):
-        self.shape = projected.shape[:2]
-        self.matrix = projected.reshape(-1, projected.shape[2])
-        self.norms = norms
+    This base class forms the columns ``f_m(k) D_k`` (``f`` (N, K) functions of the reading,
+    given as an array or as a function of a slice of the readings returning its rows; ``D``
+    (N, n) a per-reading direction, or None: ``f`` on every port separately, p = 1)
+    block by block, projects them (:class:`Projector`: per port, or off every direction
+    with ``D``) and factors each block beside the target by Householder QR, ``[Y_b, R_b] =
+    Q_b S_b`` (TSQR): the frame is the blocks' ``Q_b`` (M = the sum of the ``S_b`` rows),
+    the columns' coordinates ``S[:, :K]`` and the target's ``S[:, K:]``; no array of the
+    N p K numbers is formed.
+    """
+
+    def __init__(self, functions, direction, projector: Projector, target):
+        self.functions = functions if callable(functions) else functions.__getitem__
+        self.direction, self.projector = direction, projector
+        self.shape = target.shape[:2]
+        self._target = target
+        orders, ports = self.functions(slice(0, 0)).shape[1], self.shape[1]
+        basis, coupled = projector.basis, projector.coupled
+        squares = np.zeros(orders)
+        per_port = np.zeros((orders, basis.shape[1], ports))
+        along = np.zeros((coupled.shape[2], orders))
+        for rows in row_blocks(self.shape[0]):
+            columns = self._formed(rows, orders)
+            squares += np.einsum("ij,ij->j", columns, columns)
+            per_port += basis[rows].T @ columns.T.reshape(orders, -1, ports)
+            if direction is not None:
+                along += coupled[rows].reshape(-1, coupled.shape[2]).T @ columns
+        self.norms = np.sqrt(squares)
+        self._per_port = per_port  # B'X (K, c, p)
+        if direction is not None:
+            # coupled'(X - B C) = coupled'X - sum_j (B' coupled_j)' C_j: the coupled part of
+            # the columns left after the per-port projection
+            along -= np.einsum("jaq,kaj->qk", projector.basis_coupled, per_port)
+        self._along = along
+        factors = [_triangle(self._augmented(rows))[0] for rows in row_blocks(self.shape[0])]
+        self._sizes = [factor.shape[0] for factor in factors]
+        stacked = np.vstack(factors)
+        self.matrix, self._coordinates = stacked[:, :orders], stacked[:, orders:]
+
+    def _formed(self, rows: slice, width: int) -> np.ndarray:
+        """(L p, ``width``), Fortran order, its first K columns those of readings ``rows``
+        (row ``k p + j`` reading ``k``, port ``j``)."""
+        functions = self.functions(rows)
+        formed = np.empty((functions.shape[0] * self.shape[1], width), order="F")
+        if self.direction is None:
+            formed[:, : functions.shape[1]] = functions
+            return formed
+        direction = self.direction[rows]
+        for order in range(functions.shape[1]):
+            column = formed[:, order].reshape(direction.shape)
+            np.multiply(direction, functions[:, order, None], out=column)
+        return formed
+
+    def _augmented(self, rows: slice) -> np.ndarray:
+        """``[Y_b, R_b]`` (L p, K + t), Fortran order: the projected columns and the target
+        of readings ``rows``."""
+        basis, coupled = self.projector.basis, self.projector.coupled
+        orders = self._per_port.shape[0]
+        augmented = self._formed(rows, orders + self._target.shape[2])
+        projected = augmented[:, :orders]
+        # (K, L, p) and (K, L p) products: their transposes have the columns' layout
+        projected -= (basis[rows] @ self._per_port).reshape(orders, -1).T
+        if self.direction is not None:
+            projected -= (self._along.T @ coupled[rows].reshape(-1, coupled.shape[2]).T).T
+        augmented[:, orders:] = self._target[rows].reshape(projected.shape[0], -1)
+        return augmented
 
     def coordinates(self, values: np.ndarray) -> np.ndarray:
-        """Coordinates (M, t) of the part in the frame of ``values`` (N, p, t)."""
-        return values.reshape(-1, values.shape[2])
+        """Coordinates (M, t) of ``values`` (N, p, t): the target the columns were factored
+        with (these columns take no other)."""
+        return self._coordinates
 
-    def vectors(self, coordinates: np.ndarray) -> np.ndarray:
-        """The array (N, p) with ``coordinates`` (M,) in the frame."""
-        return coordinates.reshape(self.shape)
+    def amplitude(self, coordinates: np.ndarray, direction: np.ndarray, weight) -> np.ndarray:
+        """``v_k D_k / w_k`` (N,) of the array ``v`` (N, p) with ``coordinates`` (M,) in the
+        frame, for a direction ``D`` (N, p) of squared norms ``w`` (N,); each block's
+        ``Q_b`` from its factorisation again."""
+        amplitude = np.empty(self.shape[0])
+        parts = np.split(coordinates, np.cumsum(self._sizes)[:-1])
+        for rows, part in zip(row_blocks(self.shape[0]), parts, strict=True):
+            vectors = (_triangle(self._augmented(rows), frame=True)[1] @ part).reshape(
+                -1, self.shape[1]
+            )
+            amplitude[rows] = np.einsum("ij,ij->i", vectors, direction[rows]) / weight[rows]
+        return amplitude
+
+
+def _triangle(matrix: np.ndarray, frame: bool = False):
+    """Householder QR of ``matrix`` (m, k), Fortran order, overwritten (LAPACK ``geqrf``):
+    the triangle (min(m, k), k) and, with ``frame``, the orthonormal (m, min(m, k))."""
+    size = min(matrix.shape)
+    factored, tau, _, info = _GEQRF(matrix, lwork=64 * matrix.shape[1], overwrite_a=True)
+    if info != 0:
+        raise linalg.LinAlgError(f"geqrf failed (info {info})")
+    triangle = np.triu(factored[:size])
+    if not frame:
+        return triangle, None
+    orthonormal, _, info = _ORGQR(factored[:, :size], tau[:size], lwork=64 * size, overwrite_a=True)
+    if info != 0:
+        raise linalg.LinAlgError(f"orgqr failed (info {info})")
+    return triangle, orthonormal
 
 
 class CosineColumns(Columns):
@@ -211,24 +510,30 @@ class CosineColumns(Columns):
     relative to the columns' norms.
     """
 
-    def __init__(self, direction: np.ndarray, fitted: np.ndarray, orders: int):
-        self._factor_cosines(direction, orders)
+    def __init__(self, direction, fitted: np.ndarray, orders: int, weight=None):
+        self._factor_cosines(direction, fitted.shape[:2], orders, weight)
         cross = self._inner(fitted)  # X'Z (K, r)
         inside = self._solve(cross)
-        outside = fitted - self._span(inside)
+        outside = self._span(inside)
+        np.subtract(fitted, outside, out=outside)
         step = self._solve(self._inner(outside))
         outside -= self._span(step)
-        self.frame, triangle = linalg.qr(
-            outside.reshape(-1, outside.shape[2]), mode="economic", check_finite=False
-        )
+        triangle, self.frame = _triangle(outside.reshape(-1, outside.shape[2]), frame=True)
         self.matrix = np.vstack([self.factor.T - (inside + step) @ cross.T, -triangle @ cross.T])
 
-    def _factor_cosines(self, direction: np.ndarray, orders: int) -> None:
-        """The direction, and the Cholesky factor ``L`` and norms of the columns' Gram."""
+    def _factor_cosines(self, direction, shape, orders: int, weight=None) -> None:
+        """The direction (N, p; None: 1 on each port alone, p = 1) and its squared norms
+        ``weight`` (N,; None: computed), and the Cholesky factor ``L`` and norms of the
+        columns' Gram."""
         self.direction = direction
-        self.shape = direction.shape
-        weight = np.einsum("ij,ij->i", direction, direction)
-        moments = _cosine_analysis(weight, 2 * orders + 1)
+        self.shape = shape
+        if direction is not None and weight is None:
+            weight = np.einsum("ij,ij->i", direction, direction)
+        if weight is None or np.all(weight == weight[0]):  # the cosines are orthogonal
+            moments = np.zeros(2 * orders + 1)
+            moments[0] = shape[0] * (1.0 if weight is None else weight[0])
+        else:
+            moments = _cosine_analysis(weight, 2 * orders + 1)
         index = np.arange(1, orders + 1)
         gram = 0.5 * (moments[np.abs(index[:, None] - index)] + moments[index[:, None] + index])
         self.factor = linalg.cholesky(gram, lower=True, check_finite=False)
@@ -242,22 +547,37 @@ class CosineColumns(Columns):
 
     def _inner(self, values: np.ndarray) -> np.ndarray:
         """``X' v`` for ``values`` (N, p, t): (K, t)."""
-        rows = np.matmul(self.direction[:, None, :], values)[:, 0]
+        if self.direction is None:
+            rows = values[:, 0, :]
+        else:  # each column's readings contiguous (the transform runs down the readings)
+            rows = np.einsum("kp,kpt->tk", self.direction, values).T
         return _cosine_analysis(rows, self.factor.shape[0] + 1)[1:]
 
     def _span(self, coefficients: np.ndarray) -> np.ndarray:
-        """``U c`` for ``coefficients`` (K, t): (N, p, t)."""
+        """``U c`` for ``coefficients`` (K, t): (N, p, t), the readings and ports of each
+        column contiguous (Fortran order in (N p, t))."""
         rows = _cosine_synthesis(self._solve(coefficients, transposed=True), self.shape[0])
-        return self.direction[:, :, None] * rows[:, None, :]
+        if self.direction is None:
+            return rows[:, None, :]
+        vectors = np.empty((coefficients.shape[1],) + self.shape).transpose(1, 2, 0)
+        return np.multiply(self.direction[:, :, None], rows[:, None, :], out=vectors)
 
     def coordinates(self, values: np.ndarray) -> np.ndarray:
         inside = self._solve(self._inner(values))
-        return np.vstack([inside, self.frame.T @ values.reshape(-1, values.shape[2])])
+        return np.vstack([inside, inner_products(self.frame, values.reshape(-1, values.shape[2]))])
 
-    def vectors(self, coordinates: np.ndarray) -> np.ndarray:
+    def _along(self, coefficients: np.ndarray) -> np.ndarray:
+        """``(U c)_k D_k / w_k`` (N,) for ``coefficients`` (K,): the cosine sum itself."""
+        return _cosine_synthesis(
+            self._solve(coefficients[:, None], transposed=True), self.shape[0]
+        )[:, 0]
+
+    def amplitude(self, coordinates: np.ndarray, direction: np.ndarray, weight) -> np.ndarray:
         orders = self.factor.shape[0]
-        outside = self.frame @ coordinates[orders:]
-        return self._span(coordinates[:orders, None])[:, :, 0] + outside.reshape(self.shape)
+        outside = (self.frame @ coordinates[orders:]).reshape(self.shape)
+        return (
+            self._along(coordinates[:orders]) + np.einsum("ij,ij->i", outside, direction) / weight
+        )
 
 
 class ProjectedCosineColumns(CosineColumns):
@@ -279,17 +599,16 @@ class ProjectedCosineColumns(CosineColumns):
     n r^2)`` and ``O(N n r)`` of forming ``Z``.
     """
 
-    def __init__(self, direction: np.ndarray, projector: Projector, orders: int):
-        self._factor_cosines(direction, orders)
+    def __init__(self, direction: np.ndarray, projector: Projector, orders: int, weight=None):
+        self._factor_cosines(direction, direction.shape, orders, weight)
         self.projector = projector
-        ports = direction.shape[1]
-        cross = np.hstack(  # X'Z (K, r), port by port: the basis on that port alone
-            [
-                _cosine_analysis(direction[:, port, None] * projector.basis, orders + 1)[1:]
-                for port in range(ports)
-            ]
-            + [self._inner(projector.coupled)]
-        )
+        # X'Z (K, r), port by port: the basis on that port alone (its columns contiguous)
+        products = np.empty((projector.basis.shape[1], direction.shape[0]))
+        cross = []
+        for port in range(direction.shape[1]):
+            np.multiply(projector.basis.T, direction[:, port], out=products)
+            cross.append(_cosine_analysis(products.T, orders + 1)[1:])
+        cross = np.hstack(cross + [self._inner(projector.coupled)])
         self.inside = self._solve(cross)  # T
         squares, rotation = linalg.eigh(np.eye(cross.shape[1]) - self.inside.T @ self.inside)
         accurate = squares >= MIN_OUTSIDE_GRAM
@@ -322,9 +641,10 @@ class ProjectedCosineColumns(CosineColumns):
         values = values - self._span(self._solve(self._inner(values)))
         return values - self._outside_vectors(self._outside_coordinates(values))
 
-    def _outside_coordinates(self, values: np.ndarray) -> np.ndarray:
-        """``V' v`` (s, t) of ``values`` (N, n, t)."""
-        inside = self._solve(self._inner(values))
+    def _outside_coordinates(self, values: np.ndarray, inside=None) -> np.ndarray:
+        """``V' v`` (s, t) of ``values`` (N, n, t) (with their ``U' v``, ``inside``)."""
+        if inside is None:
+            inside = self._solve(self._inner(values))
         along = self.rotation.T @ (self.projector.inner(values) - self.inside.T @ inside)
         return along / self.outside_norms[:, None]
 
@@ -334,21 +654,25 @@ class ProjectedCosineColumns(CosineColumns):
         return self.projector.span(along) - self._span(self.inside @ along)
 
     def coordinates(self, values: np.ndarray) -> np.ndarray:
+        inside = self._solve(self._inner(values))
         return np.vstack(
             [
-                self._solve(self._inner(values)),
-                self._outside_coordinates(values),
+                inside,
+                self._outside_coordinates(values, inside),
                 self.frame.T @ values.reshape(-1, values.shape[2]),
             ]
         )
 
-    def vectors(self, coordinates: np.ndarray) -> np.ndarray:
+    def amplitude(self, coordinates: np.ndarray, direction: np.ndarray, weight) -> np.ndarray:
         orders, outside = self.factor.shape[0], self.outside_norms.size
-        split = np.split(coordinates[:, None], [orders, orders + outside])
-        along = self._outside_vectors(split[1])
-        inside = self._span(split[0])
-        formed = (self.frame @ split[2]).reshape(self.shape + (1,))
-        return (inside + along + formed)[:, :, 0]
+        inside, along, formed = np.split(coordinates, [orders, orders + outside])
+        along = self.rotation @ (along / self.outside_norms)
+        amplitude = self._along(inside - self.inside @ along)
+        amplitude += self.projector.span_along(along, direction) / weight
+        if formed.size:
+            formed = (self.frame @ formed).reshape(self.shape)
+            amplitude += np.einsum("ij,ij->i", formed, direction) / weight
+        return amplitude
 
 
 def projected_components(
@@ -395,9 +719,11 @@ class ResidualTest:
 class ResidualTests:
     """The score tests of the module docstring on one whitened residual (N, n)."""
 
-    def __init__(self, residual, projector, residual_dof: float, rank_tolerance=RANK_TOLERANCE):
+    def __init__(
+        self, residual, projector, residual_dof: float, rank_tolerance=RANK_TOLERANCE, out=None
+    ):
         self.rank_tolerance = rank_tolerance
-        self.residual = projector(residual)
+        self.residual = projector(residual, out)  # into ``out`` (may be ``residual``)
         self.projector = projector
         self.ports = residual.shape[1]
         self.total_dof = residual_dof * self.ports
@@ -413,39 +739,42 @@ class ResidualTests:
         ratio = (statistic / dof) / np.maximum(self.energy - statistic, 1e-300) * remaining
         return np.where(valid, special.fdtrc(dof, remaining, ratio), 1.0)  # F(dof, remaining)
 
-    def columns(self, basis: np.ndarray, direction: np.ndarray | None = None) -> Columns:
-        """Columns ``basis_m(k)`` (N, K) on every port separately (``direction`` None) or
-        times a per-reading image direction (N, n), projected off what the fit absorbs."""
-        columns = (
-            basis[:, None, :] if direction is None else basis[:, None, :] * direction[..., None]
-        )
-        projected = (
-            self.projector.per_port(columns) if direction is None else self.projector(columns)
-        )
-        return Columns(projected, np.sqrt(np.einsum("ijk,ijk->k", columns, columns)))
+    def columns(self, basis, direction: np.ndarray | None = None) -> Columns:
+        """Columns ``basis_m(k)`` (N, K; or a function giving the rows of a slice of the
+        readings) on every port separately (``direction`` None) or times a per-reading image
+        direction (N, n), projected off what the fit absorbs."""
+        target = self.residual[:, None, :] if direction is None else self.residual[..., None]
+        return Columns(basis, direction, self.projector, target)
 
-    def cosines(self, orders: int, direction: np.ndarray | None = None) -> Columns:
+    def cosines(self, orders: int, direction: np.ndarray | None = None, weight=None) -> Columns:
         """:meth:`columns` of the first ``orders`` discrete cosines of the row: through DCTs
         (:class:`CosineColumns`), or formed for a sweep of fewer than ``MIN_DCT_READINGS``
-        readings (faster there) or a ``direction`` too uneven (``MIN_GRAM_WEIGHT``)."""
+        readings (faster there) or a ``direction`` too uneven (``MIN_GRAM_WEIGHT``);
+        ``weight`` the direction's squared norm per reading, when known."""
         samples = self.residual.shape[0]
-        unit = np.ones((samples, 1)) if direction is None else direction
-        weight = np.einsum("ij,ij->i", unit, unit)
-        if samples < MIN_DCT_READINGS or weight.min() < MIN_GRAM_WEIGHT * weight.max():
+        if direction is not None and weight is None:
+            weight = np.einsum("ij,ij->i", direction, direction)
+        uneven = weight is not None and weight.min() < MIN_GRAM_WEIGHT * weight.max()
+        if samples < MIN_DCT_READINGS or uneven:
             return self.columns(_cosines(samples, orders), direction)
         if direction is None:
-            return CosineColumns(unit, self.projector.basis[:, None], orders)
-        if unit.size * self.projector.size > MAX_FORMED_DIRECTIONS:
-            return ProjectedCosineColumns(unit, self.projector, orders)
-        return CosineColumns(unit, self.projector.directions, orders)
+            return CosineColumns(None, self.projector.basis[:, None], orders)
+        if direction.size * self.projector.size > MAX_FORMED_DIRECTIONS:
+            return ProjectedCosineColumns(direction, self.projector, orders, weight)
+        return CosineColumns(direction, self.projector.directions, orders, weight)
 
     def coupled(
-        self, columns: Columns, direction: np.ndarray, orders
+        self, columns: Columns, direction: np.ndarray, orders, weight=None
     ) -> tuple[ResidualTest, np.ndarray]:
         """Columns ``basis_m(k) direction_k`` (:meth:`columns` with a direction), nested at
         ``orders``; also, per reading, the amplitude along ``direction`` of the residual these
         columns explain at the best order (what the fit did not absorb of the drift, in the
-        unit of the direction's coefficient)."""
+        unit of the direction's coefficient; ``weight`` its squared norm, when known)."""
+        best, amplitude = self.coupled_test(columns, direction, orders, weight)
+        return best, amplitude()
+
+    def coupled_test(self, columns: Columns, direction: np.ndarray, orders, weight=None):
+        """:meth:`coupled` with the amplitude as a function, evaluated when called."""
         target = columns.coordinates(self.residual[..., None])
         kept, frame, components = projected_components(
             columns.matrix, columns.norms, target, self.rank_tolerance
@@ -453,10 +782,13 @@ class ResidualTests:
         best = self._best(components[:, 0] ** 2, kept, orders)
         # the projection on the kept columns of the best order
         used = np.count_nonzero(kept[: best.orders])
-        explained = columns.vectors(frame[:, :used] @ components[kept][:used, 0])
-        return best, np.einsum("ij,ij->i", explained, direction) / np.einsum(
-            "ij,ij->i", direction, direction
-        )
+
+        def amplitude() -> np.ndarray:
+            squares = np.einsum("ij,ij->i", direction, direction) if weight is None else weight
+            coordinates = frame[:, :used] @ components[kept][:used, 0]
+            return columns.amplitude(coordinates, direction, squares)
+
+        return best, amplitude
 
     def per_port(self, columns: Columns, orders) -> tuple[ResidualTest, np.ndarray]:
         """Columns ``basis_m(k)`` (:meth:`columns` without a direction) on every port

@@ -34,10 +34,18 @@ def cone_vectors(phase_rad, power=1.0) -> np.ndarray:
     Returns
     -------
     ndarray, shape (N, 3)
+        (the shapes of ``phase_rad`` and ``power`` broadcast, then 3)
     """
     t = np.asarray(phase_rad, dtype=float)
     scale = np.asarray(power, dtype=float)
-    return np.stack([np.cos(t), np.sin(t), np.full_like(t, SQRT2)], axis=-1) * scale[..., None]
+    # written in place, column by column: one pass per column and no stacked copies
+    vectors = np.empty(np.broadcast_shapes(t.shape, scale.shape) + (3,))
+    np.cos(t, out=vectors[..., 0])
+    np.sin(t, out=vectors[..., 1])
+    vectors[..., 2] = SQRT2
+    if scale.ndim or scale != 1.0:
+        vectors *= scale[..., None]
+    return vectors
 
 
 def delay_phase_rad(frequency_hz, center_hz: float, delay_s: float) -> np.ndarray:
