@@ -22,7 +22,7 @@
 - **fleet**: 1000 devices x 2000 samples, serial vs a LocalCluster of 2 workers
   (``benchmarks/_fleet_bench.py``), identical results.
 
-Times are medians of ``--runs`` runs (one run at 1e7 and above); the machine is shared, so
+Times are medians of ``--runs`` runs (one fit at 1e7 samples); the machine is shared, so
 read the ratios. BLAS runs on one thread (``OPENBLAS_NUM_THREADS=1``, as the command line
 sets it): the products here are skinny, and threads only contend.
 
@@ -218,7 +218,7 @@ def repeat_call(func, argument, times: int) -> None:
 
 def predict_row(samples: int, readings: np.ndarray, cals: dict, runs: int) -> list[str]:
     """One size: np.arctan2 alone, then each retrieval and path over it."""
-    repeats = 1 if samples >= ONCE_FROM else runs
+    repeats = runs  # a single first call at 1e7 pays for touching new memory
     count = min(samples, PREDICT_CHUNK)
     chunks = samples // count
     part = readings[:count]

@@ -75,10 +75,11 @@ NO_NUMBA_VARIABLE = "WAVEMETER_NO_NUMBA"
 NUMBA_MIN_READINGS = {"pinv": 10_000, "ml": 1_000}
 #: readings per block of the numba kernel: its quadratures (3 x 32 kB) stay in the cache
 BLOCK_ROWS = 4096
-#: readings from which the numba kernel runs on every core: waking the other threads costs
-#: tens of microseconds on an idle machine and a scheduler time slice (several ms) when
-#: another process holds a core, which only a large batch amortises
-PARALLEL_MIN_READINGS = {"pinv": 1 << 20, "ml": 1 << 18}
+#: readings from which the numba kernel runs on every core (fewer: on this thread). Waking
+#: the other threads costs tens of microseconds on an idle machine (measured crossover: pinv
+#: about 5e4 readings, ml a few thousand); when another process holds a core, each parallel
+#: call waits for its thread to be scheduled (4-8 ms measured): set NUMBA_NUM_THREADS=1 then
+PARALLEL_MIN_READINGS = {"pinv": 1 << 16, "ml": 1 << 12}
 #: readings per product of the numpy path: its rows (3 x 512 kB) stay in the cache
 NUMPY_CHUNK_ROWS = 1 << 16
 #: ``backend`` values: None picks numba for large batches when it is there
@@ -159,13 +160,16 @@ def _build_kernel(ports: int, ml: bool, parallel: bool):
     """
     numba = _numba_module()
     block_rows = BLOCK_ROWS
+    # a free variable of the kernel, so that numba's cache (keyed by the kernel's code and
+    # the values of its free variables, not by the decorator's options) keeps both kinds
+    blocks_of = numba.prange if parallel else range
 
     @numba.njit(parallel=parallel, fastmath=False, error_model="numpy", cache=True)
     def kernel(readings, offset_w, frame_map, to_objects, kappa, origin, scale, out):
         rows = readings.shape[0]
         flat = readings.reshape(rows * ports)  # constant stride: a vectorised product
         refused = 0
-        for block in numba.prange((rows + block_rows - 1) // block_rows):
+        for block in blocks_of((rows + block_rows - 1) // block_rows):
             start = block * block_rows
             size = min(block_rows, rows - start)
             real = np.empty(size)
