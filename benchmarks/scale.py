@@ -178,7 +178,7 @@ FIT_HEADERS = (
     "delay rel. diff",
     "map rel. diff",
     "chunked fit peak RSS (MiB)",
-    "time target",
+    "moment fit time target",
     "same delay (1e-10) and map (1e-9)",
 )
 
