@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import io
 import re
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -308,3 +310,13 @@ def test_an_aliasing_design_fsr_is_refused_fast_with_the_sweeps_own(files, tmp_p
     suggested = float(re.search(r"set fsr_hz to about (\S+) Hz", err).group(1))
     true_fsr_hz = wm.Interferometer.table1(3, seed=1).true_fsr_hz  # the sweep's device
     assert suggested == pytest.approx(true_fsr_hz, rel=1e-3)
+
+
+def test_python_dash_m_wavemeter_is_the_command_with_its_exit_code(tmp_path):
+    missing = tmp_path / "missing.wmcal.json"
+    done = subprocess.run(
+        [sys.executable, "-m", "wavemeter", "info", str(missing)], capture_output=True, text=True
+    )
+    assert done.returncode == 2
+    assert done.stderr.startswith("error: ") and str(missing) in done.stderr
+    assert "Traceback" not in done.stderr
