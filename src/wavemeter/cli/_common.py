@@ -21,6 +21,7 @@ from ._params import FREQUENCY, FSR, AliasedOption, FrequencyParam
 from ._streams import STDIN_LABEL, is_stdio
 
 __all__ = [
+    "one_line",
     "error_text",
     "FREQUENCY",
     "FSR",
@@ -67,6 +68,12 @@ def printable(text) -> str:
         char if char in "\n\t" or unicodedata.category(char) not in _UNPRINTED_CATEGORIES else "?"
         for char in str(text)
     )
+
+
+def one_line(prefix: str, text) -> str:
+    """``prefix`` and ``text`` on one line, without control characters: how every
+    ``error:`` and ``warning:`` line is printed."""
+    return prefix + " ".join(printable(text).split())
 
 
 def names(text: str | None) -> tuple[str, ...] | None:

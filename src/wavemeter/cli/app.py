@@ -168,10 +168,11 @@ def _option_hint(exc: Exception, message: str, command_name: str | None) -> str:
 
 
 def _one_line(prefix: str, text: str) -> str:
-    """``prefix`` and ``text`` on one line, without control characters."""
-    from ._common import printable
+    """``prefix`` and ``text`` on one line, without control characters (imported when
+    first printed: ``--help`` loads no numpy)."""
+    from ._common import one_line
 
-    return prefix + " ".join(printable(text).split())
+    return one_line(prefix, text)
 
 
 def _error_line(text: str) -> str:

@@ -24,7 +24,7 @@ import click
 from ..exceptions import InputError
 from ..fleet import calibrate_fleet
 from ..progress import progress_bar
-from ._common import FSR, QUIET, column_options, column_request, printable, say, setting
+from ._common import FSR, QUIET, column_options, column_request, one_line, printable, say, setting
 from ._data_files import data_files, names_many_files
 
 #: the methods a fleet calibrates with (one design FSR, nothing but the sweep file)
@@ -176,7 +176,7 @@ def calibrate(
     )
     if result.calibrated == 0:
         raise InputError(f"no device calibrated: {text}")
-    click.echo("warning: " + " ".join(printable(text).split()), err=True)
+    click.echo(one_line("warning: ", text), err=True)
 
 
 command = fleet

@@ -45,6 +45,7 @@ from ._common import (
     error_text,
     names,
     note,
+    one_line,
     output_format,
     printable,
     say,
@@ -259,7 +260,7 @@ def _measure_many(cal_path, data, out_dir, file_format, force, settings) -> None
                 )
             except (WavemeterError, OSError) as exc:  # one error line, as main() prints it
                 failed += 1
-                click.echo("error: " + " ".join(printable(error_text(exc)).split()), err=True)
+                click.echo(one_line("error: ", error_text(exc)), err=True)
             else:
                 say(quiet, f"wrote {output} ({summary.rows} rows)")
                 say(quiet, flag_summary(summary.flag_counts, summary.flagged, summary.rows))

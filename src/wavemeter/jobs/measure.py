@@ -27,12 +27,13 @@ import numpy as np
 from ..calibration.flags import ReadingFlag
 from ..exceptions import CalibrationWarning, InputError, WavemeterError
 from ..io import ColumnRequest, ReadingStream, iter_readings, table_writer
+from ..io.streaming import CHUNK_ROWS
 from ..units import SPEED_OF_LIGHT_M_S, frequency_text
 
 __all__ = ["measure_file", "MeasureSummary", "MEASURE_CHUNK_ROWS", "READING_NOISE_CAUSE"]
 
-#: rows measured per chunk by default (a few MB of readings and results)
-MEASURE_CHUNK_ROWS = 1 << 16
+#: rows measured per chunk by default (a few MB of readings and results): those read at a time
+MEASURE_CHUNK_ROWS = CHUNK_ROWS
 #: cause of the warning that a cascade's readings are noisier than its calibration sweep
 READING_NOISE_CAUSE = "reading_noise"
 
