@@ -67,6 +67,7 @@ from _montecarlo import (
     progress,
     rms,
     status,
+    wideband_crlb_hz,
 )
 from _script import Parser, check_writable, positive_int, save_png
 
@@ -193,32 +194,6 @@ def set_parameters(calibration_set) -> int:
 
 
 # ---------------------------------------------------------------------- the truth
-def crlb_hz(device: wm.Interferometer, frequency_hz) -> np.ndarray:
-    """Per-reading Cramer-Rao bound (Hz) of the true device at the true frequencies.
-
-    The phase bound under the device's map at each frequency, over ``dt/df = 2 pi`` times
-    the group delay there.
-
-    Parameters
-    ----------
-    device : wavemeter.Interferometer
-    frequency_hz : ndarray, shape (N,)
-        Source frequencies (Hz).
-
-    Returns
-    -------
-    ndarray, shape (N,), Hz
-    """
-    phase_bound_rad = wm.crlb_frequency_std(
-        device.true_map(frequency_hz=frequency_hz),
-        device.phase_rad(frequency_hz),
-        POWER_W,
-        NOISE_W,
-        2.0 * np.pi,
-    )
-    return phase_bound_rad / (2.0 * np.pi * device.group_delay_s(frequency_hz))
-
-
 # ---------------------------------------------------------------------- one device
 @dataclass(frozen=True)
 class Readings:
@@ -239,7 +214,9 @@ class Readings:
 
 def draw_readings(device, rng, frequency_hz) -> Readings:
     powers_w = device.powers(frequency_hz, POWER_W, NOISE_W, rng)
-    return Readings(powers_w, frequency_hz, crlb_hz(device, frequency_hz))
+    return Readings(
+        powers_w, frequency_hz, wideband_crlb_hz(device, frequency_hz, POWER_W, NOISE_W)
+    )
 
 
 def held_out_frequencies_hz(band: Band, rng, count: int) -> np.ndarray:

@@ -132,7 +132,9 @@ def test_the_bound_without_spectral_change_is_the_bound_of_one_map(wideband):
     frequency = device.center_hz + np.linspace(-2e12, 2e12, 101)
     phase = 2.0 * np.pi * (frequency - device.center_hz) * device.delay_s
     one_map = wm.crlb_frequency_std(device.true_map(), phase, POWER_W, NOISE_W, device.true_fsr_hz)
-    np.testing.assert_allclose(wideband.crlb_hz(device, frequency), one_map, rtol=1e-9)
+    np.testing.assert_allclose(
+        wideband.wideband_crlb_hz(device, frequency, POWER_W, NOISE_W), one_map, rtol=1e-9
+    )
 
 
 def test_the_bound_follows_the_local_fsr(wideband):
@@ -144,7 +146,7 @@ def test_the_bound_follows_the_local_fsr(wideband):
     phase = dispersive.phase_rad(frequency)
     phase_bound = wm.crlb_frequency_std(flat.true_map(), phase, POWER_W, NOISE_W, 2.0 * np.pi)
     np.testing.assert_allclose(
-        wideband.crlb_hz(dispersive, frequency),
+        wideband.wideband_crlb_hz(dispersive, frequency, POWER_W, NOISE_W),
         phase_bound * dispersive.local_fsr_hz(frequency) / (2.0 * np.pi),
         rtol=1e-9,
     )
