@@ -3,7 +3,8 @@
 Frequency axes come in ``Hz kHz MHz GHz THz`` or as vacuum wavelength in ``nm um m``
 (``f = c / lambda`` with ``c = 299792458 m/s`` exactly). Port powers come in
 ``W mW uW nW dBm`` or ``V`` (a detector voltage: linear in power, relative scale).
-Temperatures come in ``K`` or ``C``. Inside the package everything is SI (Hz, W, K).
+Temperatures come in ``K`` or ``C``, times and durations in ``s ms us ns``. Inside the
+package everything is SI (Hz, W, K, s).
 Unit names are matched without regard to case (no two allowed units differ only in case)
 and ``u`` and ``µ`` both mean micro.
 """
@@ -23,6 +24,7 @@ __all__ = [
     "WAVELENGTH_UNITS",
     "POWER_UNITS",
     "TEMPERATURE_UNITS",
+    "TIME_UNITS",
     "OPTICAL_BAND_HZ",
     "canonical_unit",
     "axis_to_hz",
@@ -35,6 +37,8 @@ __all__ = [
     "parse_frequency_hz",
     "parse_optical_frequency_hz",
     "parse_power_w",
+    "parse_time_s",
+    "seconds_per_unit",
 ]
 
 SPEED_OF_LIGHT_M_S = 299_792_458.0
@@ -47,6 +51,8 @@ WAVELENGTH_UNITS = {"nm": -9, "um": -6, "m": 0}
 POWER_UNITS = {"W": 0, "mW": -3, "uW": -6, "nW": -9, "dBm": None, "V": 0}
 #: unit -> offset (K) added to a value in that unit
 TEMPERATURE_UNITS = {"K": 0.0, "C": 273.15}
+#: unit -> decimal exponent of its size in s
+TIME_UNITS = {"s": 0, "ms": -3, "us": -6, "ns": -9}
 #: plausible optical frequencies (Hz): 100-1000 THz, i.e. about 300-3000 nm
 OPTICAL_BAND_HZ = (100e12, 1000e12)
 
@@ -56,8 +62,12 @@ _KINDS = {
     "axis": {**FREQUENCY_UNITS, **WAVELENGTH_UNITS},
     "power": POWER_UNITS,
     "temperature": TEMPERATURE_UNITS,
+    "time": TIME_UNITS,
 }
-_ALIASES = {"µm": "um", "μm": "um", "µw": "uW", "μw": "uW", "°c": "C", "degc": "C", "deg c": "C"}
+_ALIASES = {
+    **{"µm": "um", "μm": "um", "µw": "uW", "μw": "uW", "µs": "us", "μs": "us", "sec": "s"},
+    **{"°c": "C", "degc": "C", "deg c": "C"},
+}
 _LOOKUP = {
     **{name.lower(): name for units in _KINDS.values() for name in units},
     **{alias: name for alias, name in _ALIASES.items()},
@@ -227,6 +237,7 @@ _EXAMPLES = {
     "frequency": "50GHz, 49.69 GHz, 5e10",
     "axis": "193.4THz, 1550nm, 1.934e14",
     "power": "1mW, 5e-7 W, -30dBm",
+    "time": "1ms, 2.5 s, 10us",
 }
 
 
@@ -237,7 +248,7 @@ def parse_quantity(text, kind: str, name: str = "value") -> tuple[float, str | N
     ----------
     text : str
         A number with an optional unit, with or without a space between them.
-    kind : {"frequency", "axis", "power"}
+    kind : {"frequency", "axis", "power", "time"}
         What the unit must measure (``"axis"``: frequency or vacuum wavelength).
     name : str
         What the value is (``"--fsr"``, ``"fsr_hz"``), named in the error.
@@ -312,6 +323,25 @@ def parse_power_w(text, name: str = "power") -> float:
     if unit == "dBm":
         return float(power_to_w(number, "dBm"))
     return float(_scaled(np.float64(number), POWER_UNITS[unit] if unit else 0))
+
+
+def seconds_per_unit(unit: str) -> float | None:
+    """Seconds per time ``unit`` (``s ms us ns``, ``µs``, ``sec``; any case); None when
+    ``unit`` is not a time unit."""
+    name = _LOOKUP.get(unit.strip().lower())
+    return float(_scaled(np.float64(1.0), TIME_UNITS[name])) if name in TIME_UNITS else None
+
+
+def parse_time_s(text, name: str = "time") -> float:
+    """A time or duration (s) from text such as ``1ms``, ``2.5 s`` or ``1e-3`` (s).
+
+    Raises
+    ------
+    InputError
+        When the text is not a number with an optional time unit.
+    """
+    number, unit = parse_quantity(text, "time", name)
+    return float(_scaled(np.float64(number), TIME_UNITS[unit] if unit else 0))
 
 
 #: SI prefixes of frequencies, largest first

@@ -46,6 +46,21 @@ def check_positive(name: str, value, *, upper: float | None = None) -> float:
     return value
 
 
+def check_finite(name: str, value) -> float:
+    """A finite real number, or an :class:`InputError` naming the parameter."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value):
+        raise InputError(f"{name} must be a finite real number, got {value!r}", parameter=name)
+    return float(value)
+
+
+def check_non_negative(name: str, value) -> float:
+    """A finite real number >= 0 (a noise level), or an :class:`InputError` naming it."""
+    value = check_finite(name, value)
+    if value < 0:
+        raise InputError(f"{name} must be >= 0, got {value!r}", parameter=name)
+    return value
+
+
 def check_choice(name: str, value, allowed: tuple) -> str:
     """One of ``allowed``, or an error naming the parameter, the choices and the value."""
     if value not in allowed:

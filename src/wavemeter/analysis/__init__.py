@@ -1,7 +1,10 @@
-"""Figures of merit and evaluations of calibrations on readings of known frequency."""
+"""Figures of merit and evaluations of calibrations on readings of known frequency, and
+frequency-noise metrology of a laser from a meter's readings."""
 
 from .evaluation import adjacent_evaluation, crlb_per_reading_hz, evaluate_calibrations
 from .metrics import error_summary_hz, frequency_error_hz
+from .noise import FrequencyNoise, beta_separation_line_hz2_per_hz, frequency_noise
+from .power_law import power_law_deviations, power_law_psd_hz2_per_hz
 
 __all__ = [
     "adjacent_evaluation",
@@ -9,4 +12,9 @@ __all__ = [
     "error_summary_hz",
     "evaluate_calibrations",
     "frequency_error_hz",
+    "FrequencyNoise",
+    "frequency_noise",
+    "beta_separation_line_hz2_per_hz",
+    "power_law_deviations",
+    "power_law_psd_hz2_per_hz",
 ]

@@ -24,6 +24,7 @@ from ..units import (
     parse_optical_frequency_hz,
     parse_power_w,
     parse_quantity,
+    parse_time_s,
     temperature_to_k,
 )
 
@@ -258,6 +259,23 @@ class TemperatureParam(click.ParamType):
         return temperature_k
 
 
+class DurationParam(click.ParamType):
+    """A duration: ``1ms``, ``2.5 s``, ``10us``; a bare number is in s. Converts to s (> 0)."""
+
+    name = "TIME"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float):
+            return value
+        try:
+            seconds = parse_time_s(value, str(value).strip())
+        except InputError as exc:
+            self.fail(str(exc), param, ctx)
+        if not seconds > 0:
+            self.fail(f"{value}: must be a finite time > 0", param, ctx)
+        return seconds
+
+
 class OrderParam(click.ParamType):
     """An order of the wide-band model: an integer from ``lowest`` to the calibration's
     highest (looked up when a value is given, so that ``--help`` imports no numerics).
@@ -420,6 +438,8 @@ OFFSETS = PowerListParam(signed=True)
 NOISE_POWERS = PowerListParam(signed=False)
 #: a chip temperature (K) given as K or C; a bare number is in K
 TEMPERATURE = TemperatureParam()
+#: a duration (s), > 0
+DURATION = DurationParam()
 #: phase order P of a wide-band calibration, 1 (linear phase) to the highest searched
 PHASE_ORDER = OrderParam(1, "MAX_PHASE_ORDER")
 #: map order J of a wide-band calibration, 0 (one map) to the highest searched

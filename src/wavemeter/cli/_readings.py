@@ -1,25 +1,36 @@
-"""What ``measure`` and ``stream`` check before any reading: the calibration, and that the
-options give what it needs (a coarse frequency, a temperature) and nothing it refuses; and
-the line that sums up the flags of the readings measured."""
+"""What ``measure``, ``stream`` and ``noise`` check before any reading: the calibration, and
+that the options give what it needs (a coarse frequency, a temperature) and nothing it
+refuses; and the line that sums up the flags of the readings measured."""
 
 from __future__ import annotations
 
 import click
 
 from ..exceptions import InputError
-from ._common import load
+from ._common import check_ports, load
 from ._params import OPTICAL_FREQUENCY, AliasedOption
-from ._temperature import check_temperature_options, needs_temperature, temperature_k_option
+from ._temperature import (
+    check_temperature_options,
+    missing_temperature,
+    needs_temperature,
+    temperature_k_option,
+)
 
 __all__ = [
     "COARSE_OPTIONS",
+    "FILE_TEMPERATURE_REMEDY",
     "check_coarse",
+    "check_source",
     "refuse_coarse",
     "checked_calibration",
     "flag_summary",
     "reading_input_options",
 ]
 
+#: how to give the chip temperature of a file's readings, as the messages say it
+FILE_TEMPERATURE_REMEDY = (
+    "pass --temperature COL, or --temperature-k T for one temperature for the file"
+)
 #: how to give the coarse frequencies, as the messages say it
 COARSE_OPTIONS = "pass --coarse COL or --coarse-frequency VALUE"
 
@@ -46,6 +57,21 @@ def check_coarse(calibration, cal_path, stream, coarse_hz) -> None:
         "frequency per reading, within half an FSR of the truth (e.g. the laser set point), "
         f"to pick the fringe order; {COARSE_OPTIONS}"
     )
+
+
+def check_source(calibration, cal_path, source, coarse_hz, temperature_k, *, ports_given, remedy):
+    """What the readings ``source`` (a stream or a header) offers fits the calibration: its
+    ports, a temperature when it needs one (``remedy``: how to give it, for the message), a
+    coarse frequency when it needs one."""
+    check_ports(calibration, cal_path, source, explicit=ports_given)
+    if needs_temperature(calibration) and temperature_k is None:
+        if source.temperature_column is None:
+            raise missing_temperature(
+                f"{cal_path} is a {calibration.method_label} calibration: it",
+                source.source,
+                remedy,
+            )
+    check_coarse(calibration, cal_path, source, coarse_hz)
 
 
 def refuse_coarse(calibration, cal_path, coarse_column, coarse_hz) -> None:

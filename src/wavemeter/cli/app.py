@@ -48,6 +48,7 @@ COMMANDS = {
     "info": "Print a summary of a calibration file.",
     "design": "Choose the fewest cascade stages that read a band at a wrong-order rate.",
     "fleet": "Calibrate many devices (a wafer) in parallel on dask: summary and wafer map.",
+    "noise": "Frequency noise, linewidth and Allan deviation of a laser from its readings.",
 }
 
 
@@ -133,6 +134,11 @@ _OPTION_IN_COMMAND = {
         "wrong_order_rate": "--rate",
         "stages": "--stages",
         "noise_factor": "--noise-factor",
+    },
+    "noise": {
+        "rate_hz": "--rate",
+        "time_column": "--time-column",
+        "observation_time_s": "--observation-time",
     },
 }
 

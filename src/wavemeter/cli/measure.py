@@ -39,7 +39,6 @@ from ._common import (
     FORCE,
     FORMAT,
     QUIET,
-    check_ports,
     column_options,
     column_request,
     error_text,
@@ -51,10 +50,15 @@ from ._common import (
     say,
 )
 from ._data_files import data_files, names_many_files
-from ._readings import check_coarse, checked_calibration, flag_summary, reading_input_options
+from ._readings import (
+    FILE_TEMPERATURE_REMEDY,
+    check_source,
+    checked_calibration,
+    flag_summary,
+    reading_input_options,
+)
 from ._streams import STDIN_LABEL, is_stdio
 from ._temperature import (
-    missing_temperature,
     needs_temperature,
 )
 
@@ -175,14 +179,15 @@ def _measure_one(calibration, cal_path, data, out_path, file_format, settings, *
         find_temperature=thermal and given_k is None,
         name=label,
     )
-    check_ports(calibration, cal_path, stream, explicit=request.ports is not None)
-    if thermal and given_k is None and stream.temperature_column is None:
-        raise missing_temperature(
-            f"{cal_path} is a {calibration.method_label} calibration: it",
-            stream.source,
-            "pass --temperature COL, or --temperature-k T for one temperature for the file",
-        )
-    check_coarse(calibration, cal_path, stream, settings["coarse_hz"])
+    check_source(
+        calibration,
+        cal_path,
+        stream,
+        settings["coarse_hz"],
+        given_k,
+        ports_given=request.ports is not None,
+        remedy=FILE_TEMPERATURE_REMEDY,
+    )
 
     def progress(description, total, unit):
         return progress_bar(printable(description), total, quiet=quiet or not bar, unit=unit)

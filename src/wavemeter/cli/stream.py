@@ -19,10 +19,14 @@ import sys
 import click
 
 from ..jobs import follow_lines, stream_lines
-from ._common import QUIET, check_ports, column_options, column_request, say
-from ._readings import check_coarse, checked_calibration, flag_summary, reading_input_options
+from ._common import QUIET, column_options, column_request, say
+from ._readings import (
+    check_source,
+    checked_calibration,
+    flag_summary,
+    reading_input_options,
+)
 from ._streams import STDIN_LABEL
-from ._temperature import missing_temperature, needs_temperature
 
 #: exit code of a stream ended by Ctrl-C (128 + SIGINT), as a shell reports it
 EXIT_INTERRUPTED = 130
@@ -81,15 +85,15 @@ def stream(calibration_file, follow_path, coarse_column, coarse_hz, temperature_
         lines = follow_lines(follow_path)
 
     def check(header) -> None:
-        check_ports(calibration, calibration_file, header, explicit=request.ports is not None)
-        if needs_temperature(calibration) and temperature_k is None:
-            if header.temperature_column is None:
-                raise missing_temperature(
-                    f"{calibration_file} is a {calibration.method_label} calibration: it",
-                    header.source,
-                    "pass --temperature COL, or --temperature-k T for every reading",
-                )
-        check_coarse(calibration, calibration_file, header, coarse_hz)
+        check_source(
+            calibration,
+            calibration_file,
+            header,
+            coarse_hz,
+            temperature_k,
+            ports_given=request.ports is not None,
+            remedy="pass --temperature COL, or --temperature-k T for every reading",
+        )
 
     try:
         summary = stream_lines(

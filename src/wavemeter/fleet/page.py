@@ -11,7 +11,6 @@ Matplotlib is imported only when the page is drawn.
 
 from __future__ import annotations
 
-import base64
 import html
 from collections import Counter
 from collections.abc import Sequence
@@ -23,7 +22,7 @@ from ..atomic import atomic_path
 from ..jobs.calibrate import DeviceResult
 from ..report.formatting import power_unit, significant
 from ..report.html import DEFAULT_DPI, png_bytes
-from ..report.page import PAGE_STYLE, html_table
+from ..report.page import PAGE_STYLE, figures_html, html_table
 from ..report.plotting import REFERENCE_ZORDER, new_figure
 from .summary import WARNING_SEPARATOR, die_position
 
@@ -160,14 +159,6 @@ def _failure_rows(rows: Sequence[DeviceResult]) -> list[list[str]]:
     return [[row.device, row.source, row.error] for row in rows if not row.ok][:MAX_FAILURES_LISTED]
 
 
-def _figure_html(name: str, png: bytes) -> str:
-    return (
-        f'<figure id="figure-{name}"><img alt="{name} figure" '
-        f'src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}">'
-        f"<figcaption>{html.escape(FIGURE_CAPTIONS[name])}</figcaption></figure>"
-    )
-
-
 def render_page(rows: Sequence[DeviceResult], images: dict[str, bytes]) -> str:
     """The complete HTML document of a fleet's ``rows`` with its figures (PNG by name)."""
     failed = len(rows) - sum(row.ok for row in rows)
@@ -177,7 +168,7 @@ def render_page(rows: Sequence[DeviceResult], images: dict[str, bytes]) -> str:
         f"<title>wavemeter fleet</title><style>{PAGE_STYLE}</style></head><body>",
         "<h1>wavemeter fleet</h1>",
         html_table(None, _count_rows(rows)),
-        "".join(_figure_html(name, png) for name, png in images.items()),
+        figures_html(images, FIGURE_CAPTIONS),
     ]
     if "wafer" not in images:
         parts.append(

@@ -1,4 +1,5 @@
-"""Jobs over files: measure a file of readings in bounded memory.
+"""Jobs over files: measure a file of readings in bounded memory, make a record one
+frequency series, calibrate a device file.
 
 The command line runs these; they know files (``wavemeter.io``) and calibrations
 (``wavemeter.calibration``), and nothing about the command line.
@@ -6,6 +7,7 @@ The command line runs these; they know files (``wavemeter.io``) and calibrations
 
 from .calibrate import DeviceResult, calibrate_device, calibrate_file
 from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, measure_file
+from .noise import NoiseSeries, measure_series
 from .stream import StreamSummary, follow_lines, stream_lines
 
 __all__ = [
@@ -18,4 +20,6 @@ __all__ = [
     "calibrate_file",
     "calibrate_device",
     "DeviceResult",
+    "measure_series",
+    "NoiseSeries",
 ]

@@ -30,7 +30,14 @@ from ..io import ColumnRequest, ReadingStream, iter_readings, table_writer
 from ..io.streaming import CHUNK_ROWS
 from ..units import SPEED_OF_LIGHT_M_S, frequency_text
 
-__all__ = ["measure_file", "MeasureSummary", "MEASURE_CHUNK_ROWS", "READING_NOISE_CAUSE"]
+__all__ = [
+    "measure_file",
+    "MeasureSummary",
+    "ChunkMeasurement",
+    "check_stream",
+    "MEASURE_CHUNK_ROWS",
+    "READING_NOISE_CAUSE",
+]
 
 #: rows measured per chunk by default (a few MB of readings and results): those read at a time
 MEASURE_CHUNK_ROWS = CHUNK_ROWS
@@ -154,7 +161,7 @@ def measure_file(
         )
     check_stream(calibration, stream, coarse_hz, temperature_k)
     summary = MeasureSummary(source=stream.source, out_path=Path(out_path))
-    measured = _Measurement(calibration, uncertainty, coarse_hz, temperature_k)
+    measured = ChunkMeasurement(calibration, uncertainty, coarse_hz, temperature_k)
     counts = np.zeros(len(ReadingFlag), dtype=np.int64)
     total, unit = stream.progress_total
     bar = progress(f"measuring {stream.source}", total, unit=unit) if progress else None
@@ -219,13 +226,28 @@ def check_stream(calibration, stream: ReadingStream, coarse_hz, temperature_k) -
         )
 
 
-class _Measurement:
+class ChunkMeasurement:
     """Measures chunks of readings; keeps what the whole file decides (the cascade's
-    noise scale, the warnings, each given once)."""
+    noise scale, the warnings, each given once).
 
-    def __init__(self, calibration, uncertainty: bool, coarse_hz, temperature_k):
+    Parameters
+    ----------
+    calibration : BaseCalibrator
+        A fitted calibration.
+    uncertainty : bool
+        Give ``frequency_std_hz``.
+    coarse_hz, temperature_k : float or None
+        One coarse frequency (Hz) / chip temperature (K) for every reading, instead of the
+        file's column.
+    phase : bool
+        Give ``phase_rad`` and ``wavelength_nm`` (a job that needs only the frequency
+        skips the second retrieval).
+    """
+
+    def __init__(self, calibration, uncertainty: bool, coarse_hz, temperature_k, phase=True):
         self.calibration = calibration
         self.uncertainty = uncertainty
+        self.phase = phase
         self.coarse_hz = coarse_hz
         self.temperature_k = temperature_k
         self.thermal = "temperature_k" in calibration.requires
@@ -271,19 +293,20 @@ class _Measurement:
                     self.noise_scale = np.maximum(self.noise_scale, found.noise_scale)
                 else:
                     frequency[valid] = self.calibration.predict(powers, **extra)
-                    phase[valid] = self.calibration.phase(powers, **extra)
+                    if self.phase:
+                        phase[valid] = self.calibration.phase(powers, **extra)
                     if self.uncertainty:
                         std[valid] = self.calibration.frequency_std_hz(powers, **extra)
                     flags[valid] = self.calibration.flags(powers, **extra)
             for warning in caught:
                 key = (warning.category, str(warning.message))
                 self.warnings.setdefault(key, warning.message)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            wavelength = SPEED_OF_LIGHT_M_S / frequency * 1e9
-        columns = {
-            "frequency_hz": frequency,
-            "wavelength_nm": wavelength,
-            "phase_rad": phase,
+        columns = {"frequency_hz": frequency}
+        if self.phase:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                columns["wavelength_nm"] = SPEED_OF_LIGHT_M_S / frequency * 1e9
+            columns["phase_rad"] = phase
+        columns |= {
             **({"frequency_std_hz": std} if self.uncertainty else {}),
             **({} if order_error is None else {"order_error_probability": order_error}),
             "flags": flags,

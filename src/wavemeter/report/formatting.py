@@ -20,6 +20,7 @@ __all__ = [
     "significant",
     "scientific",
     "scientific_with_error",
+    "with_error",
     "port_label",
     "power_unit",
     "frequency_error_unit",
@@ -113,3 +114,12 @@ def frequency_error_unit(error_hz) -> tuple[float, str]:
     values = np.abs(np.asarray(error_hz, dtype=float))
     peak = float(np.max(values)) if values.size else 0.0
     return (1e9, "GHz") if peak >= 1e9 else (1e6, "MHz")
+
+
+def with_error(value, error, scale: float = 1.0) -> str:
+    """``value ± error`` (both divided by ``scale``) with three significant digits in the
+    error and the value to the same decimal place."""
+    if error is None or not error > 0:
+        return significant(value / scale, 6)
+    digits = max(0, 2 - math.floor(math.log10(error / scale)))
+    return f"{value / scale:.{digits}f} ± {error / scale:.{digits}f}"

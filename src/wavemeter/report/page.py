@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import base64
 import html
-import math
 from collections.abc import Mapping
 from datetime import UTC, datetime
 
@@ -27,11 +26,13 @@ from .formatting import (
     scientific,
     scientific_with_error,
     significant,
+    with_error,
 )
 
 __all__ = [
     "render_page",
     "figure_names",
+    "figures_html",
     "PAPER_CITATION",
     "FIGURE_CAPTIONS",
     "THERMAL_FIGURES",
@@ -194,15 +195,6 @@ def _calibration_rows(calibration: BaseCalibrator, summary: dict) -> list[list[s
     return rows + _thermal_rows(calibration) + _wideband_rows(calibration)
 
 
-def _with_error(value, error, scale: float = 1.0) -> str:
-    """``value ± error`` (both divided by ``scale``) with three significant digits in the
-    error and the value to the same decimal place."""
-    if error is None or not error > 0:
-        return significant(value / scale, 6)
-    digits = max(0, 2 - math.floor(math.log10(error / scale)))
-    return f"{value / scale:.{digits}f} ± {error / scale:.{digits}f}"
-
-
 def _thermal_rows(calibration: BaseCalibrator) -> list[list[str]]:
     """The thermal rates with their standard errors, the reference temperature, the
     calibrated temperatures and the bias rates they resolve (``diagnostics_["thermal"]``);
@@ -216,13 +208,11 @@ def _thermal_rows(calibration: BaseCalibrator) -> list[list[str]]:
     return [
         [
             "bias phase rate (rad/K)",
-            _with_error(thermal["thermal_phase_rad_per_k"], thermal["thermal_phase_std_rad_per_k"]),
+            with_error(thermal["thermal_phase_rad_per_k"], thermal["thermal_phase_std_rad_per_k"]),
         ],
         [
             "fringe shift (GHz/K, to lower frequency on heating)",
-            _with_error(
-                thermal["fringe_shift_hz_per_k"], thermal["fringe_shift_std_hz_per_k"], 1e9
-            ),
+            with_error(thermal["fringe_shift_hz_per_k"], thermal["fringe_shift_std_hz_per_k"], 1e9),
         ],
         [
             "delay rate (1/K)",
@@ -558,11 +548,13 @@ def _comparison_note(summary: dict) -> str:
     )
 
 
-def _figures_html(images: Mapping[str, bytes]) -> str:
+def figures_html(images: Mapping[str, bytes], captions: Mapping[str, str]) -> str:
+    """``<figure>`` elements with each PNG embedded (base64) and its caption, in the order
+    of ``images`` (name -> PNG data); ``captions`` by the same names."""
     return "".join(
         f'<figure id="figure-{html.escape(name)}"><img alt="{html.escape(name)} figure" '
         f'src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}">'
-        f"<figcaption>{html.escape(FIGURE_CAPTIONS[name])}</figcaption></figure>"
+        f"<figcaption>{html.escape(captions[name])}</figcaption></figure>"
         for name, png in images.items()
     )
 
@@ -617,7 +609,7 @@ def render_page(
         "noise estimated from the calibration residual and the learned map as the true one.</p>"
         + _comparison_note(summary)
         + adjacent
-        + _figures_html(images)
+        + figures_html(images, FIGURE_CAPTIONS)
         + "<h2>Reference</h2>"
         f"<p>[1] {html.escape(PAPER_CITATION)}. {html.escape(PAPER_NOTE)}</p>"
         f"<footer>Report created {created}.</footer>"

@@ -14,7 +14,7 @@ import numbers
 import numpy as np
 
 from ..exceptions import InputError
-from ..validation import as_rng, check_choice, check_positive
+from ..validation import as_rng, check_choice, check_finite, check_positive
 
 __all__ = ["slow_power_drift", "flicker_power_noise", "thermal_ramp_rad", "THERMAL_SHAPES"]
 
@@ -32,14 +32,8 @@ def _check_samples(samples, minimum: int = 1) -> int:
     return int(samples)
 
 
-def _check_finite(name: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value):
-        raise InputError(f"{name} must be a finite real number, got {value!r}", parameter=name)
-    return float(value)
-
-
 def _check_fraction(name: str, value) -> float:
-    value = _check_finite(name, value)
+    value = check_finite(name, value)
     if not 0 <= value < 1:
         raise InputError(
             f"{name} must be in [0, 1) so that the source power stays > 0, got {value!r}",
@@ -112,7 +106,7 @@ def flicker_power_noise(samples: int, relative_std: float, rng=None) -> np.ndarr
         When ``relative_std`` is so large that this draw takes the power to zero or below.
     """
     samples = _check_samples(samples, minimum=2)
-    relative_std = _check_finite("relative_std", relative_std)
+    relative_std = check_finite("relative_std", relative_std)
     if relative_std < 0:
         raise InputError(
             f"relative_std must be >= 0, got {relative_std!r}", parameter="relative_std"
@@ -162,8 +156,8 @@ def thermal_ramp_rad(
         To pass as ``bias_drift_rad``.
     """
     samples = _check_samples(samples)
-    total_k = _check_finite("total_k", total_k)
-    rad_per_k = _check_finite("rad_per_k", rad_per_k)
+    total_k = check_finite("total_k", total_k)
+    rad_per_k = check_finite("rad_per_k", rad_per_k)
     check_choice("shape", shape, THERMAL_SHAPES)
     cycles = check_positive("cycles", cycles)
     if shape == "ramp":

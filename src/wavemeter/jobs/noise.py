@@ -1,0 +1,512 @@
+"""A record of readings measured as one frequency series, for a frequency-noise analysis.
+
+:func:`measure_series` reads a file of port readings in chunks
+(:func:`~wavemeter.io.iter_readings`), turns each chunk into frequency with the
+calibration (the chunk measurement of :func:`~wavemeter.jobs.measure_file`) and keeps only
+the frequency of each reading, 8 bytes per reading: the series a noise analysis
+(:func:`wavemeter.analysis.frequency_noise`) needs whole. Along the way it keeps the RMS of
+the readings' own standard deviations (the meter's noise floor), the counts of readings
+excluded, and the sampling rate.
+
+Readings excluded (NaN in the series, counted by flag): those the reader found invalid
+(NaN, sentinels, no light) and those the calibration flags ``INVALID``, ``OFF_MODEL`` (the
+reading is improbably far from the calibrated model: a glitch, a mode hop, a stray
+reflection) or ``ORDER_AMBIGUOUS`` (its fringe order may be wrong: off by whole FSRs).
+Such a reading's frequency may be off by far more than its standard deviation, and one of
+them spoils a power spectrum. Readings flagged ``OUTSIDE_SPAN``, ``POWER_RANGE`` or
+``TEMPERATURE_RANGE`` are kept and counted: the calibration is extrapolated there, which
+distorts the frequency smoothly and slightly (a scale error), not reading by reading.
+
+A calibration of one interferometer reads the frequency modulo its FSR (so does a
+calibration that picks its window or fringe order from one coarse frequency for the whole
+file): the series is unwrapped with period FSR, chunk by chunk, across excluded readings.
+A step of more than ``AMBIGUOUS_STEP_FSR`` (a quarter) of the FSR between consecutive
+usable readings is ambiguous (the laser moved that far, or the unwrap added a whole FSR):
+a :class:`~wavemeter.exceptions.CalibrationWarning` says how many and where.
+
+The sampling rate is given (``rate_hz``) or taken from a time column: its steps are
+checked chunk by chunk against the median step of the first chunk (a gap, a step over
+``GAP_FACTOR`` times it, or a relative deviation over ``TIME_JITTER_TOLERANCE`` is an
+error naming the row), and the rate is the mean step's inverse, ``(N - 1) / (t_last -
+t_first)``: the average rate the analysis assumes (with every step within 1e-3 of the
+median, the two agree to that). Given both, they must agree within
+``TIME_JITTER_TOLERANCE``. The time column's unit comes from its name (``time_s``,
+``t_ms``, ``'Time (us)'``); a name without one is in seconds.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..calibration.flags import ReadingFlag
+from ..exceptions import CalibrationWarning, InputError
+from ..io import ColumnRequest, ReadingStream, iter_readings
+from ..io.columns import split_unit
+from ..io.streaming import CHUNK_ROWS
+from ..units import TIME_UNITS, frequency_text, seconds_per_unit
+from .measure import ChunkMeasurement, check_stream
+
+__all__ = [
+    "measure_series",
+    "NoiseSeries",
+    "EXCLUDED_FLAGS",
+    "AMBIGUOUS_STEP_FSR",
+    "AMBIGUOUS_STEP_CAUSE",
+    "TIME_JITTER_TOLERANCE",
+    "GAP_FACTOR",
+    "time_unit_s",
+    "reads_modulo_fsr",
+]
+
+#: flags that exclude a reading from the series (its frequency may be off by far more
+#: than its standard deviation); the other flags are counted, the readings kept
+EXCLUDED_FLAGS = ReadingFlag.INVALID | ReadingFlag.OFF_MODEL | ReadingFlag.ORDER_AMBIGUOUS
+#: a step between consecutive readings above this fraction of the FSR is ambiguous
+AMBIGUOUS_STEP_FSR = 0.25
+#: cause of the warning about ambiguous steps
+AMBIGUOUS_STEP_CAUSE = "ambiguous_step"
+#: largest relative deviation of a time step from the median step (also: of a given rate
+#: from the time column's)
+TIME_JITTER_TOLERANCE = 1e-3
+#: a time step over this many median steps is a gap in the record
+GAP_FACTOR = 1.5
+#: examples of time column names with their unit, for messages
+_TIME_NAMES = "time_s, t_ms, 'Time (us)'"
+
+
+@dataclass(frozen=True)
+class NoiseSeries:
+    """A record of readings as one frequency series (what :func:`measure_series` made).
+
+    Attributes
+    ----------
+    source : Path
+        The readings file.
+    frequency_hz : ndarray, shape (N,)
+        Frequency of each reading in file order (Hz), unwrapped when ``unwrapped``; NaN
+        where the reading was excluded.
+    rate_hz : float
+        Sampling rate (Hz): given, or from the time column.
+    meter_std_hz : float or None
+        RMS over the readings used of each reading's standard deviation (Hz), the meter's
+        own noise; None when the calibration gives none.
+    fsr_hz : float
+        The calibration's FSR (Hz) (of the finest stage of a cascade): the delay the
+        readings average over is ``1 / fsr_hz``.
+    unwrapped : bool
+        Whether the series was unwrapped with period ``fsr_hz`` (the calibration reads
+        modulo its FSR).
+    rows : int
+        Readings in the file (N).
+    excluded : int
+        Readings excluded (NaN in ``frequency_hz``).
+    flagged : int
+        Readings with any flag (excluded or not).
+    excluded_counts : dict of str to int
+        Excluded readings with each reason: ``INVALID`` (also those the reader refused),
+        ``OFF_MODEL``, ``ORDER_AMBIGUOUS``; a reading may have several (reasons none has
+        are left out).
+    flag_counts : dict of str to int
+        Readings with each flag bit, excluded or not, by bit name (as ``measure`` counts
+        them; readings the reader refused count as ``INVALID``).
+    ambiguous_steps : int
+        Steps between consecutive usable readings over ``AMBIGUOUS_STEP_FSR`` of the FSR
+        (counted only when unwrapping).
+    time_column : str or None
+        The time column the rate came from.
+    invalid_examples : list of str
+        The first rows the reader refused, with their reasons.
+    warnings : tuple of Warning
+        The warnings the measurement gave (each once), also issued.
+    """
+
+    source: Path
+    frequency_hz: np.ndarray
+    rate_hz: float
+    meter_std_hz: float | None
+    fsr_hz: float
+    unwrapped: bool
+    rows: int
+    excluded: int
+    flagged: int = 0
+    excluded_counts: dict[str, int] = field(default_factory=dict)
+    flag_counts: dict[str, int] = field(default_factory=dict)
+    ambiguous_steps: int = 0
+    time_column: str | None = None
+    invalid_examples: list[str] = field(default_factory=list)
+    warnings: tuple[Warning, ...] = ()
+
+
+def reads_modulo_fsr(calibration, coarse_column: str | None, coarse_hz: float | None) -> bool:
+    """Whether a calibration's readings are its frequency modulo its FSR: one
+    interferometer's (no coarse input, not absolute), or a calibration that picks the
+    window or order from one coarse frequency for every reading."""
+    if calibration.absolute_frequency:
+        return False
+    if "coarse_hz" not in calibration.requires:
+        return True
+    return coarse_column is None and coarse_hz is not None
+
+
+def time_unit_s(column: str) -> float:
+    """Seconds per unit of a time column, from its name: ``time_s``, ``t_ms``, ``'Time
+    (us)'``; a name without a time unit is in seconds.
+
+    Raises
+    ------
+    InputError
+        When the name has a bracketed unit that is not a time unit (s, ms, us, ns).
+    """
+    readings = split_unit(column)
+    for _, unit in readings:
+        if unit is None:
+            continue
+        scale = seconds_per_unit(unit)
+        if scale is not None:
+            return scale
+        if len(readings) == 1:  # a bracketed unit must be a time unit
+            raise InputError(
+                f"time column {column!r}: unknown time unit {unit!r}; units: "
+                f"{', '.join(TIME_UNITS)} (e.g. {_TIME_NAMES})",
+                parameter="time_column",
+            )
+    return 1.0
+
+
+class _Clock:
+    """The time stamps of a record, checked chunk by chunk for uniform sampling."""
+
+    def __init__(self, column: str, source: Path):
+        self.column = column
+        self.source = source
+        self.scale_s = time_unit_s(column)
+        self.first_s: float | None = None
+        self.last_s: float | None = None
+        self.last_label = ""
+        self.step_s: float | None = None
+        self.count = 0
+
+    def add(self, table) -> None:
+        values = table.kept[self.column]
+        if values.dtype.kind not in "fiu":
+            raise InputError(
+                f"{self.source}: time column {self.column!r} holds text; give the time of "
+                f"each reading as a number in seconds (or with its unit in the name: "
+                f"{_TIME_NAMES})",
+                parameter="time_column",
+            )
+        times_s = np.asarray(values, dtype=float) * self.scale_s
+        if times_s.size == 0:
+            return
+        bad = np.flatnonzero(~np.isfinite(times_s))
+        if bad.size:
+            raise InputError(
+                f"{self.source}: time column {self.column!r} has no time at "
+                f"{table.row_label(int(table.row_index[bad[0]]))} ({values[bad[0]]}); "
+                "every reading needs its time stamp: fill it in, or delete the row and split "
+                "the record there",
+                parameter="time_column",
+            )
+        if self.first_s is None:
+            self.first_s = float(times_s[0])
+        joined = times_s if self.last_s is None else np.concatenate(([self.last_s], times_s))
+        steps = np.diff(joined)
+        if self.step_s is None and steps.size:
+            self.step_s = float(np.median(steps))
+        if steps.size:
+            self._check(steps, table, offset=0 if self.last_s is None else 1)
+        self.last_s = float(times_s[-1])
+        self.last_label = table.row_label(int(table.row_index[-1]))
+        self.count += times_s.size
+
+    def _label(self, table, step: int, offset: int) -> tuple[str, str]:
+        """Names of the rows after and before time step ``step`` of a chunk."""
+        after = table.row_label(int(table.row_index[step + 1 - offset]))
+        before = (
+            self.last_label
+            if step - offset < 0
+            else table.row_label(int(table.row_index[step - offset]))
+        )
+        return after, before
+
+    def _check(self, steps: np.ndarray, table, offset: int) -> None:
+        median = self.step_s
+        backwards = np.flatnonzero(steps <= 0)
+        if backwards.size:
+            first = int(backwards[0])
+            after, before = self._label(table, first, offset)
+            raise InputError(
+                f"{self.source}: time column {self.column!r} does not increase at {after} "
+                f"(step {steps[first]:.6g} s after {before}); the readings must be in time "
+                "order, each at its own time: sort the file by time or remove repeated rows",
+                parameter="time_column",
+            )
+        gaps = np.flatnonzero(steps > GAP_FACTOR * median)
+        if gaps.size:
+            after, before = self._label(table, int(gaps[0]), offset)
+            raise InputError(
+                f"{self.source}: gap in time column {self.column!r} between {before} and "
+                f"{after}: {steps[gaps[0]]:.6g} s, {steps[gaps[0]] / median:.3g} times the "
+                f"median step {median:.6g} s ({gaps.size} such gap(s) in this part of the "
+                "file); a noise analysis needs uniform sampling: split the record at the "
+                "gap and analyse the parts, or resample it onto uniform time stamps",
+                parameter="time_column",
+            )
+        deviation = np.abs(steps - median) / median
+        jitter = np.flatnonzero(deviation > TIME_JITTER_TOLERANCE)
+        if jitter.size:
+            worst = int(jitter[np.argmax(deviation[jitter])])
+            after, _ = self._label(table, int(jitter[0]), offset)
+            raise InputError(
+                f"{self.source}: time column {self.column!r} is not uniformly sampled: the "
+                f"step before {after} is {steps[jitter[0]]:.6g} s, the median step "
+                f"{median:.6g} s, a relative deviation of {deviation[jitter[0]]:.3g} (largest "
+                f"{deviation[worst]:.3g}) above the {TIME_JITTER_TOLERANCE:g} allowed; "
+                "resample the record onto uniform time stamps, or give the nominal rate "
+                "(rate_hz) without the time column if the sampling clock is uniform",
+                parameter="time_column",
+            )
+
+    def rate_hz(self) -> float:
+        """``(N - 1) / (t_last - t_first)`` (Hz): the mean step's inverse."""
+        if self.count < 2:
+            raise InputError(
+                f"{self.source}: time column {self.column!r} has {self.count} time stamp(s); "
+                "a rate needs at least two",
+                parameter="time_column",
+            )
+        return (self.count - 1) / (self.last_s - self.first_s)
+
+
+class _Unwrapper:
+    """Unwraps a frequency series with period FSR, chunk by chunk, across NaN readings,
+    and counts the ambiguous steps (over ``AMBIGUOUS_STEP_FSR`` of the FSR)."""
+
+    def __init__(self, fsr_hz: float):
+        self.fsr_hz = fsr_hz
+        self.last_hz: float | None = None
+        self.ambiguous = 0
+        self.first: tuple[str, float] | None = None  # row and size of the first ambiguous step
+
+    def __call__(self, frequency_hz: np.ndarray, table) -> None:
+        """Unwrap one chunk's frequencies (m,) in place; NaN stay NaN."""
+        usable = np.flatnonzero(np.isfinite(frequency_hz))
+        if usable.size == 0:
+            return
+        values = frequency_hz[usable]
+        joined = values if self.last_hz is None else np.concatenate(([self.last_hz], values))
+        unwrapped = np.unwrap(joined, period=self.fsr_hz)
+        steps = np.abs(np.diff(unwrapped))
+        ambiguous = np.flatnonzero(steps > AMBIGUOUS_STEP_FSR * self.fsr_hz)
+        if ambiguous.size and self.first is None:
+            row = usable[ambiguous[0] + (1 if self.last_hz is None else 0)]
+            self.first = (table.row_label(int(table.row_index[row])), float(steps[ambiguous[0]]))
+        self.ambiguous += ambiguous.size
+        unwrapped = unwrapped if self.last_hz is None else unwrapped[1:]
+        frequency_hz[usable] = unwrapped
+        self.last_hz = float(unwrapped[-1])
+
+    def warning(self, source: Path) -> CalibrationWarning | None:
+        if not self.ambiguous:
+            return None
+        row, step_hz = self.first
+        return CalibrationWarning(
+            f"{source}: {self.ambiguous} step(s) between consecutive readings exceed "
+            f"{AMBIGUOUS_STEP_FSR:g} of the FSR ({frequency_text(self.fsr_hz)}), the first "
+            f"before {row} ({frequency_text(step_hz)}): the calibration reads the frequency "
+            "modulo its FSR, so the series, unwrapped to the nearest fringe, may be off by "
+            "whole FSRs from there on",
+            cause=AMBIGUOUS_STEP_CAUSE,
+            remedy="read faster than the laser moves a quarter of the FSR, or use a meter "
+            "that reads the absolute frequency (a cascade of stages)",
+        )
+
+
+def _check_rate(rate_hz) -> float | None:
+    if rate_hz is None:
+        return None
+    if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float, np.number)):
+        raise InputError(f"rate_hz must be a number (Hz), got {rate_hz!r}", parameter="rate_hz")
+    if not (math.isfinite(rate_hz) and rate_hz > 0):
+        raise InputError(
+            f"rate_hz must be a finite sampling rate > 0 Hz, got {rate_hz!r}",
+            parameter="rate_hz",
+        )
+    return float(rate_hz)
+
+
+def _open(readings, request, chunk_rows, time_column, calibration, temperature_k):
+    """The stream of readings, with the time column among its kept columns."""
+    if isinstance(readings, ReadingStream):
+        if time_column is not None and time_column not in readings.kept:
+            raise InputError(
+                f"{readings.source}: the time column {time_column!r} must be among the kept "
+                "columns of a stream opened beforehand (request.keep)",
+                parameter="time_column",
+            )
+        return readings
+    request = request or ColumnRequest()
+    if time_column is not None and time_column not in request.keep:
+        request = dataclasses.replace(request, keep=(*request.keep, time_column))
+    thermal = "temperature_k" in calibration.requires
+    return iter_readings(
+        readings,
+        request,
+        chunk_rows=chunk_rows,
+        allow_invalid=True,
+        find_temperature=thermal and temperature_k is None,
+    )
+
+
+def measure_series(
+    calibration,
+    readings,
+    *,
+    request: ColumnRequest | None = None,
+    rate_hz: float | None = None,
+    time_column: str | None = None,
+    chunk_rows: int = CHUNK_ROWS,
+    coarse_hz: float | None = None,
+    temperature_k: float | None = None,
+    progress: Callable | None = None,
+) -> NoiseSeries:
+    """Measure a file of port readings as one frequency series, a chunk at a time.
+
+    Parameters
+    ----------
+    calibration : BaseCalibrator
+        A fitted calibration.
+    readings : str, Path or ReadingStream
+        The readings file (``"-"``: standard input), or one opened with
+        :func:`~wavemeter.io.iter_readings` with ``allow_invalid=True`` and the time
+        column kept (not yet iterated; ``request`` and ``chunk_rows`` are then those it
+        was opened with).
+    request : ColumnRequest, optional
+        Columns chosen by the user (ports, power unit, coarse and temperature columns).
+    rate_hz : float, optional
+        Sampling rate (Hz). Give it, or ``time_column``, or both (they must agree).
+    time_column : str, optional
+        Column with the time of each reading (unit from its name, else seconds).
+    chunk_rows : int
+        Rows read and measured at a time.
+    coarse_hz : float, optional
+        Coarse frequency (Hz) of every reading, for a calibration that needs one and a
+        file without a coarse column.
+    temperature_k : float, optional
+        Chip temperature (K) of every reading, for a calibration that needs it, instead
+        of the file's temperature column.
+    progress : callable, optional
+        ``progress(description, total, unit=...)`` returning a context manager that
+        yields ``advance(steps)`` (as :func:`wavemeter.progress.progress_bar`). None:
+        silent.
+
+    Returns
+    -------
+    NoiseSeries
+
+    Raises
+    ------
+    InputError
+        No rate and no time column; a rate that is not a positive number; a time column
+        that is missing, holds text or a missing time, does not increase, has a gap or
+        is not uniform, or disagrees with the rate given; no usable reading; and what
+        :func:`~wavemeter.io.iter_readings` and the calibration refuse.
+    """
+    rate_hz = _check_rate(rate_hz)
+    if rate_hz is None and time_column is None:
+        raise InputError(
+            "no sampling rate: give the rate of the readings (rate_hz) or the column with "
+            "their time stamps (time_column)",
+            parameter="rate_hz",
+        )
+    stream = _open(readings, request, chunk_rows, time_column, calibration, temperature_k)
+    check_stream(calibration, stream, coarse_hz, temperature_k)
+    offered = "frequency_std" in calibration.capabilities
+    measured = ChunkMeasurement(calibration, offered, coarse_hz, temperature_k, phase=False)
+    modulo = reads_modulo_fsr(calibration, stream.coarse_column, coarse_hz)
+    fsr_hz = float(calibration.fsr_hz_)
+    unwrap = _Unwrapper(fsr_hz) if modulo else None
+    clock = None if time_column is None else _Clock(time_column, stream.source)
+    parts: list[np.ndarray] = []
+    flags_seen = np.zeros(len(ReadingFlag), dtype=np.int64)
+    variance_sum, variance_count, flagged = 0.0, 0, 0
+    total, unit = stream.progress_total
+    bar = progress(f"measuring {stream.source}", total, unit=unit) if progress else None
+    with contextlib.ExitStack() as stack:
+        advance = stack.enter_context(bar) if bar is not None else None
+        done = 0
+        for table in stream:
+            if clock is not None:
+                clock.add(table)
+            columns = measured.chunk(table)
+            flags = columns["flags"]
+            flags_seen += [np.count_nonzero(flags & bit) for bit in ReadingFlag]
+            flagged += int(np.count_nonzero(flags))
+            frequency = columns["frequency_hz"]
+            used = (flags & int(EXCLUDED_FLAGS)) == 0
+            frequency[~used] = np.nan
+            if offered:
+                std = columns["frequency_std_hz"][used]
+                std = std[np.isfinite(std)]
+                variance_sum += float(np.sum(std**2))
+                variance_count += std.size
+            if unwrap is not None:
+                unwrap(frequency, table)
+            parts.append(frequency)
+            if advance is not None:
+                advance(stream.progress - done)
+            done = stream.progress
+    frequency_hz = np.concatenate(parts) if parts else np.empty(0)
+    counts = {bit.name: int(count) for bit, count in zip(ReadingFlag, flags_seen, strict=True)}
+    excluded = int(np.count_nonzero(np.isnan(frequency_hz)))
+    if excluded == frequency_hz.size:
+        reasons = ", ".join(
+            f"{bit.name} {counts[bit.name]}" for bit in EXCLUDED_FLAGS if counts[bit.name]
+        )
+        raise InputError(
+            f"{stream.source}: no usable reading: all {frequency_hz.size} readings are "
+            f"excluded{f' ({reasons})' if reasons else ''}"
+            + (f", first: {stream.describe_invalid(3)}" if stream.invalid_rows else "")
+            + "; check that the readings belong to this calibration (ports, power, device)",
+        )
+    if clock is not None:
+        measured_rate = clock.rate_hz()
+        if rate_hz is not None and abs(rate_hz / measured_rate - 1) > TIME_JITTER_TOLERANCE:
+            raise InputError(
+                f"{stream.source}: the rate given, {rate_hz:.9g} Hz, disagrees with the time "
+                f"column {time_column!r}, whose steps give {measured_rate:.9g} Hz (relative "
+                f"difference {abs(rate_hz / measured_rate - 1):.3g}); give one of them "
+                "(rate_hz or time_column)",
+                parameter="rate_hz",
+            )
+        rate_hz = measured_rate
+    found = measured.finish()
+    if unwrap is not None and (ambiguous := unwrap.warning(stream.source)) is not None:
+        found.append(ambiguous)
+    for warning in found:
+        warnings.warn(warning, stacklevel=2)
+    return NoiseSeries(
+        source=stream.source,
+        frequency_hz=frequency_hz,
+        rate_hz=float(rate_hz),
+        meter_std_hz=math.sqrt(variance_sum / variance_count) if variance_count else None,
+        fsr_hz=fsr_hz,
+        unwrapped=modulo,
+        rows=frequency_hz.size,
+        excluded=excluded,
+        flagged=flagged,
+        excluded_counts={bit.name: counts[bit.name] for bit in EXCLUDED_FLAGS if counts[bit.name]},
+        flag_counts={name: count for name, count in counts.items() if count},
+        ambiguous_steps=0 if unwrap is None else unwrap.ambiguous,
+        time_column=time_column,
+        invalid_examples=list(stream.invalid_examples),
+        warnings=tuple(found),
+    )
