@@ -11,7 +11,7 @@ import pytest
 from scipy.signal import get_window, welch
 from scipy.stats import chi2
 
-from wavemeter.analysis.noise import _band_covariance
+from wavemeter.analysis.noise_spectrum import band_covariance
 from wavemeter.analysis.power_law import (
     power_law_deviations,
     power_law_psd_hz2_per_hz,
@@ -59,7 +59,7 @@ def test_welch_psd_of_each_noise_matches_its_level_within_the_chi_square_interva
     edges = np.unique(np.geomspace(4, length // 2, 9).astype(int))
     starts, widths = edges[:-1], np.diff(edges)
     segments = (samples - length) // (length // 2) + 1
-    dof, correlation = _band_covariance(window, length // 2, segments, starts, widths)
+    dof, correlation = band_covariance(window, length // 2, segments, starts, widths)
     band = np.add.reduceat(psd[: edges[-1]], starts) / widths
     band_expected = np.add.reduceat(expected[: edges[-1]], starts) / widths
     low = band_expected * chi2.ppf(0.0005, dof) / dof

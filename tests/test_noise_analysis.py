@@ -23,7 +23,8 @@ from wavemeter.analysis import (
     power_law_deviations,
     power_law_psd_hz2_per_hz,
 )
-from wavemeter.analysis import noise as noise_module
+from wavemeter.analysis.noise_fit import BETA_SLOPE
+from wavemeter.analysis.noise_spectrum import welch_bands
 from wavemeter.analysis.power_law import welch_expectation
 from wavemeter.exceptions import CalibrationWarning, InputError
 from wavemeter.simulation import laser_frequency_hz
@@ -63,7 +64,7 @@ def test_white_psd_bands_scatter_about_the_level_as_their_intervals_say():
         laser(2**16, 1, white_fm_hz2_per_hz=h0), RATE_HZ, meter_std_hz=0.0, confidence=1 - 1e-4
     )
     assert np.all((wide.psd_ci_hz2_per_hz[0] <= h0) & (h0 <= wide.psd_ci_hz2_per_hz[1]))
-    spectrum = noise_module._spectrum(laser(2**16, 1, white_fm_hz2_per_hz=h0), RATE_HZ, None)
+    spectrum = welch_bands(laser(2**16, 1, white_fm_hz2_per_hz=h0), RATE_HZ, None)
     z = (spectrum.psd / (h0 * spectrum.floor_gain) - 1) / np.sqrt(2 / spectrum.dof)
     statistic = z @ np.linalg.solve(spectrum.correlation, z)
     assert chi2.ppf(0.0005, bands) < statistic < chi2.ppf(0.9995, bands)
@@ -151,7 +152,7 @@ def test_beta_linewidth_of_white_fm_is_pi_h0_within_its_std():
     """Crossing inside the band: sqrt(8 ln2 h0 (f_c - f_start)) with f_c = pi^2 h0 / (8 ln2)."""
     h0 = 3e4 / np.pi
     result = frequency_noise(laser(2**16, 12, white_fm_hz2_per_hz=h0), RATE_HZ, meter_std_hz=0.0)
-    crossing = h0 / noise_module.BETA_SLOPE
+    crossing = h0 / BETA_SLOPE
     start = 1 / result.beta_observation_time_s
     expected = np.sqrt(8 * np.log(2) * h0 * (crossing - start))
     assert not result.beta_linewidth_is_lower_limit

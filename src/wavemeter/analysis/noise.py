@@ -10,68 +10,22 @@ rate``. The readings must be uniformly sampled and unwrapped (a single interfero
 reads modulo its FSR: unwrap with period FSR first, as
 :func:`wavemeter.jobs.noise.measure_series` does).
 
-Steps of :func:`frequency_noise`:
+Steps of :func:`frequency_noise` (each module's notes give its method):
 
 - NaN readings are excluded: those at the ends are dropped, runs of up to
   ``MAX_BRIDGED_RUN`` inside are bridged by linear interpolation (a longer gap is an
-  error: analyse the parts on either side), counted and warned about.
-- PSD: ``scipy.signal.welch`` (Hann window, 50 % overlap, linear detrend per segment,
-  one-sided density) with segments of the largest power of two <= ``N / 8`` samples (at
-  least ``MIN_SEGMENT``), so it reaches down to 16 to 32 over the record length ``T``.
-  The bins from the second (``FIRST_BIN``; the first is halved by the detrend) to below
-  Nyquist are averaged in ``BANDS_PER_DECADE`` log-spaced bands, so high frequencies have
-  many degrees of freedom. A band's equivalent degrees of freedom ``nu = 2 / v`` come
-  from the window: ``v`` is the variance of the band mean relative to its square for a
-  spectrum locally white over the band, ``sum_d sum_Delta (K - |d|) (M - |Delta|) |C(d s,
-  Delta)|^2 / (K M)^2`` over segment offsets ``d`` (step ``s``) and bin offsets ``Delta``
-  of the ``K`` segments and ``M`` bins, ``C`` the window's normalised overlap spectrum
-  (Welch 1967; the detrend's two lost degrees of freedom per segment are neglected). Bins
-  more than ``BIN_SPREAD`` apart are uncorrelated, so only neighbouring bands correlate.
-  The confidence interval at ``confidence`` is chi-square with ``nu`` degrees of freedom.
-- Delay: the interferometer's delay ``tau_d = 1 / FSR`` averages the frequency over
-  ``tau_d``, ``|H(f)|^2 = sinc^2(f / FSR)``. The corrected PSD is ``(PSD - floor) /
-  sinc^2(f / FSR)`` up to ``DELAY_CORRECTION_MAX_FSR`` of the FSR (where ``|H|^2 >=
-  0.81``) and NaN above, excluded from the fits. The detectors' bandwidth and any
-  anti-aliasing filter are not corrected: the readings are taken as sample-interval means.
-- Power law: generalised least squares of the band PSD (the bands' correlation included)
-  on the exact expectation of the Welch estimate of each term passed through the delay's
-  ``sinc^2`` (the window's leakage and the detrend included:
-  :func:`~wavemeter.analysis.power_law.welch_expectation`), the floor's expectation
-  subtracted, with variances ``2 E^2 / nu`` from the model, iterated ``FIT_ITERATIONS``
-  times (the first from the data). The covariance gives the standard deviations, and the
-  floor's uncertainty (``meter_floor_rel_std`` times it) adds to ``h0``'s variance. A fit
-  that the chi-square test rejects (p < ``MISFIT_P_VALUE``) has its standard deviations
-  scaled by ``sqrt(chi2 / dof)`` and is warned about.
-- Lorentzian linewidth ``pi h0``. It is an upper limit when the floor is unknown (not
-  subtracted) or ``h0`` is not above both the floor and ``UPPER_LIMIT_SIGMAS`` standard
-  deviations (the laser is at or below the meter's floor, or not significant); the
-  field then holds ``pi (max(h0, 0) + 2 std)``.
-- Beta-separation linewidth (Di Domenico, Schilt, Thomann, Appl. Opt. 49, 4801 (2010)):
-  ``A`` = the integral from ``1 / T_obs`` of the corrected PSD where it lies above ``8 ln2
-  f / pi^2``, FWHM ``sqrt(8 ln2 A)``. On the bands the PSD is taken constant over each band
-  (so a white level's crossing is exact). ``T_obs`` defaults to the inverse of the lowest
-  band's lower edge (``1.5`` Welch bins, a twelfth to a sixth of the record), the longest
-  time the PSD measures; a longer ``T_obs`` (up to the record) integrates the fitted power
-  law below the lowest band, linearly (unbiased; the line is negligible there), and warns:
-  extrapolating ``h_-2 / f^2`` down an octave or more dominates the uncertainty (a 100 kHz
-  white-FM laser, 2^16 readings at 10 MHz, 40 seeds: 11 % scatter at ``T_obs = T``, 6 %
-  at the default). The area is not smooth in the bands where the PSD meets the line (a
-  band enters or leaves), so its standard deviation is the spread of the FWHM over
-  ``BETA_DRAWS`` draws of the bands (normal, with their chi-square spread and correlation,
-  from a fixed seed: reproducible), with the floor's uncertainty and the fit's (below the
-  lowest band) added. When the PSD is still above the line at the highest corrected band,
-  the value is a lower limit; when it is nowhere above the line, the FWHM is 0.
-- Drift: least-squares slope of the measured (not bridged) readings against time; its
-  standard deviation is the fitted noise (floor included) propagated through the slope's
-  transfer function (:func:`~wavemeter.analysis.power_law.slope_variance`), not the
-  white-noise formula, which flicker and random walk would make far too small.
-- Allan family of the fractional frequency ``(nu - nu0) / nu0``, ``nu0`` the mean reading,
-  bridged readings included: ``allantools.oadev``, ``mdev`` and ``ohdev`` (the overlapping
-  Hadamard deviation; same expectation as ``hdev``, tighter) at octave averaging times
-  ``tau = 2^j / rate`` with at least ``MIN_AVERAGES`` record lengths ``T / tau``;
-  confidence intervals from Greenhall's equivalent degrees of freedom
-  (``allantools.edf_greenhall``, ``confidence_interval``) for the noise type the fitted
-  model says dominates at each ``tau``.
+  error: analyse the parts on either side), counted and warned about (here).
+- PSD: the Welch PSD averaged over log-spaced bands, with each band's degrees of freedom,
+  the bands' correlation and chi-square confidence intervals; the meter's floor subtracted
+  and the interferometer's delay corrected up to ``DELAY_CORRECTION_MAX_FSR`` of the FSR
+  (:mod:`wavemeter.analysis.noise_spectrum`).
+- Power-law fit of ``h0, h_-1, h_-2`` to the bands, the Lorentzian linewidth ``pi h0`` (or
+  its upper limit), the beta-separation linewidth from ``1 / T_obs`` and the drift, each
+  with its standard deviation (:mod:`wavemeter.analysis.noise_fit`).
+- Allan, modified Allan and Hadamard deviations of the fractional frequency with
+  Greenhall's confidence intervals (:mod:`wavemeter.analysis.allan`).
+- Findings: what limits or qualifies the results, each issued as a
+  :class:`~wavemeter.exceptions.CalibrationWarning` with a remedy (``WARNING_CAUSES``).
 """
 
 from __future__ import annotations
@@ -84,7 +38,19 @@ import numpy as np
 
 from ..exceptions import CalibrationWarning, InputError
 from ..validation import check_non_negative, check_positive
-from .power_law import deviation_variances, slope_variance, welch_expectation
+from .allan import MIN_AVERAGES, allan_family
+from .noise_fit import (
+    MISFIT_P_VALUE,
+    UPPER_LIMIT_SIGMAS,
+    BetaLinewidth,
+    PowerLawFit,
+    beta_linewidth,
+    beta_separation_line_hz2_per_hz,
+    fit_drift,
+    fit_power_law,
+    lorentzian_linewidth,
+)
+from .noise_spectrum import DELAY_CORRECTION_MAX_FSR, delay_correction, psd_interval, welch_bands
 
 __all__ = [
     "FrequencyNoise",
@@ -101,35 +67,9 @@ __all__ = [
 MIN_READINGS = 100
 #: longest run of NaN readings inside the record that is bridged by interpolation
 MAX_BRIDGED_RUN = 8
-#: Welch segments: the largest power of two <= N / SEGMENT_DIVISOR, and >= MIN_SEGMENT
-SEGMENT_DIVISOR = 8
-MIN_SEGMENT = 32
-#: first Welch bin used (the first is halved by the per-segment linear detrend)
-FIRST_BIN = 2
-#: log-spaced PSD bands per decade of frequency
-BANDS_PER_DECADE = 20
-#: Welch bins further apart than this are uncorrelated (Hann: |C|^2 < 1e-6 beyond)
-BIN_SPREAD = 8
-#: the PSD is corrected for the delay's sinc^2 up to this fraction of the FSR
-DELAY_CORRECTION_MAX_FSR = 0.25
-#: fewest record lengths T / tau at an averaging time of the Allan family
-MIN_AVERAGES = 10
-#: a linewidth's upper limit is pi (max(h0, 0) + UPPER_LIMIT_SIGMAS std)
-UPPER_LIMIT_SIGMAS = 2.0
-#: reweighting rounds of the power-law fit
-FIT_ITERATIONS = 3
-#: a power-law fit whose chi-square has a smaller p-value is a misfit
-MISFIT_P_VALUE = 1e-3
-#: slope of the beta separation line, 8 ln2 / pi^2 (Hz^2/Hz per Hz)
-BETA_SLOPE = 8.0 * np.log(2.0) / np.pi**2
-#: draws of the PSD bands for the beta linewidth's standard deviation, and their seed
-BETA_DRAWS = 400
-BETA_SEED = 14
 #: ``to_dict`` format name and version
 FORMAT = "wavemeter-noise"
 FORMAT_VERSION = 1
-#: Allan-family noise types (allantools' alpha) of white, flicker, random-walk FM, drift
-_ALPHAS = (0, -1, -2, -2)
 #: cause of each warning -> what it means
 WARNING_CAUSES = {
     "excluded_readings": "NaN readings were dropped at the ends or bridged inside",
@@ -271,11 +211,6 @@ def _json_value(value):
     return value
 
 
-def beta_separation_line_hz2_per_hz(freqs_hz) -> np.ndarray:
-    """The beta separation line ``8 ln2 f / pi^2`` (Hz^2/Hz) at ``freqs_hz`` (Hz)."""
-    return BETA_SLOPE * np.asarray(freqs_hz, dtype=float)
-
-
 # --- inputs ------------------------------------------------------------------------------
 
 
@@ -367,254 +302,6 @@ def _bridge(series: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return kept, measured
 
 
-# --- PSD ---------------------------------------------------------------------------------
-
-
-def _segment_length(samples: int) -> int:
-    longest = max(samples // SEGMENT_DIVISOR, 1)
-    return max(1 << (longest.bit_length() - 1), MIN_SEGMENT)
-
-
-def _band_covariance(
-    window: np.ndarray, step: int, segments: int, first_bins: np.ndarray, widths: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Equivalent degrees of freedom (K,) and correlation matrix (K, K) of the band means
-    of a locally white spectrum (see the module's notes)."""
-    length = window.size
-    norm = np.sum(window**2)
-    # kernel(Delta) = sum over segment pairs of |C(d s, Delta)|^2, Delta = 0..BIN_SPREAD
-    kernel = np.zeros(BIN_SPREAD + 1)
-    for d, shift in enumerate(range(0, min(length, segments * step), step)):
-        pairs = segments if d == 0 else 2 * (segments - d)
-        overlap = np.fft.fft(window[: length - shift] * window[shift:], length)
-        kernel += pairs * np.abs(overlap[: BIN_SPREAD + 1]) ** 2 / norm**2
-    bands = widths.size
-    covariance = np.zeros((bands, bands))
-    ends = first_bins + widths
-    for a in range(bands):
-        offsets = np.arange(-min(widths[a] - 1, BIN_SPREAD), min(widths[a], BIN_SPREAD + 1))
-        covariance[a, a] = (widths[a] - np.abs(offsets)) @ kernel[np.abs(offsets)]
-        for b in range(a + 1, bands):
-            if first_bins[b] - (ends[a] - 1) > BIN_SPREAD:
-                break
-            offsets = np.arange(first_bins[b] - ends[a] + 1, BIN_SPREAD + 1)
-            counts = np.minimum(ends[a], ends[b] - offsets) - np.maximum(
-                first_bins[a], first_bins[b] - offsets
-            )
-            covariance[a, b] = covariance[b, a] = np.clip(counts, 0, None) @ kernel[offsets]
-    scale = np.sqrt(np.diag(covariance))
-    dof = 2.0 * (segments * widths) ** 2 / np.diag(covariance)
-    return dof, covariance / np.outer(scale, scale)
-
-
-@dataclass(frozen=True)
-class _Spectrum:
-    freqs_hz: np.ndarray  # band mean frequency (K,)
-    psd: np.ndarray  # band mean Welch PSD (K,)
-    dof: np.ndarray  # (K,)
-    correlation: np.ndarray  # of the band means (K, K)
-    design: np.ndarray  # expected band PSD of each term at unit level, delay applied (K, 3)
-    floor_gain: np.ndarray  # expected band PSD of unit white meter noise (K,)
-    edges_hz: np.ndarray  # band edges (K + 1,)
-
-
-def _spectrum(series: np.ndarray, rate_hz: float, fsr_hz: float | None) -> _Spectrum:
-    from scipy.signal import get_window, welch
-
-    length = _segment_length(series.size)
-    step = length // 2
-    window = get_window("hann", length)
-    bin_freqs, psd = welch(
-        series, fs=rate_hz, window=window, noverlap=length - step, detrend="linear"
-    )
-    segments = (series.size - length) // step + 1
-    expected = welch_expectation(window, rate_hz)
-    bins = np.arange(FIRST_BIN, length // 2)
-    band_of_bin = np.floor(BANDS_PER_DECADE * np.log10(bins / FIRST_BIN) + 1e-9).astype(int)
-    starts = np.flatnonzero(np.diff(np.concatenate(([-1], band_of_bin))))
-    widths = np.diff(np.concatenate((starts, [bins.size])))
-    delay = np.ones_like(bin_freqs) if fsr_hz is None else np.sinc(bin_freqs / fsr_hz) ** 2
-
-    def band_mean(values: np.ndarray) -> np.ndarray:
-        return np.add.reduceat(values[..., bins], starts, axis=-1) / widths
-
-    resolution = rate_hz / length
-    first_bins = bins[starts]
-    edges = np.concatenate((first_bins, [bins[-1] + 1])) - 0.5
-    dof, correlation = _band_covariance(window, step, segments, first_bins, widths)
-    return _Spectrum(
-        freqs_hz=band_mean(bin_freqs),
-        psd=band_mean(psd),
-        dof=dof,
-        correlation=correlation,
-        design=band_mean(expected * delay).T,
-        floor_gain=band_mean(expected[0]),
-        edges_hz=edges * resolution,
-    )
-
-
-# --- power-law fit, linewidths, drift ---------------------------------------------------
-
-
-@dataclass(frozen=True)
-class _Fit:
-    levels: np.ndarray  # h0, h_-1, h_-2 of the laser (3,)
-    covariance: np.ndarray  # (3, 3), floor uncertainty and misfit scaling included
-    chi2: float
-    dof: int
-    misfit: bool
-
-
-def _fit_power_law(
-    spectrum: _Spectrum, usable: np.ndarray, floor: float | None, floor_std: float
-) -> _Fit:
-    from scipy.stats import chi2 as chi_square
-
-    design = spectrum.design[usable]
-    offset = (floor or 0.0) * spectrum.floor_gain[usable]
-    measured = spectrum.psd[usable]
-    target = measured - offset
-    spread = np.sqrt(2.0 / spectrum.dof[usable])
-    # generalised least squares: whiten with the Cholesky factor of the band correlation
-    factor = np.linalg.cholesky(spectrum.correlation[np.ix_(usable, usable)])
-    expected = measured
-    for _ in range(FIT_ITERATIONS):
-        sigma = expected * spread
-        weighted = np.linalg.solve(factor, design / sigma[:, None])
-        scale = np.linalg.norm(weighted, axis=0)
-        scale[scale == 0] = 1.0
-        whitened = np.linalg.solve(factor, target / sigma)
-        solution = np.linalg.lstsq(weighted / scale, whitened, rcond=None)[0]
-        levels = solution / scale
-        model = design @ levels + offset
-        expected = np.where(model > 0, model, measured)
-    normal = (weighted / scale).T @ (weighted / scale)
-    covariance = np.linalg.pinv(normal) / np.outer(scale, scale)
-    chi2 = float(np.sum((whitened - weighted @ (levels)) ** 2))
-    dof = int(usable.sum()) - 3
-    misfit = bool(chi_square.sf(chi2, dof) < MISFIT_P_VALUE)
-    if misfit:
-        covariance = covariance * (chi2 / dof)
-    covariance[0, 0] += floor_std**2
-    return _Fit(levels, covariance, chi2, dof, misfit)
-
-
-@dataclass(frozen=True)
-class _Beta:
-    fwhm_hz: float
-    std_hz: float
-    lower_limit: bool
-    area_hz2: float
-    extrapolated: bool  # the integral starts below the lowest band
-
-
-def _beta_area(level: np.ndarray, low: np.ndarray, high: np.ndarray, start_hz: float):
-    """Area (Hz^2) above the beta line of band levels (..., K) constant over each band."""
-    crossing_hz = np.where(level > 0, level / BETA_SLOPE, 0.0)  # the level meets the line
-    length = np.clip(np.minimum(high, crossing_hz) - np.maximum(low, start_hz), 0.0, None)
-    return np.sum(level * length, axis=-1)
-
-
-def _beta_linewidth(
-    spectrum: _Spectrum,
-    corrected: np.ndarray,
-    corrected_std: np.ndarray,
-    delay_band: np.ndarray,
-    fit: _Fit,
-    floor_std: float,
-    observation_time_s: float,
-) -> _Beta:
-    """Beta-separation-line FWHM from ``1 / T_obs`` (see the module's notes)."""
-    valid = np.flatnonzero(np.isfinite(corrected))
-    start_hz = 1.0 / observation_time_s
-    low, high = spectrum.edges_hz[valid], spectrum.edges_hz[valid + 1]
-    level = corrected[valid]
-    area = float(_beta_area(level, low, high, start_hz))
-    # the floor's and the extrapolation's uncertainties are linear in the area
-    included = np.clip(np.minimum(high, level / BETA_SLOPE) - np.maximum(low, start_hz), 0, None)
-    variance = (floor_std * np.sum(included / delay_band[valid])) ** 2
-    extrapolated = bool(start_hz < low[0])
-    if extrapolated:  # the fitted power law, integrated from 1 / T_obs to the lowest band
-        gradient = np.array(
-            [low[0] - start_hz, np.log(low[0] / start_hz), 1.0 / start_hz - 1.0 / low[0]]
-        )
-        area += float(fit.levels @ gradient)
-        variance += float(gradient @ fit.covariance @ gradient)
-    # the bands' spread: the area is not smooth in them where the PSD meets the line, so
-    # draw them (correlated normal, seeded: the result is reproducible) and take the spread
-    rng = np.random.default_rng(BETA_SEED)
-    factor = np.linalg.cholesky(spectrum.correlation[np.ix_(valid, valid)])
-    draws = level + corrected_std[valid] * (
-        rng.standard_normal((BETA_DRAWS, valid.size)) @ factor.T
-    )
-    areas = _beta_area(draws, low, high, start_hz) - _beta_area(level, low, high, start_hz)
-    areas += area + np.sqrt(variance) * rng.standard_normal(BETA_DRAWS)
-    fwhm = np.sqrt(8.0 * np.log(2.0) * max(area, 0.0))
-    std = float(np.std(np.sqrt(8.0 * np.log(2.0) * np.clip(areas, 0.0, None))))
-    last = valid[-1]
-    lower_limit = bool(corrected[last] > BETA_SLOPE * spectrum.freqs_hz[last])
-    return _Beta(float(fwhm), std, lower_limit, area, extrapolated)
-
-
-def _drift(series: np.ndarray, measured: np.ndarray, rate_hz: float) -> float:
-    """Least-squares slope (Hz/s) of the measured (not bridged) readings against time."""
-    times = np.flatnonzero(measured) / rate_hz
-    values = series[measured]
-    centred = times - times.mean()
-    return float(centred @ (values - values.mean()) / (centred @ centred))
-
-
-# --- Allan family ------------------------------------------------------------------------
-
-
-def _allan_family(
-    series: np.ndarray,
-    center_hz: float,
-    rate_hz: float,
-    levels: np.ndarray,
-    drift_hz_per_s: float,
-    confidence: float,
-) -> dict[str, np.ndarray]:
-    import allantools
-
-    fractional = (series - center_hz) / center_hz
-    samples = fractional.size
-    factors = 2 ** np.arange(int(np.log2(samples // MIN_AVERAGES)) + 1)
-    taus = factors / rate_hz
-    # the noise type that dominates each variance at each tau sets its degrees of freedom
-    dominant = deviation_variances(taus, np.maximum(levels, 0.0), drift_hz_per_s, None)
-    result = {"taus_s": taus, "n_averages": samples // factors}
-    statistics = (
-        ("adev", allantools.oadev, 2, False),
-        ("mdev", allantools.mdev, 2, True),
-        ("hdev", allantools.ohdev, 3, False),
-    )
-    for name, statistic, order, modified in statistics:
-        _, deviation, _, _ = statistic(fractional, rate=rate_hz, data_type="freq", taus=taus)
-        alphas = np.array(_ALPHAS)[np.argmax(dominant[name], axis=0)]
-        interval = [
-            allantools.confidence_interval(
-                value,
-                allantools.edf_greenhall(
-                    alpha=int(alpha),
-                    d=order,
-                    m=int(m),
-                    N=samples + 1,
-                    overlapping=True,
-                    modified=modified,
-                ),
-                ci=confidence,
-            )
-            for value, alpha, m in zip(deviation, alphas, factors, strict=True)
-        ]
-        result[name] = np.asarray(deviation, dtype=float)
-        result[f"{name}_ci"] = np.array(interval, dtype=float).T
-    return result
-
-
-# --- the analysis ------------------------------------------------------------------------
-
-
 def _check_fraction(name: str, value, *, upper: float | None = None) -> float:
     value = check_non_negative(name, value)
     if upper is not None and not 0 < value < upper:
@@ -655,12 +342,20 @@ def _check_observation_time(value, duration_s: float) -> float | None:
     return value
 
 
+# --- findings ----------------------------------------------------------------------------
+
+
 def _warning(cause: str, seen: str, remedy: str) -> CalibrationWarning:
     return CalibrationWarning(f"{seen}; {remedy}", cause=cause, remedy=remedy)
 
 
 def _findings(
-    result: FrequencyNoise, dropped: int, bridged: int, fit: _Fit, beta: _Beta, low_hz: float
+    result: FrequencyNoise,
+    dropped: int,
+    bridged: int,
+    fit: PowerLawFit,
+    beta: BetaLinewidth,
+    low_hz: float,
 ) -> list[CalibrationWarning]:
     """The warnings a result calls for, each with its numbers and a remedy."""
     found = []
@@ -753,6 +448,9 @@ def _findings(
     return found
 
 
+# --- the analysis ------------------------------------------------------------------------
+
+
 def frequency_noise(
     frequency_hz,
     rate_hz: float,
@@ -765,8 +463,8 @@ def frequency_noise(
 ) -> FrequencyNoise:
     """PSD, linewidths, drift and Allan family of a laser from a meter's frequency readings.
 
-    The method, its approximations and the meaning of each field are in the module's
-    notes and :class:`FrequencyNoise`.
+    The method, its approximations and the meaning of each field are in the notes of this
+    module and of those it names for each step, and in :class:`FrequencyNoise`.
 
     Parameters
     ----------
@@ -817,15 +515,8 @@ def frequency_noise(
     duration_s = series.size / rate_hz
     observation_time_s = _check_observation_time(observation_time_s, duration_s)
 
-    spectrum = _spectrum(series - center_hz, rate_hz, fsr_hz)
-    if fsr_hz is None:
-        delay_band, limit_hz = np.ones_like(spectrum.freqs_hz), None
-    else:
-        delay_band = np.sinc(spectrum.freqs_hz / fsr_hz) ** 2
-        limit_hz = DELAY_CORRECTION_MAX_FSR * fsr_hz
-    corrected = (spectrum.psd - (floor or 0.0)) / delay_band
-    if limit_hz is not None:
-        corrected[spectrum.freqs_hz > limit_hz] = np.nan
+    spectrum = welch_bands(series - center_hz, rate_hz, fsr_hz)
+    corrected, delay_band, limit_hz = delay_correction(spectrum, floor, fsr_hz)
     usable = np.isfinite(corrected)
     if usable.sum() < 4:
         raise InputError(
@@ -842,24 +533,14 @@ def frequency_noise(
             "the highest frequency analysed; give a longer observation time",
             parameter="observation_time_s",
         )
-    from scipy.stats import chi2 as chi_square
-
-    tail = (1.0 - confidence) / 2.0
-    psd_ci = spectrum.dof * spectrum.psd / chi_square.ppf([[1.0 - tail], [tail]], spectrum.dof)
-
-    fit = _fit_power_law(spectrum, usable, floor, floor_std)
+    fit = fit_power_law(spectrum, usable, floor, floor_std)
     stds = np.sqrt(np.diag(fit.covariance))
     h0, h0_std = float(fit.levels[0]), float(stds[0])
-    upper = floor is None or not h0 > max(floor, UPPER_LIMIT_SIGMAS * h0_std)
-    linewidth = np.pi * (max(h0, 0.0) + UPPER_LIMIT_SIGMAS * h0_std) if upper else np.pi * h0
-    corrected_std = spectrum.psd * np.sqrt(2.0 / spectrum.dof) / delay_band
-    beta = _beta_linewidth(
-        spectrum, corrected, corrected_std, delay_band, fit, floor_std, observation_time_s
-    )
-    drift = _drift(series, measured, rate_hz)
+    linewidth, upper = lorentzian_linewidth(h0, h0_std, floor)
+    beta = beta_linewidth(spectrum, corrected, delay_band, fit, floor_std, observation_time_s)
     reading_levels = fit.levels + np.array([floor or 0.0, 0.0, 0.0])
-    drift_std = np.sqrt(slope_variance(series.size, rate_hz, reading_levels))
-    allan = _allan_family(series, center_hz, rate_hz, reading_levels, drift, confidence)
+    drift, drift_std = fit_drift(series, measured, rate_hz, reading_levels)
+    allan = allan_family(series, center_hz, rate_hz, reading_levels, drift, confidence)
     n_readings = int(np.count_nonzero(np.isfinite(raw)))
     result = FrequencyNoise(
         rate_hz=rate_hz,
@@ -870,7 +551,7 @@ def frequency_noise(
         confidence=confidence,
         psd_freqs_hz=spectrum.freqs_hz,
         psd_hz2_per_hz=spectrum.psd,
-        psd_ci_hz2_per_hz=psd_ci,
+        psd_ci_hz2_per_hz=psd_interval(spectrum, confidence),
         meter_floor_hz2_per_hz=floor,
         psd_corrected_hz2_per_hz=corrected,
         phase_psd_rad2_per_hz=corrected / spectrum.freqs_hz**2,
@@ -881,15 +562,15 @@ def frequency_noise(
         flicker_fm_std_hz2=float(stds[1]),
         random_walk_fm_hz2_per_s=float(fit.levels[2]),
         random_walk_fm_std_hz2_per_s=float(stds[2]),
-        lorentzian_linewidth_hz=float(linewidth),
+        lorentzian_linewidth_hz=linewidth,
         lorentzian_linewidth_std_hz=float(np.pi * h0_std),
-        linewidth_is_upper_limit=bool(upper),
+        linewidth_is_upper_limit=upper,
         beta_linewidth_hz=beta.fwhm_hz,
         beta_linewidth_std_hz=beta.std_hz,
         beta_observation_time_s=float(observation_time_s),
         beta_linewidth_is_lower_limit=beta.lower_limit,
         drift_hz_per_s=drift,
-        drift_std_hz_per_s=float(drift_std),
+        drift_std_hz_per_s=drift_std,
         **allan,
     )
     found = _findings(
