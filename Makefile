@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint bench trust thermal wideband cascade scale peers fuzz clean
+.PHONY: demo test lint bench trust thermal wideband cascade scale noise peers fuzz clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -54,6 +54,12 @@ cascade: $(BIN)/wavemeter
 # issue 13: fit, predict, measure, stream and fleet at scale, side by side (about 10 min)
 scale: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/scale.py
+
+# issue 14: linewidth, PSD and Allan deviations of simulated lasers read through a simulated
+# meter, vs the truth and vs allantools/scipy by hand; writes docs/figures/noise_psd.png and
+# docs/figures/noise_adev.png
+noise: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/noise.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'

@@ -74,6 +74,22 @@ def test_the_python_example_runs(tmp_path, monkeypatch):
     assert (tmp_path / "chip.wmcal.json").is_file()
 
 
+def test_the_noise_example_recovers_the_laser_it_simulates(tmp_path, monkeypatch):
+    """The frequency-noise example, run after the first example (its ``dev`` and ``cal``),
+    recovers the simulated laser's linewidth and drift within 3 of their stated standard
+    deviations."""
+    monkeypatch.chdir(tmp_path)
+    blocks = re.findall(r"```python\n(.*?)```", README, re.S)
+    noise = next(block for block in blocks if "frequency_noise(" in block)
+    namespace: dict = {}
+    for code in (blocks[0], noise):
+        exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102 - the README's code
+    result = namespace["result"]
+    assert not result.linewidth_is_upper_limit
+    assert abs(result.lorentzian_linewidth_hz - 500e6) < 3 * result.lorentzian_linewidth_std_hz
+    assert abs(result.drift_hz_per_s - 1e9) < 3 * result.drift_std_hz_per_s
+
+
 def test_the_wide_band_example_chooses_the_orders_the_readme_states(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     section = README[README.index("### Wide band") : README.index("## Using your own data")]

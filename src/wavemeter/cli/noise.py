@@ -75,7 +75,8 @@ RATE_OPTIONS = "pass --rate (e.g. --rate 10MHz) or --time-column COL (the readin
     "observation_time_s",
     type=DURATION,
     help="Observation time of the beta-line linewidth: 1ms, 0.1s; a bare number is in s "
-    "(default: the record's duration).",
+    "(default: the longest the PSD measures, a twelfth to a sixth of the record; longer, "
+    "up to the record, extrapolates the fitted power law, with a warning).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print the analysis as JSON on stdout.")
 @reading_input_options
