@@ -25,8 +25,9 @@ the median over seeds with the spread. The meter's readings are ``cal.predict`` 
 ``device.powers`` of the laser frequency, unwrapped with ``np.unwrap(period=cal.fsr_hz_)``,
 every reading used (the simulation has no faults); the package analyses them with
 ``frequency_noise(readings, rate, meter_std_hz=cal.frequency_std_hz(powers),
-fsr_hz=cal.fsr_hz_)``. The meter's true floor is ``2 var(error) / rate`` of its actual
-errors (reading minus truth), printed beside the floor the package states.
+fsr_hz=cal.fsr_hz_, scale_rel_std=cal.delay_std_s_ / cal.delay_s_)``. The meter's true
+floor is ``2 var(error) / rate`` of its actual errors (reading minus truth), printed beside
+the floor the package states.
 
 **Analytic values** are ``wm.analysis.power_law_deviations`` (checked first against
 allantools on noise of known level drawn by allantools' own Kasdin generator), with
@@ -345,6 +346,7 @@ def measure(case: LaserCase, seed: int, samples: int = SAMPLES, rate_hz: float =
             rate_hz,
             meter_std_hz=cal.frequency_std_hz(powers),
             fsr_hz=cal.fsr_hz_,
+            scale_rel_std=cal.delay_std_s_ / cal.delay_s_,
             confidence=CONFIDENCE,
         )
     taus = result.taus_s

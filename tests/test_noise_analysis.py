@@ -196,6 +196,19 @@ def test_drift_is_recovered_within_its_std_which_counts_the_random_walk():
     assert result.drift_std_hz_per_s > 10 * white_formula
 
 
+def test_the_scale_uncertainty_adds_the_drift_times_it_in_quadrature_and_nothing_else():
+    """A meter's frequency scale known to ``s`` (relative) scales a drift by ``1 +- s``:
+    ``|D| s`` adds to the drift's std in quadrature; every other number is unchanged."""
+    readings = laser(2**14, 16, white_fm_hz2_per_hz=1e4, drift_hz_per_s=1e9)
+    plain = frequency_noise(readings, RATE_HZ, meter_std_hz=0.0)
+    scaled = frequency_noise(readings, RATE_HZ, meter_std_hz=0.0, scale_rel_std=1e-2)
+    expected = np.hypot(plain.drift_std_hz_per_s, abs(plain.drift_hz_per_s) * 1e-2)
+    assert scaled.drift_std_hz_per_s == pytest.approx(expected, rel=1e-12)
+    assert scaled.drift_std_hz_per_s > 2 * plain.drift_std_hz_per_s  # the term matters here
+    rest = {k: v for k, v in scaled.to_dict().items() if k != "drift_std_hz_per_s"}
+    assert rest == {k: v for k, v in plain.to_dict().items() if k != "drift_std_hz_per_s"}
+
+
 # --- Allan family ------------------------------------------------------------------------
 
 CASES = {
@@ -349,6 +362,7 @@ GOOD = laser(1000, 20, white_fm_hz2_per_hz=1e4)
         (GOOD, {"confidence": 1.0}, "confidence"),
         (GOOD, {"confidence": 0.0}, "confidence"),
         (GOOD, {"meter_floor_rel_std": -0.1}, "meter_floor_rel_std"),
+        (GOOD, {"scale_rel_std": -1e-6}, "scale_rel_std"),
         (GOOD, {"observation_time_s": 0.0}, "observation_time_s"),
         (GOOD, {"observation_time_s": 1e-6}, "observation_time_s"),
         (GOOD.reshape(10, 100), {}, "frequency_hz"),

@@ -140,6 +140,8 @@ def test_a_drift_over_two_fsrs_is_unwrapped_chunk_by_chunk(meter, tmp_path, rng)
         scale_hz = abs(calibration.fsr_hz_ / device.true_fsr_hz - 1) * 2.2 * device.true_fsr_hz
         assert np.max(np.abs(error - np.mean(error))) < 5 * series.meter_std_hz + scale_hz
         assert series.ambiguous_steps == 0
+    # the calibrated scale's uncertainty goes with the series (a drift's std needs it)
+    assert series.scale_rel_std == calibration.delay_std_s_ / calibration.delay_s_ > 0
 
 
 def test_a_step_of_a_third_fsr_warns_that_the_unwrap_is_ambiguous(meter, tmp_path, rng):

@@ -136,7 +136,8 @@ class FrequencyNoise:
     beta_linewidth_is_lower_limit : bool
         The PSD is above the line up to the highest corrected frequency.
     drift_hz_per_s, drift_std_hz_per_s : float
-        Least-squares drift (Hz/s) and its standard deviation under the fitted noise.
+        Least-squares drift (Hz/s) and its standard deviation under the fitted noise
+        (with the frequency scale's uncertainty, ``scale_rel_std``).
     taus_s : ndarray, shape (M,)
         Averaging times (s), octaves of the sample interval with ``T / tau >= 10``.
     adev, mdev, hdev : ndarray, shape (M,)
@@ -459,6 +460,7 @@ def frequency_noise(
     fsr_hz: float | None = None,
     observation_time_s: float | None = None,
     meter_floor_rel_std: float = 0.05,
+    scale_rel_std: float = 0.0,
     confidence: float = 0.683,
 ) -> FrequencyNoise:
     """PSD, linewidths, drift and Allan family of a laser from a meter's frequency readings.
@@ -488,6 +490,12 @@ def frequency_noise(
         measures.
     meter_floor_rel_std : float
         Relative standard deviation of the meter's floor (>= 0), added to ``h0``'s.
+    scale_rel_std : float
+        Relative standard deviation of the meter's frequency scale (>= 0): a calibrated
+        interferometer's, ``delay_std_s_ / delay_s_``, scales every excursion from its
+        phase origin, so ``|drift| * scale_rel_std`` adds to the drift's standard deviation
+        (it matters for a drift over many FSRs; the noise levels change by ``2 *
+        scale_rel_std`` relative, far inside their uncertainty).
     confidence : float
         Level of every confidence interval, in (0, 1).
 
@@ -509,6 +517,7 @@ def frequency_noise(
     floor = _check_meter_std(meter_std_hz, raw, rate_hz)
     fsr_hz = _optional_positive("fsr_hz", fsr_hz)
     floor_std = _check_fraction("meter_floor_rel_std", meter_floor_rel_std) * (floor or 0.0)
+    scale_rel_std = _check_fraction("scale_rel_std", scale_rel_std)
     confidence = _check_fraction("confidence", confidence, upper=1.0)
     center_hz = _check_center(raw)
     series, measured = _bridge(raw)
@@ -540,6 +549,7 @@ def frequency_noise(
     beta = beta_linewidth(spectrum, corrected, delay_band, fit, floor_std, observation_time_s)
     reading_levels = fit.levels + np.array([floor or 0.0, 0.0, 0.0])
     drift, drift_std = fit_drift(series, measured, rate_hz, reading_levels)
+    drift_std = float(np.hypot(drift_std, abs(drift) * scale_rel_std))
     allan = allan_family(series, center_hz, rate_hz, reading_levels, drift, confidence)
     n_readings = int(np.count_nonzero(np.isfinite(raw)))
     result = FrequencyNoise(

@@ -243,6 +243,7 @@ def _analysed(series, readings, observation_time_s):
             series.rate_hz,
             meter_std_hz=series.meter_std_hz,
             fsr_hz=series.fsr_hz,
+            scale_rel_std=series.scale_rel_std,
             observation_time_s=observation_time_s,
         )
 

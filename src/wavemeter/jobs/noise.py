@@ -101,6 +101,9 @@ class NoiseSeries:
     fsr_hz : float
         The calibration's FSR (Hz) (of the finest stage of a cascade): the delay the
         readings average over is ``1 / fsr_hz``.
+    scale_rel_std : float
+        Relative standard deviation of the calibration's frequency scale, ``delay_std_s_ /
+        delay_s_`` (0 when the calibration states none): a drift's uncertainty grows with it.
     unwrapped : bool
         Whether the series was unwrapped with period ``fsr_hz`` (the calibration reads
         modulo its FSR).
@@ -133,6 +136,7 @@ class NoiseSeries:
     rate_hz: float
     meter_std_hz: float | None
     fsr_hz: float
+    scale_rel_std: float
     unwrapped: bool
     rows: int
     excluded: int
@@ -330,6 +334,13 @@ class _Unwrapper:
         )
 
 
+def _scale_rel_std(calibration) -> float:
+    """``delay_std_s_ / delay_s_`` of a calibration that states it, else 0."""
+    delay_std_s = getattr(calibration, "delay_std_s_", None)
+    delay_s = getattr(calibration, "delay_s_", None)
+    return float(delay_std_s / delay_s) if delay_std_s and delay_s else 0.0
+
+
 def _check_rate(rate_hz) -> float | None:
     if rate_hz is None:
         return None
@@ -499,6 +510,7 @@ def measure_series(
         rate_hz=float(rate_hz),
         meter_std_hz=math.sqrt(variance_sum / variance_count) if variance_count else None,
         fsr_hz=fsr_hz,
+        scale_rel_std=_scale_rel_std(calibration),
         unwrapped=modulo,
         rows=frequency_hz.size,
         excluded=excluded,
