@@ -46,7 +46,7 @@ FORMATS = {"CSV": ".csv", "Parquet": ".parquet"}
 
 @dataclass(frozen=True)
 class MeasureRun:
-    """One ``wavemeter measure`` run.
+    """One run of a command on a file (``wavemeter measure``, or ``calibrate``).
 
     Attributes
     ----------
@@ -171,17 +171,19 @@ def chunk_bytes() -> int:
     return MEASURE_CHUNK_ROWS * ROW_BYTES
 
 
-def memory_target(runs: list[MeasureRun]) -> list[tuple[str, str, bool]]:
-    """Per format: the largest file's peak against 1.2x the smallest's plus the chunk."""
+def memory_target(runs: list[MeasureRun], chunk: int | None = None) -> list[tuple[str, str, bool]]:
+    """Per format: the largest file's peak against 1.2x the smallest's plus the chunk
+    (``chunk`` bytes; default a measured chunk, :func:`chunk_bytes`)."""
+    chunk = chunk_bytes() if chunk is None else chunk
     verdicts = []
     for name in FORMATS:
         mine = sorted((run for run in runs if run.file_format == name), key=lambda r: r.rows)
         smallest, largest = mine[0], mine[-1]
-        allowed = MEMORY_FACTOR * smallest.peak_rss_bytes + chunk_bytes()
+        allowed = MEMORY_FACTOR * smallest.peak_rss_bytes + chunk
         cell = (
             f"{largest.rows:.0e} rows: {largest.peak_rss_bytes / 2**20:.0f} MiB <= "
             f"{MEMORY_FACTOR:g} x {smallest.peak_rss_bytes / 2**20:.0f} MiB "
-            f"({smallest.rows:.0e} rows) + {chunk_bytes() / 2**20:.0f} MiB = "
+            f"({smallest.rows:.0e} rows) + {chunk / 2**20:.0f} MiB = "
             f"{allowed / 2**20:.0f} MiB"
         )
         verdicts.append((name, cell, largest.peak_rss_bytes <= allowed))

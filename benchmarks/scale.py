@@ -10,6 +10,11 @@
   :func:`~wavemeter.calibration.learned.fit_learned_map_chunks` on chunks of 1e5 samples,
   in a child process per N. Targets: 1e6 samples <= 0.5 s, 1e7 <= 5 s in bounded memory,
   delay within 1e-10 and map within 1e-9 of today's.
+- **whole fit**: the calibration a user gets, ``Calibrator.fit`` with its checks and
+  diagnostics, with every reading diagnosed (the path before sampling, reached by setting
+  ``diagnostic_samples`` beyond N) against the fit on moments with the checks on every
+  k-th reading (at most ``DIAGNOSTIC_SAMPLES``, :mod:`wavemeter.calibration.subsample`),
+  on the fit's sweeps. Targets as the fit's.
 - **predict**: ``Calibrator.predict`` (pinv and ml retrievals) over ``np.arctan2`` alone on
   two columns of the same N, numba and numpy paths (``WAVEMETER_NO_NUMBA``) timed in this
   one process; 1e8 readings as 10 chunks of 1e7. Targets: pinv <= 1.2x with numba, <= 2x
@@ -17,6 +22,8 @@
 - **measure**: ``wavemeter measure`` on CSV and Parquet files of 1e5, 1e6, 1e7 rows
   (``benchmarks/_scale_measure.py``). Target: the 1e7-row peak within 1.2x the 1e5-row
   peak plus the chunk.
+- **calibrate**: ``wavemeter calibrate`` on CSV and Parquet sweep files of 1e5, 1e6, 1e7
+  rows (``benchmarks/_scale_calibrate.py``), read in chunks. Target as for measure.
 - **stream**: ``wavemeter stream`` latency per reading over a pipe
   (``benchmarks/_stream_latency.py``). Target: < 1 ms.
 - **fleet**: 1000 devices x 2000 samples, serial vs a LocalCluster of 2 workers
@@ -26,7 +33,8 @@ Times are medians of ``--runs`` runs (one fit at 1e7 samples); the machine is sh
 read the ratios. BLAS runs on one thread (``OPENBLAS_NUM_THREADS=1``, as the command line
 sets it): the products here are skinny, and threads only contend.
 
-Usage: ``python benchmarks/scale.py [--runs 3] [--quick] [--only fit,predict,measure,stream,fleet]``
+Usage: ``python benchmarks/scale.py [--runs 3] [--quick]
+[--only fit,predict,measure,calibrate,stream,fleet]``
 (``--quick``: small sizes, for the smoke test).
 """
 
@@ -45,6 +53,7 @@ from functools import partial  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import _fleet_bench  # noqa: E402
+import _scale_calibrate  # noqa: E402
 import _scale_measure  # noqa: E402
 import _stream_latency  # noqa: E402
 import numpy as np  # noqa: E402
@@ -54,6 +63,7 @@ import wavemeter as wm  # noqa: E402
 from wavemeter.calibration.delay_search import search_delay  # noqa: E402
 from wavemeter.calibration.learned import fit_learned_map  # noqa: E402
 from wavemeter.calibration.linear_map import map_cost, object_vectors, unfitted_cost  # noqa: E402
+from wavemeter.calibration.subsample import DIAGNOSTIC_SAMPLES  # noqa: E402
 from wavemeter.model import kernels  # noqa: E402
 
 SEED = 7
@@ -78,8 +88,11 @@ QUICK = {
     "fit": (1_000, 10_000),
     "predict": (1_000, 100_000),
     "measure": (10_000, 100_000),
+    "calibrate": (10_000, 100_000),
     "fleet": (8, 500),
 }
+#: ``diagnostic_samples`` that makes a calibrator diagnose every reading (the old path)
+EVERY_READING = 1 << 62
 
 
 def sweep(samples: int, rng_seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
@@ -183,6 +196,49 @@ FIT_HEADERS = (
 )
 
 
+# ---------------------------------------------------------------------------- whole fit
+def whole_fit_row(samples: int, runs: int) -> list[str]:
+    """One size: ``Calibrator.fit`` with every reading diagnosed against the sampled path."""
+    repeats = 1 if samples >= ONCE_FROM else runs
+    progress(f"whole fit: {samples:.0e} samples")
+    frequency, powers = sweep(samples)
+    every = wm.Calibrator(fsr_hz=FSR_HZ)
+    every.diagnostic_samples = EVERY_READING
+    sampled = wm.Calibrator(fsr_hz=FSR_HZ)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wm.CalibrationWarning)
+        every_s, _ = median_time_s(partial(every.fit, powers, frequency), repeats)
+        sampled_s, _ = median_time_s(partial(sampled.fit, powers, frequency), repeats)
+    target = FIT_TARGETS_S.get(samples)
+    verdict = "-" if target is None else f"{status(sampled_s <= target)} (<= {target:g} s)"
+    return [
+        f"{samples:.0e}",
+        f"{every_s:.3g}",
+        f"{sampled_s:.3g}",
+        str(sampled.diagnostics_["diagnostic_samples"]),
+        f"{every_s / sampled_s:.3g}",
+        verdict,
+    ]
+
+
+def whole_fit_rows(sizes, runs: int) -> list[list[str]]:
+    frequency, powers = sweep(2 * DIAGNOSTIC_SAMPLES)
+    with warnings.catch_warnings():  # load the multi-core kernels before any clock runs
+        warnings.simplefilter("ignore", wm.CalibrationWarning)
+        wm.Calibrator(fsr_hz=FSR_HZ).fit(powers, frequency)
+    return [whole_fit_row(samples, runs) for samples in sizes]
+
+
+WHOLE_FIT_HEADERS = (
+    "samples",
+    "every reading diagnosed (s)",
+    "moments, checks on a sample (s)",
+    "readings diagnosed",
+    "speed-up",
+    "Calibrator.fit time target",
+)
+
+
 # ---------------------------------------------------------------------------- predict
 def use_numpy(flag: bool) -> None:
     """Switch the fused kernels between numba and numpy for the calls that follow."""
@@ -259,9 +315,8 @@ PREDICT_HEADERS = (
 
 
 # ---------------------------------------------------------------------------- measure
-def measure_table(sizes) -> str:
-    with tempfile.TemporaryDirectory(prefix="wavemeter-scale-") as folder:
-        runs = _scale_measure.measure_runs(Path(folder), sizes, progress)
+def file_table(runs, command: str, chunk_bytes: int) -> str:
+    """The runs of a command on files, and the memory target per format."""
     rows = [
         [
             run.file_format,
@@ -278,12 +333,13 @@ def measure_table(sizes) -> str:
         "format",
         "rows",
         "file (MiB)",
-        "wavemeter measure wall (s)",
+        f"wavemeter {command} wall (s)",
         "rows/s",
         "peak RSS (MiB)",
         "pyarrow alone reads it (s)",
     )
-    verdicts = [[name, cell, status(ok)] for name, cell, ok in _scale_measure.memory_target(runs)]
+    targets = _scale_measure.memory_target(runs, chunk_bytes)
+    verdicts = [[name, cell, status(ok)] for name, cell, ok in targets]
     return (
         markdown_table(headers, rows)
         + "\n\n"
@@ -291,12 +347,24 @@ def measure_table(sizes) -> str:
     )
 
 
+def measure_table(sizes) -> str:
+    with tempfile.TemporaryDirectory(prefix="wavemeter-scale-") as folder:
+        runs = _scale_measure.measure_runs(Path(folder), sizes, progress)
+    return file_table(runs, "measure", _scale_measure.chunk_bytes())
+
+
+def calibrate_table(sizes) -> str:
+    with tempfile.TemporaryDirectory(prefix="wavemeter-scale-") as folder:
+        runs = _scale_calibrate.calibrate_runs(Path(folder), sizes, progress)
+    return file_table(runs, "calibrate", _scale_calibrate.chunk_bytes())
+
+
 # ---------------------------------------------------------------------------- main
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--only", default="fit,predict,measure,stream,fleet")
+    parser.add_argument("--only", default="fit,predict,measure,calibrate,stream,fleet")
     args = parser.parse_args(argv)
     quick = args.quick or os.environ.get("WAVEMETER_BENCH_QUICK") == "1"
     parts = set(args.only.split(","))
@@ -309,6 +377,8 @@ def main(argv=None) -> None:
         sizes = QUICK["fit"] if quick else FIT_SIZES
         print("\n## Fit: delay search on the direct cost (today) vs on the moments\n")
         print(markdown_table(FIT_HEADERS, [fit_row(samples, args.runs) for samples in sizes]))
+        print("\n## Calibrator.fit whole: every reading diagnosed vs checks on a sample\n")
+        print(markdown_table(WHOLE_FIT_HEADERS, whole_fit_rows(sizes, args.runs)))
     if "predict" in parts:
         sizes = QUICK["predict"] if quick else PREDICT_SIZES
         print("\n## Predict: time over np.arctan2 alone on the same readings\n")
@@ -317,6 +387,10 @@ def main(argv=None) -> None:
         sizes = QUICK["measure"] if quick else MEASURE_SIZES
         print("\n## wavemeter measure on large files (one child process per file)\n")
         print(measure_table(sizes))
+    if "calibrate" in parts:
+        sizes = QUICK["calibrate"] if quick else MEASURE_SIZES
+        print("\n## wavemeter calibrate on large sweep files (one child process per file)\n")
+        print(calibrate_table(sizes))
     if "stream" in parts:
         print("\n## wavemeter stream: latency per reading over a pipe\n")
         with tempfile.TemporaryDirectory(prefix="wavemeter-stream-") as folder:

@@ -13,7 +13,10 @@ declares in ``requires``; what it can do beyond ``predict`` in ``capabilities``.
 ``fit`` checks the sweep before any method-specific work, in one place for every class:
 the design FSR against the sweep's own fringes (:mod:`wavemeter.calibration.fsr_guard`,
 which keeps the delay search bounded), then every port's fringe
-(:mod:`wavemeter.calibration.diagnostics`); what it finds is kept in ``diagnostics_``.
+(:mod:`wavemeter.calibration.diagnostics`); what it finds is kept in ``diagnostics_``,
+with the number of readings the checks saw (``"diagnostic_samples"``: every one here; the
+learned calibrator checks a long sweep on every k-th reading,
+:mod:`wavemeter.calibration.subsample`).
 ``summary()`` reports the fit (:mod:`wavemeter.calibration.summary`).
 """
 
@@ -94,6 +97,19 @@ class StreamReading:
     frequency_std_hz: float
     flags: int
     order_error_probability: float | None = None
+
+
+def checked_port_names(port_names, ports: int) -> list[str]:
+    """Names of the port columns: ``p1 .. pn`` by default, else ``ports`` strings."""
+    names = [f"p{k + 1}" for k in range(ports)] if port_names is None else list(port_names)
+    if len(names) != ports or not all(isinstance(name, str) for name in names):
+        raise InputError(f"port_names must be {ports} strings, got {port_names!r}")
+    return names
+
+
+def value_range(values: np.ndarray | None) -> list[float] | None:
+    """``[lowest, highest]`` of some values (None for None), as diagnostics keep ranges."""
+    return None if values is None else [float(values.min()), float(values.max())]
 
 
 class BaseCalibrator:
@@ -260,54 +276,87 @@ class BaseCalibrator:
         n_ports = raw.shape[1]
         dark = check_dark(dark_w, n_ports)
         powers = raw if dark is None else raw - dark
-        names = [f"p{k + 1}" for k in range(n_ports)] if port_names is None else list(port_names)
-        if len(names) != n_ports or not all(isinstance(name, str) for name in names):
-            raise InputError(f"port_names must be {n_ports} strings, got {port_names!r}")
+        names = checked_port_names(port_names, n_ports)
         temperature = self._sweep_temperature(temperature_k, n_samples=raw.shape[0])
+        for note in self._fit_sweep(powers, frequency, monitor, names, dark, temperature):
+            warnings.warn(note, stacklevel=2)
+        return self
+
+    def _fit_sweep(self, powers, frequency_hz, monitor, names, dark, temperature_k) -> list:
+        """Fit validated, dark-subtracted readings (N, n), every one of them diagnosed; the
+        calibration warnings, not yet issued."""
         scale = None if monitor is None else monitor / monitor.mean()
         # before any delay grid: a design FSR the sweep cannot resolve or contradicts
-        estimate = self._check_sweep(powers, frequency, scale, temperature)
-        low, high = float(frequency.min()), float(frequency.max())
-        center = 0.5 * (low + high)
+        estimate = self._check_sweep(powers, frequency_hz, scale, temperature_k)
+        span = (float(frequency_hz.min()), float(frequency_hz.max()))
+        self._start_fit(span, names, powers.shape[0], dark)
         delay = 1.0 / self.fsr_hz if estimate is None else estimate.delay_s
-        self.center_hz_ = center
-        self.span_hz_ = (low, high)
-        self.n_ports_ = n_ports
-        self.n_samples_ = powers.shape[0]
-        self.port_names_ = names
-        self.dark_w_ = dark
-        self.offset_w_ = np.zeros(n_ports)
-        self._sweep_temperature_k = temperature
-        health = self._port_health(powers, frequency, center, delay, names, scale)
-        notes = check_port_health(
-            [health[k] for k in self._ports_read(n_ports)],
-            powers.shape[0],
-            needed=self.fringe_ports_needed,
-        )
-        self._fit(powers, frequency, monitor)
+        self._sweep_temperature_k = temperature_k
+        health, notes = self._checked_port_health(powers, frequency_hz, delay, scale)
+        self._fit(powers, frequency_hz, monitor)
         corrected = powers - self.offset_w_
         total = corrected.sum(axis=1)
         # the range the flags compare readings with, offset-corrected like them
         self.total_power_range_w_ = (float(total.min()), float(total.max()))
-        error = self._sweep_error_hz(corrected, frequency, temperature)
+        misfit = self._diagnose_fit(powers, corrected, frequency_hz, scale, delay, temperature_k)
+        return self._record_diagnostics(
+            estimate,
+            health,
+            misfit,
+            notes,
+            temperature_range=value_range(temperature_k),
+            diagnosed=powers.shape[0],
+        )
+
+    def _start_fit(self, span_hz: tuple[float, float], names: list, samples: int, dark) -> None:
+        """The sweep's layout as the fitted attributes keep it; no offsets yet."""
+        low, high = span_hz
+        self.center_hz_ = 0.5 * (low + high)
+        self.span_hz_ = (low, high)
+        self.n_ports_ = len(names)
+        self.n_samples_ = samples
+        self.port_names_ = names
+        self.dark_w_ = dark
+        self.offset_w_ = np.zeros(len(names))
+
+    def _checked_port_health(self, powers, frequency_hz, delay_s: float, scale):
+        """Every port's fringe on the readings diagnosed (:meth:`_port_health`) and the
+        warning about the bad ones; raises when too few ports carry a fringe."""
+        health = self._port_health(
+            powers, frequency_hz, self.center_hz_, delay_s, self.port_names_, scale
+        )
+        notes = check_port_health(
+            [health[k] for k in self._ports_read(self.n_ports_)],
+            powers.shape[0],
+            needed=self.fringe_ports_needed,
+        )
+        return health, notes
+
+    def _diagnose_fit(self, powers, corrected, frequency_hz, scale, delay_s, temperature_k):
+        """On the readings diagnosed (dark-subtracted, and offset-corrected ``corrected``):
+        the RMS error on the sweep and the misfit report, taken into the fit."""
+        error = self._sweep_error_hz(corrected, frequency_hz, temperature_k)
         self.calibration_rms_hz_ = float(np.sqrt(np.mean(error**2)))
-        misfit = self._misfit_report(powers, frequency, scale, delay)
+        misfit = self._misfit_report(powers, frequency_hz, scale, delay_s)
         self._use_misfit_report(misfit)
         del self._sweep_temperature_k
+        return misfit
+
+    def _record_diagnostics(
+        self, estimate, health, misfit, notes, *, temperature_range, diagnosed: int
+    ) -> list:
+        """``diagnostics_`` from what the checks found; all the fit's warnings, in order."""
         notes = notes + list(misfit.warnings) + self._fit_notes()
         self.diagnostics_ = {
             "fsr_estimate_hz": None if estimate is None else estimate.fsr_hz,
             "ports": [port.to_dict() for port in health],
             "fit": misfit.to_dict(),
-            "temperature_range_k": None
-            if temperature is None
-            else [float(temperature.min()), float(temperature.max())],
+            "temperature_range_k": temperature_range,
+            "diagnostic_samples": int(diagnosed),
             **self._method_diagnostics(),
             "warnings": [note.record() for note in notes],
         }
-        for note in notes:
-            warnings.warn(note, stacklevel=2)
-        return self
+        return notes
 
     def _sweep_error_hz(self, readings, frequency_hz, temperature_k) -> np.ndarray:
         """Frequency error (Hz) of the sweep's own readings (offset-corrected), modulo the

@@ -83,8 +83,17 @@ class FsrEstimate:
 
 
 def median_step_hz(frequency_hz: np.ndarray) -> float:
-    """Median spacing (Hz) of the distinct sweep frequencies (0 when all are equal)."""
-    steps = np.diff(np.sort(np.asarray(frequency_hz, dtype=float)))
+    """Median spacing (Hz) of the distinct sweep frequencies (0 when all are equal).
+
+    A sweep in frequency order (rising or falling: a swept laser) is not sorted: its steps
+    are those of the sorted frequencies, up to their order, which the median ignores.
+    """
+    frequency = np.asarray(frequency_hz, dtype=float)
+    steps = np.diff(frequency)
+    if np.all(steps <= 0.0):
+        steps = -steps
+    elif not np.all(steps >= 0.0):
+        steps = np.diff(np.sort(frequency))
     steps = steps[steps > 0]
     return float(np.median(steps)) if steps.size else 0.0
 
@@ -176,14 +185,22 @@ def _suggestion(estimate: FsrEstimate | None) -> str:
 
 
 def check_design_fsr(
-    powers, frequency_hz, *, fsr_hz: float, fsr_tolerance: float, scale=None
+    powers,
+    frequency_hz,
+    *,
+    fsr_hz: float,
+    fsr_tolerance: float,
+    scale=None,
+    step_hz: float | None = None,
+    span_hz: float | None = None,
 ) -> FsrEstimate | None:
     """Refuse a design FSR the sweep cannot resolve, does not cover, or contradicts.
 
     Parameters
     ----------
     powers : ndarray, shape (N, n)
-        Validated port readings.
+        Validated port readings: the sweep's, or a sample of them spread over it (every
+        k-th reading), from which the sweep's own FSR is estimated.
     frequency_hz : ndarray, shape (N,)
         Known frequencies (Hz).
     fsr_hz : float
@@ -192,6 +209,9 @@ def check_design_fsr(
         Relative half width of the bracket the fit will search.
     scale : None or ndarray, shape (N,)
         Relative monitored source power per reading.
+    step_hz, span_hz : float, optional
+        The whole sweep's median step and span (Hz) when the readings given are a sample of
+        it; default: those of ``frequency_hz``.
 
     Returns
     -------
@@ -204,11 +224,11 @@ def check_design_fsr(
         With ``parameter="fsr_hz"``, stating the design value and the estimate.
     """
     frequency = np.asarray(frequency_hz, dtype=float)
-    span = float(frequency.max() - frequency.min())
+    span = float(frequency.max() - frequency.min()) if span_hz is None else span_hz
     estimate = estimate_fsr(powers, frequency, scale)
     design = f"the design FSR fsr_hz={fsr_hz:.6g} Hz ({frequency_text(fsr_hz)})"
     smallest = fsr_hz * (1.0 - fsr_tolerance)
-    step = median_step_hz(frequency)
+    step = median_step_hz(frequency) if step_hz is None else step_hz
     if step >= 0.5 * smallest:
         raise InputError(
             f"{design} is not resolved by the sweep: its readings are {frequency_text(step)} "

@@ -22,7 +22,13 @@ Beyond the paper, for real hardware:
 * **honest uncertainty**: :meth:`Calibrator.frequency_std_hz` is the standard deviation of
   the estimator used (delta method, :mod:`wavemeter.model.uncertainty`), with the noise
   inflated by the Student factor of its degrees of freedom, plus the spread the calibration's
-  own parameter covariance gives.
+  own parameter covariance gives;
+* **large sweeps**: beyond ``DIAGNOSTIC_SAMPLES`` (2^17) readings, or read in chunks
+  (:meth:`Calibrator.fit_chunks`, in memory bounded by the chunk), the delay, the map, the
+  noise, the covariance and the delay's standard error come from one pass of binned
+  moments over every reading (:mod:`wavemeter.calibration.moments`), and the checks and
+  diagnostics see every k-th reading (:mod:`wavemeter.calibration.subsample`, which says
+  why that many suffice); ``diagnostics_["diagnostic_samples"]`` says how many they saw.
 
 The pure functions here and the :class:`Calibrator` methods compute the same numbers.
 """
@@ -30,6 +36,7 @@ The pure functions here and the :class:`Calibrator` methods compute the same num
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -62,10 +69,11 @@ from ..validation import (
     check_positive,
     reading_array,
 )
-from .base import BaseCalibrator
+from .base import BaseCalibrator, checked_port_names, value_range
 from .delay_search import SEARCH_METHODS, DelaySearchResult
 from .files import state_array, state_float
 from .flags import off_model_threshold
+from .fsr_guard import check_design_fsr
 from .linear_map import (
     fit_map,
     map_cost,
@@ -74,8 +82,9 @@ from .linear_map import (
     unfitted_cost,
 )
 from .misfit import MisfitReport, misfit_report
-from .moments import FringeMoments, largest_search_delay_s, search_moment_delay
+from .moments import BLOCK_ROWS, FringeMoments, largest_search_delay_s, search_moment_delay
 from .reanchor import check_reference_readings, fit_reanchor, reanchored_copy
+from .subsample import DIAGNOSTIC_SAMPLES, CheckedChunks, SweepSample
 from .summary import FitValue
 
 RETRIEVALS = ("pinv", "ml")
@@ -83,10 +92,14 @@ RETRIEVALS = ("pinv", "ml")
 AFFINE_MIN_POWER_SPREAD = 0.02
 #: residual degrees of freedom a port needs for a noise estimate of its own
 PER_PORT_MIN_DOF = 30
+#: most memory the binned moments of a large sweep may take (bytes): they grow with the span
+#: in fringes (~80 bins per FSR, ~0.5 kB per bin for 3 ports), whatever the readings
+MAX_MOMENT_BYTES = 64 << 20
 
 __all__ = [
     "AFFINE_MIN_POWER_SPREAD",
     "Calibrator",
+    "MAX_MOMENT_BYTES",
     "LearnedFit",
     "PER_PORT_MIN_DOF",
     "port_noise_std_w",
@@ -127,9 +140,14 @@ def port_noise_std_w(
     noise_std_w : ndarray, shape (n,)
     dof : float
     """
-    samples, ports = residual.shape
-    per_port_dof = samples - columns - shared / ports
     squares = np.einsum("ij,ij->j", residual, residual)
+    return _port_noise(squares, residual.shape[0], columns, shared)
+
+
+def _port_noise(squares: np.ndarray, samples: int, columns: int, shared: int):
+    """:func:`port_noise_std_w` from each port's summed squared residual (n,), W^2."""
+    ports = squares.size
+    per_port_dof = samples - columns - shared / ports
     if per_port_dof >= PER_PORT_MIN_DOF:
         return np.sqrt(squares / per_port_dof), per_port_dof
     pooled_dof = max(samples * ports - ports * columns - float(shared), 1.0)
@@ -286,6 +304,18 @@ def fit_learned_map_chunks(
         moments.add(frequency, readings, monitor)
     if moments.samples < MIN_SAMPLES:
         raise InputError(f"need at least {MIN_SAMPLES} samples, got {moments.samples}")
+    fit = _moment_fit(
+        moments, fsr_hz=fsr_hz, fsr_tolerance=fsr_tolerance, search=search, xtol=xtol, affine=affine
+    )
+    return dataclasses.replace(fit, map_=_relative_map(fit.map_, moments.mean_scale))
+
+
+def _moment_fit(
+    moments: FringeMoments, *, fsr_hz, fsr_tolerance, search, xtol, affine
+) -> LearnedFit:
+    """The fit on the moments alone (settings as :func:`fit_learned_map` takes them): the
+    search, the map from the normal equations (for the scale as the moments were given it)
+    and ``J`` from the moments."""
     result = search_moment_delay(
         moments,
         fsr_hz=fsr_hz,
@@ -294,10 +324,37 @@ def fit_learned_map_chunks(
         xtol=xtol,
         affine=affine,
     )
-    fit = _learned_fit(moments, result, moments.map_at(result.delay_s, affine), result.cost)
-    relative = fit.map_.copy()
-    relative[:, :3] *= moments.mean_scale  # objects of the scale relative to its mean
-    return dataclasses.replace(fit, map_=relative)
+    return _learned_fit(moments, result, moments.map_at(result.delay_s, affine), result.cost)
+
+
+def _relative_map(matrix: np.ndarray, mean_scale: float) -> np.ndarray:
+    """A map for a monitor in any unit (n, k) as the map for the monitor relative to its mean."""
+    relative = matrix.copy()
+    relative[:, :3] *= mean_scale
+    return relative
+
+
+def _gram_objects(moments: FringeMoments, delay_s: float, affine: bool, mean_scale: float):
+    """Stand-ins (2k, k) for the sweep's objects ``X`` and their delay derivative ``D``
+    (for the monitor relative to its mean): the products ``X^T X``, ``X^T D``, ``D^T D``
+    of every reading, from the moments, as those of ``2 k`` rows.
+
+    The covariance of the fit (:func:`~wavemeter.model.uncertainty.fit_parameter_covariance`)
+    depends on the sweep only through these products: any rows with the same Gram matrix
+    give it. They are a square root of that matrix, taken from the eigenvectors of its
+    correlation matrix (the entries differ by many decades in scale).
+    """
+    xx, dx, dd = moments.object_gram(delay_s, affine)
+    columns = xx.shape[0]
+    gram = np.block([[xx, dx.T], [dx, dd]])
+    relative = np.ones(2 * columns)
+    relative[:3] = relative[columns : columns + 3] = 1.0 / mean_scale
+    gram *= np.outer(relative, relative)
+    norm = np.sqrt(np.diag(gram))
+    norm[norm == 0] = 1.0
+    values, vectors = np.linalg.eigh(gram / np.outer(norm, norm))
+    root = np.sqrt(np.clip(values, 0.0, None))[:, None] * vectors.T * norm
+    return root[:, :columns], root[:, columns:]
 
 
 def _learned_fit(
@@ -376,14 +433,34 @@ class Calibrator(BaseCalibrator):
         RMS frequency error on the calibration sweep itself (Hz).
     diagnostics_ : dict
         The sweep's own FSR estimate, every port's fringe amplitude and significance, the
-        fit diagnostics (:mod:`wavemeter.calibration.misfit`) and the warnings the fit
-        emitted (saved to file).
+        fit diagnostics (:mod:`wavemeter.calibration.misfit`), the readings they saw
+        (``"diagnostic_samples"``) and the warnings the fit emitted (saved to file).
+
+    Notes
+    -----
+    A sweep of more than ``diagnostic_samples`` readings (2^17), or one read in chunks
+    (:meth:`fit_chunks`), is fitted on the binned moments of every reading: delay, map,
+    ``cost_``, the noise, ``parameter_covariance_`` and ``delay_std_s_`` describe the fit
+    on every reading (equal to those of the direct fit to ~1e-9, the cancellation of ``J``
+    from sums). The check of the design FSR, the port health, the misfit report and
+    ``calibration_rms_hz_`` are made on every k-th reading at that fit
+    (:mod:`wavemeter.calibration.subsample`); where a misfit is found, the noise is the
+    sample's model-free estimate, with its degrees of freedom. Subclasses that fit
+    otherwise (the thermal calibrator) fit and diagnose every reading.
     """
 
     method = "learned"
     capabilities = frozenset({"frequency_std", "power_monitor"})
     #: nonlinear parameters after the map in ``parameter_covariance_`` (the delay)
     nonlinear_parameters: ClassVar[int] = 1
+    #: the phase is the delay's alone, ``2 pi (f - center) delay``: predict runs the fused
+    #: kernel, and a long sweep is fitted on its moments. A subclass that models the phase
+    #: further (the thermal one) sets False: it predicts step by step and fits every reading
+    plain_delay_phase: ClassVar[bool] = True
+    #: most readings the checks and diagnostics see (:mod:`~wavemeter.calibration.subsample`)
+    diagnostic_samples: ClassVar[int] = DIAGNOSTIC_SAMPLES
+    #: while fitting on moments: stand-ins for the sweep's objects (:func:`_gram_objects`)
+    _sweep_gram: ClassVar[tuple | None] = None
 
     def __init__(
         self,
@@ -425,26 +502,186 @@ class Calibrator(BaseCalibrator):
             xtol=self.xtol,
             affine=affine,
         )
-        self.delay_search_ = fit.search
         noise, self.noise_dof_ = port_noise_std_w(
             powers
             - object_vectors(frequency_hz, self.center_hz_, fit.delay_s, scale, affine)
             @ fit.map_.T,
             fit.map_.shape[1],
         )
+        self._take_fit(fit, fit.map_, noise, float(np.abs(powers).max()))
+        self._sweep = (frequency_hz, scale, affine)
+        self._sweep_gram = None
+        self._set_covariance()
+
+    def _take_fit(self, fit: LearnedFit, matrix: np.ndarray, noise, largest_w: float) -> None:
+        """The fitted values: the map (n, k) for the relative monitor, the per-port noise (W)
+        floored at the rounding of the largest reading ``largest_w`` (W)."""
+        ports = matrix.shape[0]
+        self.delay_search_ = fit.search
         # noiseless (simulated) sweeps: keep weights finite at the readings' rounding level
-        noise = np.maximum(noise, np.finfo(float).eps * np.abs(powers).max())
+        noise = np.maximum(noise, np.finfo(float).eps * largest_w)
         self.delay_s_ = fit.delay_s
         self.delay_std_s_ = fit.delay_std_s
         self.fsr_hz_ = 1.0 / fit.delay_s
         self.cost_ = fit.cost
-        self.residual_rms_ = float(np.sqrt(fit.cost / powers.shape[1]))
+        self.residual_rms_ = float(np.sqrt(fit.cost / ports))
         self.noise_std_w_ = fit.noise_std_w
         self.port_noise_std_w_ = noise
-        self.offset_w_ = fit.map_[:, 3].copy() if affine else np.zeros(powers.shape[1])
-        self._set_map(fit.map_[:, :3])
-        self._sweep = (frequency_hz, scale, affine)
+        self.offset_w_ = matrix[:, 3].copy() if matrix.shape[1] == 4 else np.zeros(ports)
+        self._set_map(matrix[:, :3])
+
+    # ------------------------------------------------------------------ large sweeps
+    def fit_chunks(self, chunks, port_names=None, *, dark_w=None):
+        """Learn the calibration from a sweep read in chunks, in memory bounded by the chunk.
+
+        One pass: every chunk is checked, binned into the sweep's moments and sampled
+        (every k-th reading), then dropped. A sweep of up to ``diagnostic_samples``
+        readings is then fitted as :meth:`fit` fits it (the sample holds every reading: the
+        same numbers, bit for bit); a longer one is fitted on the moments and diagnosed on
+        the sample, as :meth:`fit` does with a long sweep given whole (the same numbers to
+        rounding; see the class notes).
+
+        Parameters
+        ----------
+        chunks : iterable of (frequency_hz, powers, power_monitor_w)
+            In sweep order: ``frequency_hz`` (m,) Hz, ``powers`` (m, n) port readings (W or
+            any unit linear in power), ``power_monitor_w`` (m,) or None, the same ``n`` and
+            either always or never a monitor; any sizes, empty ones too.
+        port_names : None or sequence of str, length n
+            Names of the port columns, kept in the calibration file.
+        dark_w : None or array_like, shape (n,)
+            Per-port dark readings (W), subtracted from every reading, in fit and predict.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        InputError
+            As :meth:`fit`; a chunk's message names it and its first reading (zero-based).
+            When the sweep spans so many fringes that its moments would take more than
+            ``MAX_MOMENT_BYTES`` (the design FSR is then checked first), or for a subclass
+            that fits every reading at once (the thermal calibrator: use :meth:`fit`).
+        EdgeMinimumError
+            As :meth:`fit`.
+
+        Warns
+        -----
+        CalibrationWarning
+            As :meth:`fit`.
+        """
+        self._check_params()
+        if not self.plain_delay_phase:
+            raise InputError(
+                f"{type(self).__name__} fits every reading of its sweep at once: give the "
+                "whole sweep to fit, not chunks to fit_chunks"
+            )
+        checked = CheckedChunks(chunks, dark_w)
+        moments, sample = self._accumulate(checked)
+        if sample.samples < MIN_SAMPLES:
+            raise InputError(f"need at least {MIN_SAMPLES} samples, got {sample.samples}")
+        names = checked_port_names(port_names, sample.powers_w.shape[1])
+        if sample.stride == 1:  # every reading kept: the sweep is in memory
+            args = (sample.powers_w, sample.frequency_hz, sample.monitor_w, names, checked.dark)
+            notes = super()._fit_sweep(*args, None)
+        else:
+            notes = self._fit_sampled(moments, sample, names, checked.dark, None)
+        for note in notes:
+            warnings.warn(note, stacklevel=2)
+        return self
+
+    def _fit_sweep(self, powers, frequency_hz, monitor, names, dark, temperature_k) -> list:
+        """Every reading diagnosed up to ``diagnostic_samples`` of them; beyond, the fit on
+        the moments and the checks on every k-th reading (:meth:`_fit_sampled`)."""
+        if powers.shape[0] <= self.diagnostic_samples or not self.plain_delay_phase:
+            return super()._fit_sweep(powers, frequency_hz, monitor, names, dark, temperature_k)
+        blocks = (
+            (
+                frequency_hz[start : start + BLOCK_ROWS],
+                powers[start : start + BLOCK_ROWS],
+                None if monitor is None else monitor[start : start + BLOCK_ROWS],
+            )
+            for start in range(0, powers.shape[0], BLOCK_ROWS)
+        )
+        moments, sample = self._accumulate(blocks)
+        return self._fit_sampled(moments, sample, names, dark, value_range(temperature_k))
+
+    def _accumulate(self, chunks) -> tuple[FringeMoments | None, SweepSample]:
+        """One pass over checked, dark-subtracted chunks: their moments (None once they
+        outgrow ``MAX_MOMENT_BYTES``) and the sample."""
+        moments = FringeMoments(largest_search_delay_s(self.fsr_hz, self.fsr_tolerance), 0.0)
+        sample = SweepSample(self.diagnostic_samples)
+        for frequency, powers, monitor in chunks:
+            sample.add(frequency, powers, monitor)
+            if moments is not None:
+                moments.add(frequency, powers, monitor)
+                if moments.nbytes > MAX_MOMENT_BYTES:
+                    moments = None  # the check of the design FSR (on the sample) speaks first
+        return moments, sample
+
+    def _fit_sampled(self, moments, sample: SweepSample, names, dark, temperature_range) -> list:
+        """Fit on the moments of every reading, check and diagnose on the sample; the
+        warnings, not yet issued."""
+        powers, frequency = sample.powers_w, sample.frequency_hz
+        monitor = sample.monitor_w
+        scale = None if monitor is None else monitor / sample.monitor_mean_w
+        estimate = check_design_fsr(
+            powers,
+            frequency,
+            fsr_hz=float(self.fsr_hz),
+            fsr_tolerance=self.fsr_tolerance,
+            scale=scale,
+            step_hz=sample.median_step_hz(),
+            span_hz=sample.span_hz,
+        )
+        if moments is None:
+            raise InputError(
+                f"the sweep spans {sample.span_hz / self.fsr_hz:.4g} FSRs of "
+                f"{self.fsr_hz / 1e9:.6g} GHz: its binned moments would take more than "
+                f"{MAX_MOMENT_BYTES >> 20} MiB; one map does not hold over so many FSRs: "
+                "calibrate it per FSR (CalibrationSet) or with WidebandCalibrator",
+                parameter="fsr_hz",
+            )
+        self._start_fit((sample.low_hz, sample.high_hz), names, sample.samples, dark)
+        delay = 1.0 / self.fsr_hz if estimate is None else estimate.delay_s
+        self._sweep_temperature_k = None
+        health, notes = self._checked_port_health(powers, frequency, delay, scale)
+        affine = (
+            monitor is not None
+            and dark is None
+            and sample.monitor_relative_std >= AFFINE_MIN_POWER_SPREAD
+        )
+        moments.center_hz = self.center_hz_
+        fit = _moment_fit(
+            moments,
+            fsr_hz=self.fsr_hz,
+            fsr_tolerance=self.fsr_tolerance,
+            search=self.search,
+            xtol=self.xtol,
+            affine=affine,
+        )
+        noise, self.noise_dof_ = _port_noise(
+            moments.port_residual_w2(fit.delay_s, fit.map_), moments.samples, fit.map_.shape[1], 1
+        )
+        mean_scale = moments.mean_scale
+        self._take_fit(fit, _relative_map(fit.map_, mean_scale), noise, sample.largest_w)
+        self._sweep = (frequency, scale, affine)
+        self._sweep_gram = _gram_objects(moments, fit.delay_s, affine, mean_scale)
         self._set_covariance()
+        offsets = float(self.offset_w_.sum())
+        low, high = sample.total_range_w
+        self.total_power_range_w_ = (low - offsets, high - offsets)
+        corrected = powers - self.offset_w_
+        misfit = self._diagnose_fit(powers, corrected, frequency, scale, delay, None)
+        return self._record_diagnostics(
+            estimate,
+            health,
+            misfit,
+            notes,
+            temperature_range=temperature_range,
+            diagnosed=powers.shape[0],
+        )
 
     def _set_covariance(self) -> None:
         """Covariance of map (and offsets) and the nonlinear parameters at the current
@@ -464,7 +701,11 @@ class Calibrator(BaseCalibrator):
 
     def _sweep_objects(self) -> tuple[np.ndarray, np.ndarray]:
         """The sweep's object vectors (N, k) and their derivatives (q, N, k) by the
-        nonlinear parameters (here the delay alone)."""
+        nonlinear parameters (here the delay alone); for a fit on the moments, rows with
+        their products (:func:`_gram_objects`)."""
+        if self._sweep_gram is not None:
+            objects, derivative = self._sweep_gram
+            return objects, derivative[None]
         frequency_hz, scale, affine = self._sweep
         args = (frequency_hz, self.center_hz_, self.delay_s_, scale, affine)
         return object_vectors(*args), object_delay_derivative(*args)[None]
@@ -512,6 +753,7 @@ class Calibrator(BaseCalibrator):
             self.port_noise_std_w_, self.noise_dof_ = noise
             self._set_covariance()
         del self._sweep
+        vars(self).pop("_sweep_gram", None)  # a subclass's own fit sets none
 
     def _fsr_std_hz(self) -> float | None:
         """``FSR^2 sigma_tau`` (Hz); None for a file of 0.1, which did not keep it."""
@@ -546,8 +788,7 @@ class Calibrator(BaseCalibrator):
         -------
         ndarray, shape (N,), Hz
         """
-        # a subclass that models the phase further (thermal) takes the steps one by one
-        if type(self)._predict_checked is not Calibrator._predict_checked:
+        if not self.plain_delay_phase:  # the phase model has more than the delay: step by step
             return super().predict(powers, coarse_hz=coarse_hz, temperature_k=temperature_k)
         check_fitted(self)
         readings = reading_array(powers, ports=self.n_ports_)

@@ -170,6 +170,10 @@ class FringeMoments:
 
     Attributes
     ----------
+    center_hz : float
+        The phase origin (Hz). The bins are absolute and the origin enters only when a delay
+        is evaluated, so it may be set after the readings are added (the middle of a sweep
+        read in chunks is known at its end).
     bin_width_hz : float
     order : int
         Taylor order ``Q`` (:func:`taylor_order` of ``2 pi max_delay_s bin_width_hz``);
@@ -206,6 +210,7 @@ class FringeMoments:
         self._scaled: bool | None = None
         self._samples = 0
         self._power2 = 0.0
+        self._port_power2 = np.zeros(0)
         self._sum_powers = np.zeros(0)
         self._sum_scale = 0.0
         self._low, self._high = np.inf, -np.inf
@@ -226,6 +231,12 @@ class FringeMoments:
         return float(self._high - self._low) if self._samples else 0.0
 
     @property
+    def nbytes(self) -> int:
+        """Memory the moments hold (bytes): it grows with the occupied bins, i.e. with the
+        span in fringes, not with the readings."""
+        return self._moments.nbytes + sum(block.nbytes for _, block in self._pending)
+
+    @property
     def mean_scale(self) -> float:
         """Mean of the ``scale`` given with the readings (1 when none was)."""
         return self._sum_scale / self._samples if self._scaled else 1.0
@@ -234,6 +245,7 @@ class FringeMoments:
         if self._ports is None:
             self._ports, self._scaled = ports, scaled
             self._sum_powers = np.zeros(ports)
+            self._port_power2 = np.zeros(ports)
             self._moments = np.zeros((0, self.order + 3, ports + 2))
         elif (ports, scaled) != (self._ports, self._scaled):
             raise InputError(
@@ -312,6 +324,7 @@ class FringeMoments:
         self._pending.append((keys[starts], moments))
         self._samples += keys.size
         self._power2 += float(np.einsum("ij,ij->", powers, powers))
+        self._port_power2 += np.einsum("ij,ij->j", powers, powers)
         self._sum_powers += powers.sum(axis=0)
         self._low = min(self._low, float(frequency.min()))
         self._high = max(self._high, float(frequency.max()))
@@ -355,6 +368,7 @@ class FringeMoments:
         self._pending.append((bins.copy(), moments.copy()))
         self._samples += other._samples
         self._power2 += other._power2
+        self._port_power2 += other._port_power2
         self._sum_powers += other._sum_powers
         self._sum_scale += other._sum_scale
         self._low, self._high = min(self._low, other._low), max(self._high, other._high)
@@ -491,6 +505,55 @@ class FringeMoments:
         solution = _solve(gram[np.ix_(keep, keep)], cross[keep])
         return float(self._power2 - np.einsum("ij,ij->", cross[keep], solution)) / self._samples
 
+    def object_gram(self, delay_s: float, affine: bool = False):
+        """The object matrix ``X`` and its delay derivative ``D`` through their products.
+
+        Parameters
+        ----------
+        delay_s : float
+            Delay (s).
+        affine : bool
+            With the column of ones (per-port offsets), whose derivative is 0.
+
+        Returns
+        -------
+        xx, dx, dd : ndarray, shape (k, k)
+            ``X^T X``, ``D^T X`` and ``D^T D`` (``k`` = 3, or 4 with ``affine``), in the
+            units of the scale squared times 1, 1/s and 1/s^2.
+        """
+        sums = self.harmonic_sums(delay_s, 2)
+        gram, _ = self._normal(sums[0], affine)
+        slope, _ = self._slopes(sums[1], affine)
+        curvature = np.zeros_like(gram)
+        curvature[:3, :3] = _pair(_CONE_SLOPE, _CONE_SLOPE, sums[2][:, 0])
+        return gram, slope, curvature
+
+    def port_residual_w2(self, delay_s: float, map_: np.ndarray) -> np.ndarray:
+        """Each port's summed squared residual ``sum_i (p_ij - A_j x_i)^2`` (W^2) under a map.
+
+        ``sum p_j^2 - 2 A_j (Rxp)_j + A_j Rxx A_j^T``: it cancels like :meth:`cost` (an
+        absolute error of a few ``2^-53 sum p_j^2``); clipped at 0.
+
+        Parameters
+        ----------
+        delay_s : float
+            Delay (s).
+        map_ : ndarray, shape (n, 3) or (n, 4)
+            Map (W) for the scale as given; a fourth column makes it affine.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+        """
+        solution = np.asarray(map_, dtype=float).T
+        gram, cross = self._normal(self.harmonic_sums(delay_s, 0)[0], solution.shape[0] == 4)
+        energy = (
+            self._port_power2
+            - 2.0 * np.einsum("ij,ij->j", solution, cross)
+            + np.einsum("ij,ij->j", solution, gram @ solution)
+        )
+        return np.maximum(energy, 0.0)
+
     def delay_information(self, delay_s: float, map_: np.ndarray) -> float:
         """Gauss-Newton curvature ``G`` (W^2/s^2) of the summed squared residual in the delay.
 
@@ -506,12 +569,7 @@ class FringeMoments:
             Map at that delay (W) for the scale as given; a fourth column makes it affine.
         """
         solution = np.asarray(map_, dtype=float).T
-        affine = solution.shape[0] == 4
-        sums = self.harmonic_sums(delay_s, 2)
-        gram, _ = self._normal(sums[0], affine)
-        slope, _ = self._slopes(sums[1], affine)
-        curvature = np.zeros_like(gram)
-        curvature[:3, :3] = _pair(_CONE_SLOPE, _CONE_SLOPE, sums[2][:, 0])
+        gram, slope, curvature = self.object_gram(delay_s, solution.shape[0] == 4)
         projected = slope.T @ solution
         return float(
             np.einsum("ij,ij->", solution, curvature @ solution)

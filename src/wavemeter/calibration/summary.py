@@ -77,6 +77,15 @@ def _thermal_lines(values: dict, diagnostics: dict) -> list[str]:
     ]
 
 
+def _samples_text(samples: int, diagnostics: dict) -> str:
+    """The calibration readings, and how many the checks saw when fewer (a long sweep's
+    checks run on every k-th reading)."""
+    diagnosed = diagnostics.get("diagnostic_samples")
+    if isinstance(diagnosed, int) and diagnosed < samples:
+        return f"{samples} (checks and diagnostics on {diagnosed}, every k-th reading)"
+    return str(samples)
+
+
 def _frequency_with_error(value: FitValue) -> str:
     text = f"{value.value / 1e9:.6f} GHz"
     if value.stderr is not None:
@@ -248,7 +257,7 @@ class FitReport:
                 f"{(high - low) / fsr.value:.3g} FSR)",
             ),
             _line("ports", f"{len(self.ports)}: {', '.join(self.ports)}"),
-            _line("samples", str(self.samples)),
+            _line("samples", _samples_text(self.samples, self.diagnostics or {})),
             _line("calibration RMS", f"{rms / 1e6:.4f} MHz"),
         ]
         noise = values.pop("noise_std_w", None)

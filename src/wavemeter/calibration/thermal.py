@@ -104,6 +104,8 @@ class ThermalCalibrator(Calibrator):
     method = "thermal"
     requires = frozenset({"temperature_k"})
     nonlinear_parameters: ClassVar[int] = 3
+    #: the phase follows the temperature too: predicted step by step, every reading fitted
+    plain_delay_phase: ClassVar[bool] = False
 
     def __init__(
         self,

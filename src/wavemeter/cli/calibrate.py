@@ -23,6 +23,11 @@ columns, in order, are the readings' columns; ``--stage-ports`` gives each stage
 columns by position (default: consecutive blocks of equal size) and ``--max-order-error``
 the wrong-order probability above which a reading is flagged and a hand-over is refused.
 Both belong to that method alone, and so does a list of FSRs.
+
+The learned method (without ``--per-fsr``) reads its sweep in chunks, with a progress bar,
+in memory bounded by the chunk whatever the file's length
+(:func:`wavemeter.jobs.calibrate.fit_sweep_chunks`): the calibration is the one a whole
+read gives. The other methods, and ``--per-fsr``, read the whole sweep into memory.
 """
 
 from __future__ import annotations
@@ -34,9 +39,12 @@ import click
 import numpy as np
 from click.core import ParameterSource
 
+from ..calibration.base import value_range
 from ..exceptions import InputError, recorded_calibration_warnings
-from ..io import ColumnRequest, port_key
-from ..progress import busy
+from ..io import ColumnRequest, iter_readings, port_key
+from ..io.streaming import CHUNK_ROWS
+from ..jobs.calibrate import SweepRead, fit_sweep_chunks
+from ..progress import busy, progress_bar
 from ._common import (
     FORCE,
     PORT_PHASES,
@@ -47,6 +55,7 @@ from ._common import (
     column_options,
     column_request,
     frequency_text,
+    note,
     out_option,
     port_phases_rad,
     printable,
@@ -92,7 +101,8 @@ def _port_list(table) -> str:
 
 def _dark_w(options: dict, request, sweep_table) -> np.ndarray | None:
     """Per-port dark readings (W) from ``--dark FILE`` (averaged) or ``--dark-w``, checked
-    against the sweep's ports; None without either."""
+    against the sweep's ports (``sweep_table``: anything with ``source`` and
+    ``port_names``); None without either."""
     path, values = options["dark_file"], options["dark_w"]
     ports = len(sweep_table.port_names)
     expected = f"{sweep_table.source} has {ports} ports ({_port_list(sweep_table)})"
@@ -256,7 +266,10 @@ class _Sweeps:
     Attributes
     ----------
     tables : tuple of Table
-        One per file, valid rows only, rows in file order.
+        One per file read whole, valid rows only, rows in file order; empty for a sweep
+        read in chunks.
+    records : tuple of SweepRead
+        What reading each file found (columns, rows).
     temperature_k : ndarray, shape (N,), or None
         Chip temperature (K) of every row, for a calibrator that needs it.
     given_k : tuple of float
@@ -264,21 +277,22 @@ class _Sweeps:
     """
 
     tables: tuple
+    records: tuple
     temperature_k: np.ndarray | None
     given_k: tuple
 
     @property
-    def first(self):
-        return self.tables[0]
+    def first(self) -> SweepRead:
+        return self.records[0]
 
     @property
     def label(self) -> str:
         """The files, as messages name them."""
-        return ", ".join(str(table.source) for table in self.tables)
+        return ", ".join(str(record.source) for record in self.records)
 
     @property
     def n_rows(self) -> int:
-        return sum(table.n_rows for table in self.tables)
+        return sum(record.n_rows for record in self.records)
 
     @property
     def powers_w(self) -> np.ndarray:
@@ -290,15 +304,36 @@ class _Sweeps:
 
     @property
     def monitor_w(self) -> np.ndarray | None:
-        if self.first.monitor_w is None:
+        if self.first.monitor_column is None:
             return None
         return np.concatenate([table.monitor_w for table in self.tables])
 
     @property
-    def measured_temperature_k(self) -> np.ndarray | None:
-        """The temperature columns of the files (K), when every file has one."""
-        columns = [table.temperature_k for table in self.tables]
-        return None if any(values is None for values in columns) else np.concatenate(columns)
+    def temperature_range_k(self) -> list[float] | None:
+        """Lowest and highest chip temperature (K): of every row for a calibrator that
+        needs it, else of the files' temperature columns when every file has one."""
+        if self.temperature_k is not None:
+            return value_range(self.temperature_k)
+        ranges = [record.temperature_range_k for record in self.records]
+        if any(extent is None for extent in ranges):
+            return None
+        return [min(low for low, _ in ranges), max(high for _, high in ranges)]
+
+
+def _record(table) -> SweepRead:
+    """What a sweep read whole found (its valid rows), as a read in chunks reports it."""
+    return SweepRead(
+        source=table.source,
+        x_column=table.x_column,
+        x_unit=table.x_unit,
+        port_names=tuple(table.port_names),
+        port_units=tuple(table.port_units),
+        monitor_column=table.monitor_column,
+        temperature_column=table.temperature_column,
+        n_rows=table.n_rows,
+        dropped_rows=table.dropped_rows,
+        temperature_range_k=value_range(table.temperature_k),
+    )
 
 
 def _check_sweep_count(calibrator, sweeps: tuple, options: dict) -> None:
@@ -381,7 +416,40 @@ def _read_sweeps(calibrator, sweeps: tuple, request, options: dict) -> _Sweeps:
                     "file order",
                 )
         temperature = np.concatenate([table.temperature_k for table in tables])
-    return _Sweeps(tables, temperature, given)
+    return _Sweeps(tables, tuple(map(_record, tables)), temperature, given)
+
+
+def _in_chunks(options: dict) -> bool:
+    """Whether the sweep is read in chunks: the learned method, one map (no --per-fsr)."""
+    return options["method"] == "learned" and not options["per_fsr"]
+
+
+def _fit_in_chunks(calibrator, path, request, options: dict):
+    """Read the sweep in chunks and fit the learned calibrator on it (bounded memory)."""
+    quiet = options["quiet"]
+    label = STDIN_LABEL if is_stdio(path) else str(path)
+    stream = iter_readings(
+        path,
+        request,
+        chunk_rows=CHUNK_ROWS,
+        need_x=True,
+        allow_invalid=options["drop_invalid"],
+        name=label,
+    )
+    dark_w = _dark_w(options, request, stream)
+
+    def progress(description, total, unit):
+        return progress_bar(printable(description), total, quiet=quiet, unit=unit)
+
+    with about(label), _refused_if(options["strict"]):
+        record = fit_sweep_chunks(calibrator, stream, dark_w=dark_w, progress=progress)
+    if record.dropped_rows:
+        note(
+            quiet,
+            f"{record.source}: skipped {record.dropped_rows} invalid row(s), first: "
+            f"{', '.join(record.invalid_examples[:3])}",
+        )
+    return calibrator, _Sweeps((), (record,), None, ())
 
 
 def _check_stage_groups(stage_ports, fsrs_hz) -> None:
@@ -423,12 +491,20 @@ def _stage_columns(stage_ports, table) -> tuple:
     return tuple(tuple(position - 1 for position in stage) for stage in stage_ports)
 
 
-def _fit(options: dict, calibrator, sweeps: _Sweeps, dark_w):
+def _fit(options: dict, calibrator, paths: tuple, request):
+    """Read the sweeps and fit the calibrator: in chunks for the learned method, whole for
+    the others; the fitted calibrator and what was read."""
+    if _in_chunks(options):
+        return _fit_in_chunks(calibrator, paths[0], request, options)
+    sweeps = _read_sweeps(calibrator, paths, request, options)
+    if options["stage_ports"] is not None:
+        calibrator.set_params(stage_ports=_stage_columns(options["stage_ports"], sweeps.first))
+    dark_w = _dark_w(options, request, sweeps.first)
     extra = {} if sweeps.temperature_k is None else {"temperature_k": sweeps.temperature_k}
     description = printable(f"calibrating on {sweeps.label}")
     with busy(description, quiet=options["quiet"]), about(sweeps.label):
         with _refused_if(options["strict"]):
-            return calibrator.fit(
+            calibrator.fit(
                 sweeps.powers_w,
                 sweeps.x_hz,
                 sweeps.monitor_w,
@@ -436,6 +512,7 @@ def _fit(options: dict, calibrator, sweeps: _Sweeps, dark_w):
                 dark_w=dark_w,
                 **extra,
             )
+    return calibrator, sweeps
 
 
 def _one_or_list(values: list):
@@ -447,29 +524,25 @@ def _metadata(sweeps: _Sweeps, dark_file) -> dict:
     """What the calibration was read from, kept in the calibration file (the dark readings'
     file only when there was one). One sweep file: its name and columns; several: the list
     of names, and each column entry a list where the files differ."""
-    tables = sweeps.tables
-    several = len(tables) > 1
-    temperature = sweeps.temperature_k
-    if temperature is None:
-        temperature = sweeps.measured_temperature_k
+    records = sweeps.records
+    several = len(records) > 1
+    temperature = sweeps.temperature_range_k
     metadata = {
-        "sweep_file": [str(t.source) for t in tables] if several else str(sweeps.first.source),
-        "x_column": _one_or_list([t.x_column for t in tables]),
-        "x_unit": _one_or_list([t.x_unit for t in tables]),
-        "port_columns": _one_or_list([list(t.port_names) for t in tables]),
-        "port_units": _one_or_list([list(t.port_units) for t in tables]),
-        "monitor_column": _one_or_list([t.monitor_column for t in tables]),
+        "sweep_file": [str(t.source) for t in records] if several else str(sweeps.first.source),
+        "x_column": _one_or_list([t.x_column for t in records]),
+        "x_unit": _one_or_list([t.x_unit for t in records]),
+        "port_columns": _one_or_list([list(t.port_names) for t in records]),
+        "port_units": _one_or_list([list(t.port_units) for t in records]),
+        "monitor_column": _one_or_list([t.monitor_column for t in records]),
         "temperature_column": None
         if sweeps.given_k
-        else _one_or_list([t.temperature_column for t in tables]),
-        "temperature_k_range": None
-        if temperature is None
-        else [float(temperature.min()), float(temperature.max())],
+        else _one_or_list([t.temperature_column for t in records]),
+        "temperature_k_range": temperature,
         "rows": sweeps.n_rows,
-        "dropped_rows": sum(t.dropped_rows for t in tables),
+        "dropped_rows": sum(t.dropped_rows for t in records),
     }
     if several:
-        metadata["rows_per_file"] = [t.n_rows for t in tables]
+        metadata["rows_per_file"] = [t.n_rows for t in records]
     if sweeps.given_k:
         metadata["temperature_k_given"] = [float(value) for value in sweeps.given_k]
     if dark_file is not None:
@@ -481,8 +554,8 @@ def _read_line(sweeps: _Sweeps) -> str:
     """What was read: files, rows, axis, ports, monitor and temperature."""
     first = sweeps.first
     rows = f"{sweeps.n_rows} rows"
-    if len(sweeps.tables) > 1:
-        rows += f" ({' + '.join(str(table.n_rows) for table in sweeps.tables)})"
+    if len(sweeps.records) > 1:
+        rows += f" ({' + '.join(str(record.n_rows) for record in sweeps.records)})"
     text = (
         f"calibrated {sweeps.label}: {rows}, axis {first.x_column} ({first.x_unit}), "
         f"ports {_port_list(first)}"
@@ -494,7 +567,7 @@ def _read_line(sweeps: _Sweeps) -> str:
         source = (
             "--temperature-k"
             if sweeps.given_k
-            else f"column {', '.join(dict.fromkeys(t.temperature_column for t in sweeps.tables))}"
+            else f"column {', '.join(dict.fromkeys(t.temperature_column for t in sweeps.records))}"
         )
         text += f", temperature {low:.6g} to {high:.6g} K ({source})"
     return text
@@ -640,6 +713,12 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
     (wrong-order rate above --max-order-error) is refused with the largest FSR ratio the
     noise allows.
 
+    The learned method (the default, without --per-fsr) reads the sweep in chunks, with a
+    progress bar, in memory bounded by the chunk: files larger than memory work. Beyond
+    2^17 readings it is fitted on sums over every reading and its checks and diagnostics
+    see every k-th reading (the summary says how many). The other methods and --per-fsr
+    read the whole sweep into memory.
+
     \b
     Example:
       wavemeter calibrate sweep.csv -o chip.wmcal.json --fsr 50GHz
@@ -668,11 +747,7 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
     check_calibration_output(out_path, (*sweeps, *([dark_file] if dark_file else [])), force)
     request = column_request(options)
     quiet = options["quiet"]
-    read_sweeps = _read_sweeps(calibrator, sweeps, request, options)
-    if options["stage_ports"] is not None:
-        calibrator.set_params(stage_ports=_stage_columns(options["stage_ports"], read_sweeps.first))
-    dark_w = _dark_w(options, request, read_sweeps.first)
-    calibration = _fit(options, calibrator, read_sweeps, dark_w)
+    calibration, read_sweeps = _fit(options, calibrator, sweeps, request)
     with output_path(out_path) as target:
         save_calibration(calibration, target, _metadata(read_sweeps, dark_file))
     to_stderr = is_stdio(out_path)

@@ -20,27 +20,36 @@ The calibration's metadata keep the sweep's columns, the options (``calibrate_op
 JSON-ready: a fleet compares them to decide whether a saved calibration is the one it
 would make) and the RMS Cramer-Rao bound on the sweep (``crlb_rms_hz``), so that
 :func:`saved_result` rebuilds the same result from the saved file alone.
+
+:func:`fit_sweep_chunks` fits a learned calibration on a sweep file read in chunks
+(:meth:`~wavemeter.calibration.learned.Calibrator.fit_chunks`), in memory bounded by the
+chunk whatever the file's length: what ``wavemeter calibrate`` does for the learned method.
+The other methods, and :func:`calibrate_file`, read the whole sweep.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..exceptions import InputError, WavemeterError, recorded_calibration_warnings
-from ..io import ColumnRequest, read_table
+from ..io import ColumnRequest, ReadingStream, read_table
 from .measure import about_file
 
 __all__ = [
     "DeviceResult",
+    "SweepRead",
     "calibrate_file",
     "calibrate_device",
+    "fit_sweep_chunks",
     "build_calibrator",
     "calibrate_options",
     "saved_result",
@@ -397,3 +406,125 @@ def saved_result(cal_path, source, device: str) -> DeviceResult:
     crlb = saved.metadata.get("crlb_rms_hz")
     crlb_rms_hz = float(crlb) if isinstance(crlb, (int, float)) else math.nan
     return _result(device, source, saved.calibrator, crlb_rms_hz, saved.metadata, resumed=True)
+
+
+@dataclass(frozen=True)
+class SweepRead:
+    """What reading a sweep file found, for the calibration's metadata and messages.
+
+    Attributes
+    ----------
+    source : Path
+        The file (as named to the user).
+    x_column, x_unit : str or None
+        The frequency or wavelength column and its unit.
+    port_names, port_units : tuple of str
+        The port columns and their units.
+    monitor_column, temperature_column : str or None
+        The power monitor's and the chip temperature's columns.
+    n_rows : int
+        Valid rows, the readings calibrated on.
+    dropped_rows : int
+        Rows skipped as invalid.
+    invalid_examples : tuple of str
+        The first skipped rows with their reasons, ``line 5 (P2_mW is NaN)``.
+    temperature_range_k : list of float or None
+        Lowest and highest chip temperature of the valid rows (K), with a temperature column.
+    """
+
+    source: Path
+    x_column: str | None
+    x_unit: str | None
+    port_names: tuple[str, ...]
+    port_units: tuple[str, ...]
+    monitor_column: str | None
+    temperature_column: str | None
+    n_rows: int
+    dropped_rows: int
+    invalid_examples: tuple[str, ...] = ()
+    temperature_range_k: list[float] | None = None
+
+
+def fit_sweep_chunks(
+    calibrator, stream: ReadingStream, *, dark_w=None, progress: Callable | None = None
+) -> SweepRead:
+    """Fit a learned calibrator on a sweep read in chunks, in memory bounded by the chunk.
+
+    Each chunk's valid rows go to :meth:`~wavemeter.calibration.learned.Calibrator.fit_chunks`
+    (its moments and its diagnostic sample) and are dropped: the calibration is the one
+    ``fit`` gives on the valid rows read whole (bit for bit up to ``diagnostic_samples``
+    readings, to rounding beyond).
+
+    Parameters
+    ----------
+    calibrator : Calibrator
+        Unfitted; a learned calibrator (one with ``fit_chunks``).
+    stream : ReadingStream
+        The sweep, opened with :func:`~wavemeter.io.iter_readings` (``need_x=True``) and
+        not yet iterated; its ``allow_invalid`` decides whether invalid rows are skipped.
+    dark_w : None or array_like, shape (n,)
+        Per-port dark readings (W), subtracted from every reading.
+    progress : callable, optional
+        ``progress(description, total, unit=...)`` returning a context manager that yields
+        ``advance(steps)`` (as :func:`wavemeter.progress.progress_bar`), advanced in the
+        units of the read. None: silent.
+
+    Returns
+    -------
+    SweepRead
+
+    Raises
+    ------
+    InputError
+        For a calibrator that cannot fit chunks, what the read refuses (invalid rows when
+        not allowed, bad cells) and what ``fit_chunks`` refuses.
+    EdgeMinimumError
+        As ``fit``.
+
+    Warns
+    -----
+    CalibrationWarning
+        As ``fit``.
+    """
+    if not hasattr(calibrator, "fit_chunks"):
+        raise InputError(
+            f"a {calibrator.method_label} calibration is fitted on the whole sweep at once; "
+            "only the learned one is fitted in chunks"
+        )
+    found: dict = {"temperature": [np.inf, -np.inf]}
+
+    def chunks(advance):
+        done = 0
+        for table in stream:
+            found.setdefault("x", (table.x_column, table.x_unit))
+            valid = table.valid_only()
+            if valid.temperature_k is not None and valid.n_rows:
+                low, high = found["temperature"]
+                found["temperature"] = [
+                    min(low, float(valid.temperature_k.min())),
+                    max(high, float(valid.temperature_k.max())),
+                ]
+            yield valid.x_hz, valid.powers_w, valid.monitor_w
+            if advance is not None:
+                advance(stream.progress - done)
+            done = stream.progress
+
+    total, unit = stream.progress_total
+    bar = progress(f"calibrating on {stream.source}", total, unit=unit) if progress else None
+    with bar if bar is not None else contextlib.nullcontext() as advance:
+        calibrator.fit_chunks(chunks(advance), list(stream.port_names), dark_w=dark_w)
+    x_column, x_unit = found["x"]
+    temperature = found["temperature"]
+    return SweepRead(
+        source=stream.source,
+        x_column=x_column,
+        x_unit=x_unit,
+        port_names=tuple(stream.port_names),
+        port_units=tuple(stream.port_units),
+        monitor_column=stream.monitor_column,
+        temperature_column=stream.temperature_column,
+        n_rows=stream.rows - stream.invalid_rows,
+        dropped_rows=stream.invalid_rows,
+        invalid_examples=tuple(stream.invalid_examples),
+        temperature_range_k=temperature if np.isfinite(temperature[0]) else None,
+    )
