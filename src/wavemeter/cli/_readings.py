@@ -7,8 +7,11 @@ from __future__ import annotations
 import click
 
 from ..exceptions import InputError
+from ..io import iter_readings
+from ..io.streaming import CHUNK_ROWS
 from ._common import check_ports, load
 from ._params import OPTICAL_FREQUENCY, AliasedOption
+from ._streams import STDIN_LABEL, is_stdio
 from ._temperature import (
     check_temperature_options,
     missing_temperature,
@@ -21,6 +24,7 @@ __all__ = [
     "FILE_TEMPERATURE_REMEDY",
     "check_coarse",
     "check_source",
+    "open_readings",
     "refuse_coarse",
     "checked_calibration",
     "flag_summary",
@@ -72,6 +76,30 @@ def check_source(calibration, cal_path, source, coarse_hz, temperature_k, *, por
                 remedy,
             )
     check_coarse(calibration, cal_path, source, coarse_hz)
+
+
+def open_readings(calibration, cal_path, data, request, *, coarse_hz, temperature_k, allow_invalid):
+    """The readings file ``data`` (``-``: standard input) opened in chunks
+    (:func:`~wavemeter.io.iter_readings`) and checked against the calibration
+    (:func:`check_source`)."""
+    stream = iter_readings(
+        data,
+        request,
+        chunk_rows=CHUNK_ROWS,
+        allow_invalid=allow_invalid,
+        find_temperature=needs_temperature(calibration) and temperature_k is None,
+        name=STDIN_LABEL if is_stdio(data) else str(data),
+    )
+    check_source(
+        calibration,
+        cal_path,
+        stream,
+        coarse_hz,
+        temperature_k,
+        ports_given=request.ports is not None,
+        remedy=FILE_TEMPERATURE_REMEDY,
+    )
+    return stream
 
 
 def refuse_coarse(calibration, cal_path, coarse_column, coarse_hz) -> None:

@@ -31,9 +31,8 @@ import click
 
 from ..atomic import check_output
 from ..exceptions import InputError, WavemeterError
-from ..io import iter_readings
 from ..io.formats import FILE_FORMATS
-from ..jobs import MEASURE_CHUNK_ROWS, measure_file
+from ..jobs import measure_file
 from ..progress import progress_bar
 from ._common import (
     FORCE,
@@ -51,16 +50,12 @@ from ._common import (
 )
 from ._data_files import data_files, names_many_files
 from ._readings import (
-    FILE_TEMPERATURE_REMEDY,
-    check_source,
     checked_calibration,
     flag_summary,
+    open_readings,
     reading_input_options,
 )
-from ._streams import STDIN_LABEL, is_stdio
-from ._temperature import (
-    needs_temperature,
-)
+from ._streams import is_stdio
 
 
 @click.command()
@@ -168,25 +163,14 @@ def _measure_one(calibration, cal_path, data, out_path, file_format, settings, *
     options = settings["options"]
     quiet = options["quiet"]
     request = column_request(options, coarse=settings["coarse_column"], keep=settings["keep"])
-    given_k = settings["temperature_k"]
-    thermal = needs_temperature(calibration)
-    label = STDIN_LABEL if is_stdio(data) else str(data)
-    stream = iter_readings(
-        data,
-        request,
-        chunk_rows=MEASURE_CHUNK_ROWS,
-        allow_invalid=options["drop_invalid"],
-        find_temperature=thermal and given_k is None,
-        name=label,
-    )
-    check_source(
+    stream = open_readings(
         calibration,
         cal_path,
-        stream,
-        settings["coarse_hz"],
-        given_k,
-        ports_given=request.ports is not None,
-        remedy=FILE_TEMPERATURE_REMEDY,
+        data,
+        request,
+        coarse_hz=settings["coarse_hz"],
+        temperature_k=settings["temperature_k"],
+        allow_invalid=options["drop_invalid"],
     )
 
     def progress(description, total, unit):
@@ -198,7 +182,7 @@ def _measure_one(calibration, cal_path, data, out_path, file_format, settings, *
         out_path,
         file_format=file_format,
         coarse_hz=settings["coarse_hz"],
-        temperature_k=given_k,
+        temperature_k=settings["temperature_k"],
         uncertainty=settings["uncertainty"],
         progress=progress,
     )

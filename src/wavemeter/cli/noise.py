@@ -18,8 +18,6 @@ import click
 
 from ..atomic import check_output
 from ..exceptions import InputError
-from ..io import iter_readings
-from ..jobs import MEASURE_CHUNK_ROWS
 from ..jobs.noise import measure_series
 from ..progress import busy, progress_bar
 from ._common import (
@@ -35,14 +33,12 @@ from ._common import (
 )
 from ._params import DURATION
 from ._readings import (
-    FILE_TEMPERATURE_REMEDY,
-    check_source,
     checked_calibration,
     flag_summary,
+    open_readings,
     reading_input_options,
 )
 from ._streams import STDIN_LABEL, is_stdio
-from ._temperature import needs_temperature
 
 #: how to give the sampling rate, as the messages say it
 RATE_OPTIONS = "pass --rate (e.g. --rate 10MHz) or --time-column COL (the readings' time stamps)"
@@ -185,26 +181,16 @@ def _measured(calibration, cal_path, readings, settings, options):
     request = column_request(
         options, coarse=settings["coarse_column"], keep=(time_column,) if time_column else ()
     )
-    thermal = needs_temperature(calibration)
-    label = STDIN_LABEL if is_stdio(readings) else str(readings)
     with _time_column_named(time_column):
-        stream = iter_readings(
+        stream = open_readings(
+            calibration,
+            cal_path,
             readings,
             request,
-            chunk_rows=MEASURE_CHUNK_ROWS,
+            coarse_hz=settings["coarse_hz"],
+            temperature_k=temperature_k,
             allow_invalid=True,
-            find_temperature=thermal and temperature_k is None,
-            name=label,
         )
-    check_source(
-        calibration,
-        cal_path,
-        stream,
-        settings["coarse_hz"],
-        temperature_k,
-        ports_given=request.ports is not None,
-        remedy=FILE_TEMPERATURE_REMEDY,
-    )
 
     def progress(description, total, unit):
         return progress_bar(printable(description), total, quiet=quiet, unit=unit)
