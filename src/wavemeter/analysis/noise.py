@@ -20,8 +20,9 @@ Steps of :func:`frequency_noise` (each module's notes give its method):
   and the interferometer's delay corrected up to ``DELAY_CORRECTION_MAX_FSR`` of the FSR
   (:mod:`wavemeter.analysis.noise_spectrum`).
 - Power-law fit of ``h0, h_-1, h_-2`` to the bands, the Lorentzian linewidth ``pi h0`` (or
-  its upper limit), the beta-separation linewidth from ``1 / T_obs`` and the drift, each
-  with its standard deviation (:mod:`wavemeter.analysis.noise_fit`).
+  its upper limit), the beta-separation linewidth from ``1 / T_obs`` (or its upper limit
+  when the area above the line is not significant) and the drift, each with its standard
+  deviation (:mod:`wavemeter.analysis.noise_fit`).
 - Allan, modified Allan and Hadamard deviations of the fractional frequency with
   Greenhall's confidence intervals (:mod:`wavemeter.analysis.allan`).
 - Findings: what limits or qualifies the results, each issued as a
@@ -76,6 +77,7 @@ WARNING_CAUSES = {
     "floor_unknown": "the meter's noise is unknown: its floor is not subtracted",
     "below_floor": "the laser's white FM is not significantly above the meter's floor",
     "beta_lower_limit": "the PSD is above the beta line up to the highest frequency",
+    "beta_upper_limit": "the PSD is not significantly above the beta line: an upper limit",
     "beta_below_line": "the PSD is nowhere above the beta line: the beta linewidth is 0",
     "beta_extrapolated": "the beta integral starts below the lowest PSD band",
     "noise_model_misfit": "the PSD departs from h0 + h_-1/f + h_-2/f^2",
@@ -128,13 +130,19 @@ class FrequencyNoise:
         The floor is unknown, or ``h0`` is not above both the floor and twice its std:
         ``lorentzian_linewidth_hz`` then holds ``pi (max(h0, 0) + 2 std)``.
     beta_linewidth_hz, beta_linewidth_std_hz : float
-        Beta-separation-line FWHM (Hz) and its standard deviation.
+        Beta-separation-line FWHM (Hz) and its standard deviation; an upper limit when
+        flagged.
     beta_observation_time_s : float
         Observation time ``T_obs`` it is for (s): the integral starts at ``1 / T_obs``.
         The one given, else the longest the PSD measures (``1 /`` the lowest band's lower
         edge, a twelfth to a sixth of the record).
     beta_linewidth_is_lower_limit : bool
         The PSD is above the line up to the highest corrected frequency.
+    beta_linewidth_is_upper_limit : bool
+        The area above the line is not significant (noise alone makes one as large with
+        a probability above 0.135 %, a normal's 3 sigma): ``beta_linewidth_hz`` then holds
+        the 97.7 % quantile (2 sigma) of its draws, an upper limit. Never with a lower
+        limit.
     drift_hz_per_s, drift_std_hz_per_s : float
         Least-squares drift (Hz/s) and its standard deviation under the fitted noise
         (with the frequency scale's uncertainty, ``scale_rel_std``).
@@ -177,6 +185,7 @@ class FrequencyNoise:
     beta_linewidth_std_hz: float
     beta_observation_time_s: float
     beta_linewidth_is_lower_limit: bool
+    beta_linewidth_is_upper_limit: bool
     drift_hz_per_s: float
     drift_std_hz_per_s: float
     taus_s: np.ndarray
@@ -422,7 +431,20 @@ def _findings(
                 "record longer",
             )
         )
-    if beta.area_hz2 <= 0:
+    if beta.upper_limit:
+        found.append(
+            _warning(
+                "beta_upper_limit",
+                "the corrected PSD is not significantly above the beta separation line from "
+                f"1 / T_obs = {start_hz:.3g} Hz up (the bands' noise alone gives an area as "
+                f"large with probability {beta.p_value:.2g}): only excursions above the line "
+                "count, so the area is biased up, and the beta linewidth is an upper limit, "
+                f"< {result.beta_linewidth_hz:.3g} Hz",
+                "record longer (more averages in the low bands, a longer T_obs), lower the "
+                "meter's floor, or use the Lorentzian linewidth",
+            )
+        )
+    elif beta.area_hz2 <= 0:
         found.append(
             _warning(
                 "beta_below_line",
@@ -579,6 +601,7 @@ def frequency_noise(
         beta_linewidth_std_hz=beta.std_hz,
         beta_observation_time_s=float(observation_time_s),
         beta_linewidth_is_lower_limit=beta.lower_limit,
+        beta_linewidth_is_upper_limit=beta.upper_limit,
         drift_hz_per_s=drift,
         drift_std_hz_per_s=drift_std,
         **allan,

@@ -16,19 +16,41 @@ Lorentzian and beta-separation linewidths, and the drift, each with its uncertai
   field then holds ``pi (max(h0, 0) + 2 std)``.
 - Beta-separation linewidth (Di Domenico, Schilt, Thomann, Appl. Opt. 49, 4801 (2010)):
   ``A`` = the integral from ``1 / T_obs`` of the corrected PSD where it lies above ``8 ln2
-  f / pi^2``, FWHM ``sqrt(8 ln2 A)``. On the bands the PSD is taken constant over each band
-  (so a white level's crossing is exact). ``T_obs`` defaults to the inverse of the lowest
+  f / pi^2``, FWHM ``sqrt(8 ln2 A)``. ``T_obs`` defaults to the inverse of the lowest
   band's lower edge (``1.5`` Welch bins, a twelfth to a sixth of the record), the longest
   time the PSD measures; a longer ``T_obs`` (up to the record) integrates the fitted power
-  law below the lowest band, linearly (unbiased; the line is negligible there), and warns:
-  extrapolating ``h_-2 / f^2`` down an octave or more dominates the uncertainty (a 100 kHz
-  white-FM laser, 2^16 readings at 10 MHz, 40 seeds: 11 % scatter at ``T_obs = T``, 6 %
-  at the default). The area is not smooth in the bands where the PSD meets the line (a
-  band enters or leaves), so its standard deviation is the spread of the FWHM over
-  ``BETA_DRAWS`` draws of the bands (normal, with their chi-square spread and correlation,
-  from a fixed seed: reproducible), with the floor's uncertainty and the fit's (below the
-  lowest band) added. When the PSD is still above the line at the highest corrected band,
-  the value is a lower limit; when it is nowhere above the line, the FWHM is 0.
+  law below the lowest band, linearly (unbiased; the line is negligible there), and
+  warns: extrapolating ``h_-2 / f^2`` down an octave or more dominates the uncertainty (a
+  100 kHz white-FM laser, 2^16 readings at 10 MHz, 40 seeds: 11 % scatter at ``T_obs =
+  T``, 6 % at the default). The standard deviation is the spread of the FWHM over
+  ``BETA_DRAWS`` draws of the bands (normal, with their chi-square spread and
+  correlation, the floor's error common to all bands, the extrapolation's added; from a
+  fixed seed: reproducible).
+- Between the band centres the PSD is interpolated linearly, and held at the outer bands'
+  levels out to the band edges: a white level's crossing is exact, a power law's integral
+  within 0.7 %. With each band held constant instead, the area changes slope about
+  tenfold where the crossing passes a band edge (the crossing band weighs ``2 f_c - f_low``
+  while it holds the crossing, its width once past it), and the draws about the data
+  understated the spread on one side of the edge (a 100 kHz white-FM laser, 2^20 readings
+  at 10 MHz under a white floor of 2.4e3 Hz^2/Hz, 20 seeds: 3 beyond 2 std, up to 3.6;
+  interpolated: 2, up to 2.96).
+- Beta upper limit. Only excursions above the line count, so the bands' noise alone makes
+  a positive area: where little of the PSD lies above the line (a laser under the meter's
+  floor, or one without frequency noise of its own) the FWHM is biased up by several of
+  its standard deviations. The measured bands' area is tested against noise: the same
+  draws about the null closest to the data (each band's level clipped into ``[0, line]``:
+  the PSD nowhere above the line, and the least favourable such PSD where the data lie
+  above it) give the probability ``p`` of an area at least as large from noise alone. The
+  FWHM is a number only when ``p <= BETA_P_VALUE`` (a normal's one-sided 3 sigma,
+  0.135 %): the numbers that pass a test are picked from the upper tail where it has
+  little power: at 2 sigma, 7 of the 12 that passed for white-FM lasers of 2-5 kHz under
+  that floor (``pi`` floor 7.6 kHz; 30 seeds each) lay 2 to 3.4 std above the truth; at 3
+  sigma none passed there, and those of 7-10 kHz (15 of 60) lay within 2.6 std.
+  Otherwise the value is an upper limit: the ``BETA_UPPER_QUANTILE`` (97.7 %, one-sided
+  2 sigma) quantile of the FWHM draws about the data, at least the FWHM itself, the
+  counterpart of the Lorentzian's ``+ 2 std``. When the PSD is still above the line at
+  the highest corrected band, the value is a lower limit instead (never both); when the
+  quantile is 0 (the draws stay under the line), the FWHM is 0.
 - Drift: least-squares slope of the measured (not bridged) readings against time; its
   standard deviation is the fitted noise (floor included) propagated through the slope's
   transfer function (:func:`~wavemeter.analysis.power_law.slope_variance`), not the
@@ -37,6 +59,7 @@ Lorentzian and beta-separation linewidths, and the drift, each with its uncertai
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,8 +76,13 @@ MISFIT_P_VALUE = 1e-3
 #: slope of the beta separation line, 8 ln2 / pi^2 (Hz^2/Hz per Hz)
 BETA_SLOPE = 8.0 * np.log(2.0) / np.pi**2
 #: draws of the PSD bands for the beta linewidth's standard deviation, and their seed
-BETA_DRAWS = 400
+BETA_DRAWS = 2000
 BETA_SEED = 14
+#: the beta area is significant, and the FWHM a number, when noise alone makes one at
+#: least as large with at most this probability (a normal's one-sided 3 sigma)
+BETA_P_VALUE = 0.5 * math.erfc(3.0 / math.sqrt(2.0))
+#: else the FWHM's upper limit is this quantile of its draws (one-sided UPPER_LIMIT_SIGMAS)
+BETA_UPPER_QUANTILE = 0.5 * math.erfc(-UPPER_LIMIT_SIGMAS / math.sqrt(2.0))
 
 
 def beta_separation_line_hz2_per_hz(freqs_hz) -> np.ndarray:
@@ -127,18 +155,54 @@ def lorentzian_linewidth(h0: float, h0_std: float, floor: float | None) -> tuple
 class BetaLinewidth:
     """The beta-separation-line FWHM, its standard deviation and how to read it."""
 
-    fwhm_hz: float
+    fwhm_hz: float  # the upper limit when ``upper_limit``
     std_hz: float
     lower_limit: bool
+    upper_limit: bool
     area_hz2: float
+    p_value: float  # of a band area at least this large from noise alone
     extrapolated: bool  # the integral starts below the lowest band
 
 
-def _beta_area(level: np.ndarray, low: np.ndarray, high: np.ndarray, start_hz: float):
-    """Area (Hz^2) above the beta line of band levels (..., K) constant over each band."""
-    crossing_hz = np.where(level > 0, level / BETA_SLOPE, 0.0)  # the level meets the line
-    length = np.clip(np.minimum(high, crossing_hz) - np.maximum(low, start_hz), 0.0, None)
-    return np.sum(level * length, axis=-1)
+@dataclass(frozen=True)
+class _AreaAboveLine:
+    """The area above the beta line of a PSD given at band centres, interpolated linearly
+    between them and held at the outer levels out to the edges, from ``nodes_hz[0]``."""
+
+    nodes_hz: np.ndarray  # the integral's start, the band centres above it, the top (J,)
+    weights: np.ndarray  # the PSD at the nodes from the band levels (J, K)
+    cap: np.ndarray  # the highest band levels (K,) that keep the PSD under the line
+
+    @classmethod
+    def of_bands(cls, freqs_hz, low_hz, high_hz, start_hz: float) -> _AreaAboveLine:
+        begin = max(start_hz, low_hz[0])
+        inside = np.flatnonzero(freqs_hz > begin)
+        nodes = np.concatenate(([begin], freqs_hz[inside], [high_hz[-1]]))
+        weights = np.zeros((nodes.size, freqs_hz.size))
+        weights[np.arange(1, nodes.size - 1), inside] = 1.0
+        weights[-1, -1] = 1.0
+        # the start: interpolated between the centres about it, held beyond the outer ones
+        weights[0] = [np.interp(begin, freqs_hz, unit) for unit in np.eye(freqs_hz.size)]
+        cap = BETA_SLOPE * np.asarray(freqs_hz, dtype=float)
+        cap[0] = BETA_SLOPE * min(freqs_hz[0], begin)
+        return cls(nodes, weights, cap)
+
+    def __call__(self, level: np.ndarray) -> np.ndarray:
+        """Area (Hz^2) of band levels (..., K) above the line, (...)."""
+        psd = level @ self.weights.T
+        excess = psd - BETA_SLOPE * self.nodes_hz
+        left, right = excess[..., :-1], excess[..., 1:]
+        with np.errstate(divide="ignore", invalid="ignore"):  # where left == right
+            crossing = np.clip(np.where(left != right, left / (left - right), 0.0), 0.0, 1.0)
+        enter = np.where(left > 0, 0.0, crossing)  # the share of each segment above the line
+        leave = np.maximum(np.where(right > 0, 1.0, crossing), enter)
+        start, rise = psd[..., :-1], np.diff(psd, axis=-1)
+        mean = start + rise * (enter + leave) / 2.0
+        return np.sum((leave - enter) * np.diff(self.nodes_hz) * mean, axis=-1)
+
+
+def _fwhm_hz(area_hz2):
+    return np.sqrt(8.0 * np.log(2.0) * np.clip(area_hz2, 0.0, None))
 
 
 def beta_linewidth(
@@ -149,38 +213,50 @@ def beta_linewidth(
     floor_std: float,
     observation_time_s: float,
 ) -> BetaLinewidth:
-    """Beta-separation-line FWHM from ``1 / T_obs`` of the ``corrected`` band PSD (K,)
-    (see the module's notes)."""
-    corrected_std = spectrum.psd * np.sqrt(2.0 / spectrum.dof) / delay_band
+    """Beta-separation-line FWHM from ``1 / T_obs`` of the ``corrected`` band PSD (K,), or
+    its upper limit when the area is not significant (see the module's notes)."""
     valid = np.flatnonzero(np.isfinite(corrected))
     start_hz = 1.0 / observation_time_s
     low, high = spectrum.edges_hz[valid], spectrum.edges_hz[valid + 1]
     level = corrected[valid]
-    area = float(_beta_area(level, low, high, start_hz))
-    # the floor's and the extrapolation's uncertainties are linear in the area
-    included = np.clip(np.minimum(high, level / BETA_SLOPE) - np.maximum(low, start_hz), 0, None)
-    variance = (floor_std * np.sum(included / delay_band[valid])) ** 2
+    area_of = _AreaAboveLine.of_bands(spectrum.freqs_hz[valid], low, high, start_hz)
     extrapolated = bool(start_hz < low[0])
-    if extrapolated:  # the fitted power law, integrated from 1 / T_obs to the lowest band
+    below, below_std = 0.0, 0.0  # the fitted power law from 1 / T_obs to the lowest band
+    if extrapolated:
         gradient = np.array(
             [low[0] - start_hz, np.log(low[0] / start_hz), 1.0 / start_hz - 1.0 / low[0]]
         )
-        area += float(fit.levels @ gradient)
-        variance += float(gradient @ fit.covariance @ gradient)
-    # the bands' spread: the area is not smooth in them where the PSD meets the line, so
-    # draw them (correlated normal, seeded: the result is reproducible) and take the spread
+        below = float(fit.levels @ gradient)
+        below_std = float(np.sqrt(gradient @ fit.covariance @ gradient))
+    measured = float(area_of(level))  # over the bands
+    area = measured + below
+    # the bands' errors (correlated normal, chi-square spread), the floor's (common to all
+    # bands) and the extrapolation's, seeded: the result is reproducible
     rng = np.random.default_rng(BETA_SEED)
+    spread = spectrum.psd[valid] * np.sqrt(2.0 / spectrum.dof[valid]) / delay_band[valid]
     factor = np.linalg.cholesky(spectrum.correlation[np.ix_(valid, valid)])
-    draws = level + corrected_std[valid] * (
-        rng.standard_normal((BETA_DRAWS, valid.size)) @ factor.T
-    )
-    areas = _beta_area(draws, low, high, start_hz) - _beta_area(level, low, high, start_hz)
-    areas += area + np.sqrt(variance) * rng.standard_normal(BETA_DRAWS)
-    fwhm = np.sqrt(8.0 * np.log(2.0) * max(area, 0.0))
-    std = float(np.std(np.sqrt(8.0 * np.log(2.0) * np.clip(areas, 0.0, None))))
+    errors = spread * (rng.standard_normal((BETA_DRAWS, valid.size)) @ factor.T)
+    errors += (floor_std / delay_band[valid]) * rng.standard_normal((BETA_DRAWS, 1))
+    below_errors = below_std * rng.standard_normal(BETA_DRAWS)
+    fwhms = _fwhm_hz(area_of(level + errors) + below + below_errors)
+    # the same errors about the null closest to the data: the PSD nowhere above the line
+    null = area_of(np.clip(level, 0.0, area_of.cap) + errors)
+    p_value = float(np.mean(null >= measured))
+    fwhm = float(_fwhm_hz(area))
     last = valid[-1]
     lower_limit = bool(corrected[last] > BETA_SLOPE * spectrum.freqs_hz[last])
-    return BetaLinewidth(float(fwhm), std, lower_limit, area, extrapolated)
+    bound = max(fwhm, float(np.quantile(fwhms, BETA_UPPER_QUANTILE)))
+    significant = measured > 0 and p_value <= BETA_P_VALUE
+    upper_limit = not (lower_limit or significant) and bound > 0
+    return BetaLinewidth(
+        fwhm_hz=bound if upper_limit else fwhm,
+        std_hz=float(np.std(fwhms)),
+        lower_limit=lower_limit,
+        upper_limit=upper_limit,
+        area_hz2=area,
+        p_value=p_value,
+        extrapolated=extrapolated,
+    )
 
 
 # --- drift -------------------------------------------------------------------------------

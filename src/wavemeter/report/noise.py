@@ -64,7 +64,8 @@ PHYSICS_NOTE = (
     "used above it. The photodetectors' bandwidth and any anti-aliasing filter are not "
     "corrected. The β-line linewidth is sqrt(8 ln2 A), A the area of S_ν above the line "
     "from 1/T_obs; it is a lower limit when S_ν is still above the line at the highest "
-    "frequency measured."
+    "frequency measured, and an upper limit when the area is not significantly larger "
+    "than the bands' noise alone would make (only excursions above the line count)."
 )
 
 
@@ -188,6 +189,7 @@ def summary_rows(result) -> list[list[str]]:
             _limit_text(
                 result.beta_linewidth_hz,
                 result.beta_linewidth_std_hz,
+                upper=result.beta_linewidth_is_upper_limit,
                 lower=result.beta_linewidth_is_lower_limit,
             ),
         ],
