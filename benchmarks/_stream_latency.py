@@ -5,22 +5,25 @@ stream CAL`` as a child with pipes for standard input and output, writes the hea
 then the readings one at a time: a reading is written (and flushed), and the clock runs
 until its output line has been read back, before the next reading is written. That is the
 latency a live consumer sees: the pipe both ways, parsing the line and converting its
-units, the calibration (``predict``, ``frequency_std_hz`` and ``flags`` of one reading,
-through :meth:`~wavemeter.calibration.base.BaseCalibrator.stream`), writing the line. The
-first ``WARMUP_READINGS`` readings are left out of the statistics (the child imports what
-the first reading needs), the first one reported on its own. Beside it, the time the
-calibration alone takes per reading in this process (``calibration.stream`` over the same
-readings), which tells the pipe and parsing from the numerics.
+units, the calibration (the numbers of ``predict``, ``frequency_std_hz`` and ``flags`` of one
+reading, read in one pass by :meth:`~wavemeter.calibration.base.BaseCalibrator.stream`),
+writing the line. The first ``WARMUP_READINGS`` readings are left out of the statistics (the
+child imports what the first reading needs), the first one reported on its own. Beside it,
+measured in this process over the same readings: ``jobs.stream_lines`` per line (parsing,
+the calibration, the output line: everything but the pipes and the child's scheduling) and
+``calibration.stream`` alone per reading, which tell the pipe from the parsing and the
+numerics.
 
 Cases: the Table 1 3x3 device (seed 7) calibrated by the learned method over 4 FSRs (the
-scale benchmark's calibration) and over one FSR (a partial span: ``flags`` then also
-computes the reading's uncertainty for the span test); a thermal calibration of the same
-device (four temperatures, a temperature column in degrees Celsius); a 3-stage cascade
-(1 THz / 100 GHz / 10 GHz, 9 ports), with fewer readings (it is slower).
+scale benchmark's calibration) and over one FSR; a thermal calibration of the same device
+(four temperatures, a temperature column in degrees Celsius; its sweeps end one step short
+of an FSR, a partial span: ``flags`` also tests each reading against the span); a 3-stage
+cascade (1 THz / 100 GHz / 10 GHz, 9 ports), with fewer readings.
 """
 
 from __future__ import annotations
 
+import io
 import subprocess
 import sys
 import time
@@ -31,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 import wavemeter as wm
+from wavemeter.jobs import stream_lines
 
 SEED = 7
 FSR_HZ = 50e9
@@ -61,6 +65,8 @@ class LatencyRun:
         Write-reading to read-result time of each reading after the warm-up (s).
     first_s : float
         The first reading's latency (s).
+    line_s : float
+        ``jobs.stream_lines`` per line in this process: parsing, calibration, output (s).
     compute_s : float
         The calibration alone per reading, ``calibration.stream`` in this process (s).
     """
@@ -68,6 +74,7 @@ class LatencyRun:
     case: str
     latency_s: np.ndarray
     first_s: float
+    line_s: float
     compute_s: float
 
     @property
@@ -84,7 +91,7 @@ def _text(value: float) -> str:
 
 
 def stream_latency(
-    calibration_path: Path, header: str, lines: list[str], case: str, compute_s: float
+    calibration_path: Path, header: str, lines: list[str], case: str, in_process: tuple
 ) -> LatencyRun:
     """Time every line of ``lines`` through a ``wavemeter stream`` child, one at a time.
 
@@ -98,8 +105,9 @@ def stream_latency(
         Data lines (no newline), one reading each.
     case : str
         The case's name in the table.
-    compute_s : float
-        The calibration's own time per reading (s), kept with the run.
+    in_process : (float, float)
+        The time per line of ``stream_lines`` and per reading of the calibration alone in
+        this process (s), kept with the run.
 
     Returns
     -------
@@ -132,18 +140,24 @@ def stream_latency(
             child.wait()
         child.stdout.close()
         child.stderr.close()
-    return LatencyRun(case, latency[WARMUP_READINGS:], float(latency[0]), compute_s)
+    return LatencyRun(case, latency[WARMUP_READINGS:], float(latency[0]), *in_process)
 
 
-def compute_time_s(calibration, powers: np.ndarray, **inputs) -> float:
-    """The calibration's own time per reading (s): ``calibration.stream`` in this process."""
+def in_process_s(calibration, header: str, lines: list[str], powers: np.ndarray, **inputs):
+    """Per line, ``stream_lines`` over ``lines`` in this process (s), and per reading, the
+    calibration alone: ``calibration.stream`` over ``powers`` with ``inputs`` (s)."""
+    out = io.StringIO()
+    stream_lines(calibration, [header, *lines[:WARMUP_READINGS]], out)
+    start = time.perf_counter()
+    stream_lines(calibration, [header, *lines], out)
+    line = (time.perf_counter() - start) / len(lines)
     records = calibration.stream(iter(powers), **inputs)
     for _ in range(WARMUP_READINGS):
         next(records)
     start = time.perf_counter()
     for _ in range(powers.shape[0] - WARMUP_READINGS):
         next(records)
-    return (time.perf_counter() - start) / (powers.shape[0] - WARMUP_READINGS)
+    return line, (time.perf_counter() - start) / (powers.shape[0] - WARMUP_READINGS)
 
 
 def _fitted(estimator, *args, **kwargs):
@@ -166,8 +180,9 @@ def learned_case(folder: Path, fsrs: int) -> LatencyRun:
     powers = device.powers(truth, power_w=POWER_W, noise_w=NOISE_W, rng=rng)
     lines = [",".join(_text(value * 1e3) for value in row) for row in powers]
     name = f"learned 3x3, sweep over {fsrs} FSR{'s' if fsrs > 1 else ''}"
-    compute = compute_time_s(calibration, powers)
-    return stream_latency(path, "P1_mW,P2_mW,P3_mW", lines, name, compute)
+    header = "P1_mW,P2_mW,P3_mW"
+    timed = in_process_s(calibration, header, lines, powers)
+    return stream_latency(path, header, lines, name, timed)
 
 
 def thermal_case(folder: Path) -> LatencyRun:
@@ -199,8 +214,9 @@ def thermal_case(folder: Path) -> LatencyRun:
         ",".join([*(_text(value) for value in row), _text(t - 273.15)])
         for row, t in zip(powers, temperature, strict=True)
     ]
-    compute = compute_time_s(calibration, powers, temperature_k=iter(temperature))
-    return stream_latency(path, "p1_w,p2_w,p3_w,temp_C", lines, "thermal 3x3", compute)
+    header = "p1_w,p2_w,p3_w,temp_C"
+    timed = in_process_s(calibration, header, lines, powers, temperature_k=iter(temperature))
+    return stream_latency(path, header, lines, "thermal 3x3", timed)
 
 
 def cascade_case(folder: Path) -> LatencyRun:
@@ -217,8 +233,8 @@ def cascade_case(folder: Path) -> LatencyRun:
     powers = device.powers(truth, POWER_W, NOISE_W, rng=rng)
     lines = [",".join(_text(value) for value in row) for row in powers]
     header = ",".join(f"p{port + 1}_w" for port in range(powers.shape[1]))
-    compute = compute_time_s(calibration, powers)
-    return stream_latency(path, header, lines, "cascade 3 stages x 3 ports", compute)
+    timed = in_process_s(calibration, header, lines, powers)
+    return stream_latency(path, header, lines, "cascade 3 stages x 3 ports", timed)
 
 
 def latency_runs(folder: Path, progress=print) -> list[LatencyRun]:
@@ -239,7 +255,7 @@ def table(runs: list[LatencyRun]) -> str:
     """The runs as a text table (ms)."""
     head = (
         f"{'case':<36}{'readings':>9}{'median ms':>11}{'p99 ms':>9}{'max ms':>9}"
-        f"{'first ms':>10}{'calibration ms':>16}  < 1 ms (median, p99)"
+        f"{'first ms':>10}{'line ms':>9}{'calibration ms':>16}  < 1 ms (median, p99)"
     )
     rows = [head, "-" * len(head)]
     for run in runs:
@@ -247,7 +263,7 @@ def table(runs: list[LatencyRun]) -> str:
         rows.append(
             f"{run.case:<36}{run.latency_s.size:>9}{run.median_s * 1e3:>11.3f}"
             f"{run.p99_s * 1e3:>9.3f}{run.latency_s.max() * 1e3:>9.3f}{run.first_s * 1e3:>10.1f}"
-            f"{run.compute_s * 1e3:>16.3f}  {verdict}"
+            f"{run.line_s * 1e3:>9.3f}{run.compute_s * 1e3:>16.3f}  {verdict}"
         )
     return "\n".join(rows)
 
@@ -260,7 +276,8 @@ def main() -> None:
         runs = latency_runs(Path(folder), progress=lambda text: print(text, file=sys.stderr))
     print(
         f"wavemeter stream: write one reading, read its line back ({WARMUP_READINGS} warm-up "
-        "readings left out; 'calibration' is calibration.stream alone, in process)"
+        "readings left out; in this process: 'line' is jobs.stream_lines per line, "
+        "'calibration' is calibration.stream alone)"
     )
     print(table(runs))
 

@@ -20,8 +20,8 @@ import pytest
 import wavemeter as wm
 from wavemeter.calibration.files import read_calibration_file
 from wavemeter.calibration.flags import ReadingFlag
+from wavemeter.cli import _readings as readings_module
 from wavemeter.cli import main
-from wavemeter.cli import measure as measure_module
 from wavemeter.io import ColumnRequest, read_table, write_table
 
 from .conftest import NOISE_W, POWER_W, one_error
@@ -295,7 +295,7 @@ def test_flags_follow_their_rows_through_chunks_and_dropped_rows(
     and 1/3 of the source power get POWER_RANGE (outside the calibrated total power by
     more than a factor 2); every other row has the calibration's own flags, measured in
     chunks of 7 rows."""
-    monkeypatch.setattr(measure_module, "MEASURE_CHUNK_ROWS", 7)
+    monkeypatch.setattr(readings_module, "CHUNK_ROWS", 7)  # the chunks measure reads
     readings = read_table(clean["test"], ColumnRequest(), need_x=False).powers_w[:40]
     readings[[5, 6]] *= 3.0
     readings[20] /= 3.0

@@ -2,8 +2,9 @@
 ``jobs.follow_lines`` and ``wavemeter stream`` over real pipes.
 
 The numbers of a stream are those of ``predict``, ``frequency_std_hz`` and ``flags`` on the
-same readings, to float64 rounding (1e-12 relative: the same arithmetic on a (1, n) array
-instead of an (N, n) one may round differently in the last bits). Lines are read as files
+same readings, to float64 rounding (1e-12 relative: a reading read alone, in one pass, may
+round differently in the last bits from the same reading in a batch; tests/test_stream_fast_path.py
+tests that pass case by case). Lines are read as files
 are: the readings of a line are compared with those ``read_table`` gives for the same text
 in a file. Over a pipe, every output line is read back before the next reading is written:
 a command that did not flush each line would block the test (each wait is bounded by

@@ -25,9 +25,10 @@ from __future__ import annotations
 import contextlib
 import inspect
 import itertools
+import math
 import numbers
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -72,6 +73,10 @@ READING_INPUTS = ("coarse_hz", "temperature_k")
 CAPABILITIES = ("frequency_std", "power_monitor")
 #: cause of the warning that a streamed reading could not be read (:meth:`BaseCalibrator.stream`)
 INVALID_READING_CAUSE = "invalid_reading"
+#: relative margin below the ``OFF_MODEL`` threshold under which a streamed reading's distance
+#: to the cone at its retrieved phase proves it on the model without the exact test (that
+#: test's distance is exact to ~1e-13 relative, its root tolerance: far inside the margin)
+SCREEN_MARGIN = 1e-6
 
 
 @dataclass(frozen=True, slots=True)
@@ -563,14 +568,8 @@ class BaseCalibrator:
         check_fitted(self)
         readings = reading_array(powers, ports=self.n_ports_)
         samples = readings.shape[0]
-        finite = np.isfinite(readings).all(axis=1)
         corrected = readings - self._reading_offset_w()
-        with np.errstate(invalid="ignore"):
-            flags = power_flags(
-                corrected.sum(axis=1), self._total_power_range_w(), self._offsets_known()
-            )
-            lit = finite & (readings.sum(axis=1) > 0)
-        flags[~lit] |= ReadingFlag.INVALID
+        flags = self._light_flags(readings, corrected)
         usable = (flags & ReadingFlag.INVALID) == 0
         inputs = {
             name: None if value is None else value[usable]
@@ -578,6 +577,17 @@ class BaseCalibrator:
         }
         if usable.any():
             flags[usable] |= self._model_flags(corrected[usable], **inputs)
+        return flags
+
+    def _light_flags(self, readings: np.ndarray, corrected: np.ndarray) -> np.ndarray:
+        """``INVALID`` (NaN, inf, no light) and ``POWER_RANGE`` bits of readings (N, n), raw and
+        less their offsets (:func:`~wavemeter.calibration.flags.power_flags`)."""
+        with np.errstate(invalid="ignore"):
+            flags = power_flags(
+                corrected.sum(axis=1), self._total_power_range_w(), self._offsets_known()
+            )
+            lit = np.isfinite(readings).all(axis=1) & (readings.sum(axis=1) > 0)
+        flags[~lit] |= ReadingFlag.INVALID
         return flags
 
     def _offsets_known(self) -> bool:
@@ -598,18 +608,32 @@ class BaseCalibrator:
         ``OFF_MODEL``: where :meth:`_off_model` has a test.
         """
         flags = np.zeros(readings.shape[0], dtype=np.int64)
-        low, high = self.span_hz_
-        samples = self.n_samples_
-        covered = (high - low) * samples / max(samples - 1, 1)
-        if covered < self.fsr_hz_:
+        if self._partial_span():
             frequency = self._predict_checked(readings, temperature_k)
-            margin = SPAN_MARGIN_STD * self._span_margin_std_hz(readings, temperature_k)
-            outside = (frequency < low - margin) | (frequency > high + margin)
-            flags[outside] |= ReadingFlag.OUTSIDE_SPAN
+            flags |= self._span_flags(frequency, self._span_margin_std_hz(readings, temperature_k))
         off_model = self._off_model(readings)
         if off_model is not None:
             flags[off_model] |= ReadingFlag.OFF_MODEL
-        return flags
+        return flags | self._input_flags(coarse_hz, temperature_k)
+
+    def _partial_span(self) -> bool:
+        """The sweep covered less than one FSR: frequencies outside it are flagged."""
+        low, high = self.span_hz_
+        samples = self.n_samples_
+        return (high - low) * samples / max(samples - 1, 1) < self.fsr_hz_
+
+    def _span_flags(self, frequency_hz: np.ndarray, margin_std_hz) -> np.ndarray:
+        """``OUTSIDE_SPAN`` bits of frequencies (Hz) outside the sweep by more than
+        ``SPAN_MARGIN_STD`` times ``margin_std_hz`` (Hz, one or one per frequency)."""
+        low, high = self.span_hz_
+        margin = SPAN_MARGIN_STD * margin_std_hz
+        outside = (frequency_hz < low - margin) | (frequency_hz > high + margin)
+        return np.where(outside, np.int64(ReadingFlag.OUTSIDE_SPAN), np.int64(0))
+
+    def _input_flags(self, coarse_hz, temperature_k) -> np.ndarray | int:
+        """Bits from the per-reading inputs alone (arrays, or None where not given): none
+        here; a thermal calibration flags temperatures outside its calibrated range."""
+        return 0
 
     def _span_margin_std_hz(self, readings: np.ndarray, temperature_k=None) -> np.ndarray | float:
         """Frequency uncertainty (Hz) that widens a partial span before a reading leaves it."""
@@ -754,10 +778,11 @@ class BaseCalibrator:
         """Read readings one at a time, as they arrive: one record out for each row in.
 
         Each row is read only when its record is asked for, so ``rows`` may be endless (a
-        live source). A row is read with this calibration's own ``predict``,
-        ``frequency_std_hz`` and ``flags`` on a (1, n) array (a cascade: one pass of
-        :meth:`~wavemeter.calibration.cascade.CascadeCalibrator.read`), so the records hold
-        the numbers those give for the row alone.
+        live source). The records hold the numbers this calibration's ``predict``,
+        ``frequency_std_hz`` and ``flags`` give for the row alone (a cascade's also those of
+        ``order_error_probability``), to float64 rounding: each row is read in one pass,
+        what stays the same from row to row worked out once per stream
+        (:meth:`_stream_reader`).
 
         Parameters
         ----------
@@ -807,22 +832,9 @@ class BaseCalibrator:
         if not isinstance(rows, Iterable):
             raise InputError(f"rows must be an iterable of readings, got {type(rows).__name__}")
         ports = self.n_ports_
+        read = self._stream_reader()
         cascade = hasattr(self, "order_error_probability")
-        uncertainty = "frequency_std" in self.capabilities
         nan = float("nan")
-
-        def read(powers: np.ndarray, inputs: dict) -> StreamReading:
-            if cascade:  # every stage in one pass
-                found = self.read(powers)
-                return StreamReading(
-                    float(found.frequency_hz[-1, 0]),
-                    float(found.std_hz[-1, 0]),
-                    int(found.flags[0]),
-                    float(found.order_error_probability[0]),
-                )
-            frequency = float(self.predict(powers, **inputs)[0])
-            std = float(self.frequency_std_hz(powers, **inputs)[0]) if uncertainty else nan
-            return StreamReading(frequency, std, int(self.flags(powers, **inputs)[0]))
 
         def unread(powers: np.ndarray | None, inputs: dict) -> StreamReading:
             flags = int(ReadingFlag.INVALID)
@@ -855,9 +867,9 @@ class BaseCalibrator:
                         raise InputError(f"its inputs are not numbers: {inputs!r:.80}") from None
                     if array.shape != (ports,):
                         raise InputError(f"it has shape {array.shape}, not {ports} port powers")
-                    if not np.all(np.isfinite(array)):
+                    if not np.isfinite(array).all():
                         raise InputError(f"a port power is NaN or inf: {array.tolist()}")
-                    bad = [n for n, v in inputs.items() if v is not None and not np.isfinite(v)]
+                    bad = [n for n, v in inputs.items() if v is not None and not math.isfinite(v)]
                     if bad:
                         raise InputError(f"{' and '.join(bad)} is not a finite number")
                     powers = array[np.newaxis]
@@ -880,3 +892,39 @@ class BaseCalibrator:
                 yield record
 
         return records()
+
+    def _stream_reader(self) -> Callable[[np.ndarray, dict], StreamReading]:
+        """How :meth:`stream` reads one reading; built once per stream.
+
+        Returns
+        -------
+        callable
+            ``read(powers, inputs) -> StreamReading`` for a finite reading ``powers`` (1, n)
+            and its per-reading inputs by name (floats, or None where not given); it raises
+            :class:`InputError` where the calibration refuses the reading. Here: the
+            calibration's own ``predict``, ``frequency_std_hz`` and ``flags`` on the reading;
+            the learned family reads it in one pass, a cascade its stages in one (their
+            overrides).
+        """
+        uncertainty = "frequency_std" in self.capabilities
+
+        def read(powers: np.ndarray, inputs: dict) -> StreamReading:
+            frequency = float(self.predict(powers, **inputs)[0])
+            std = float(self.frequency_std_hz(powers, **inputs)[0]) if uncertainty else math.nan
+            return StreamReading(frequency, std, int(self.flags(powers, **inputs)[0]))
+
+        return read
+
+    def _stream_corrector(self) -> Callable[[np.ndarray], np.ndarray]:
+        """For a stream: ``corrected(powers)`` of a finite reading (1, n) is the reading less
+        its offsets; for a reading without light it raises the error ``predict`` raises."""
+        ones = np.ones(self.n_ports_)
+        offset = self._reading_offset_w()
+        shift = bool(offset.any())
+
+        def corrected(powers: np.ndarray) -> np.ndarray:
+            if not (powers @ ones)[0] > 0:
+                check_powers(powers)  # its error: the powers sum to zero or less
+            return powers - offset if shift else powers
+
+        return corrected

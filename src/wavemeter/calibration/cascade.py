@@ -37,6 +37,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 from scipy import special, stats
@@ -57,8 +58,15 @@ from ..validation import (
     check_positive,
     check_powers,
 )
-from .base import BaseCalibrator
-from .cascade_reading import NOISE_P_VALUE, CascadeReading, chi2_median, noise_scale
+from .base import BaseCalibrator, StreamReading
+from .cascade_reading import (
+    NOISE_P_VALUE,
+    CascadeReading,
+    StageReader,
+    chi2_median,
+    distance_in_noise,
+    noise_scale,
+)
 from .delay_search import frequency_text
 from .files import calibrator_fields, calibrator_from_fields, state_array, state_float
 from .flags import SPAN_MARGIN_STD, ReadingFlag, off_model_threshold, power_flags
@@ -84,6 +92,16 @@ HANDOVER_P_VALUE = 1e-6
 DISAGREEMENT_STD = float(special.ndtri(1.0 - 0.5e-6))
 #: the issue's C-band cascade (Hz, coarsest first)
 DEFAULT_FSRS_HZ = (5e12, 500e9, 50e9)
+
+
+def _stream_record(chain: CascadeReading) -> StreamReading:
+    """What a stream gives for one reading read through the stages (with its flags)."""
+    return StreamReading(
+        float(chain.frequency_hz[-1, 0]),
+        float(chain.std_hz[-1, 0]),
+        int(chain.flags[0]),
+        float(chain.order_error_probability[0]),
+    )
 
 
 def _stage_label(index: int, fsr_hz: float) -> str:
@@ -598,9 +616,7 @@ class CascadeCalibrator(BaseCalibrator):
             reference = self.cone_distance_median_[index]
             median = chi2_median(len(block) - 2, stage.noise_dof_)
             scale[index] = noise_scale(distance[index], reference, median)
-            # in the noise of the readings, beside what the model missed on the sweep
-            missed = max(reference - median, 0.0)
-            distance[index] *= median / (scale[index] ** 2 * median + missed)
+            distance[index] = distance_in_noise(distance[index], reference, median, scale[index])
             std[index] = np.hypot(
                 stage._frequency_std_of(
                     rows, frequency[index], phase[index], stage_maps, noise_scale=scale[index]
@@ -608,16 +624,19 @@ class CascadeCalibrator(BaseCalibrator):
                 self.model_error_hz_[index],
             )
             coarse = frequency[index]
+        return self._joined(frequency, std, phase, maps, distance, scale)
+
+    def _joined(self, frequency, std, phase, maps, distance, scale) -> CascadeReading:
+        """The stages' readings (K, N), each with the probability that its order is wrong
+        (the coarsest stage's edge, then each hand-over's) and the hand-overs' disagreement."""
+        stages, samples = frequency.shape
         probability = np.empty((stages, samples))
         probability[0] = self._edge_probability(frequency[0], std[0])
         residual = frequency[:-1] - frequency[1:]
         spread = np.hypot(std[:-1], std[1:])
-        for index in range(1, stages):
-            probability[index] = handover_error_probability(
-                residual[index - 1],
-                self.stages_[index].fsr_hz_at(frequency[index]),
-                spread[index - 1],
-            )
+        # every hand-over at once: each at the finer stage's local FSR
+        fsr = [stage.fsr_hz_at(f) for stage, f in zip(self.stages_[1:], frequency[1:], strict=True)]
+        probability[1:] = handover_error_probability(residual, np.array(fsr), spread)
         with np.errstate(divide="ignore", invalid="ignore"):
             disagreement = np.abs(residual) / spread
         return CascadeReading(
@@ -649,11 +668,55 @@ class CascadeCalibrator(BaseCalibrator):
         CascadeReading
         """
         readings = self._check_readings(powers)
-        chain = self._read(readings)
+        return self._flagged(self._read(readings), readings)
+
+    def _flagged(self, chain: CascadeReading, readings: np.ndarray) -> CascadeReading:
+        """The chain with the flags of its offset-corrected readings (N, n)."""
         flags = power_flags(
             readings.sum(axis=1), self._total_power_range_w(), self._offsets_known()
         )
         return dataclasses.replace(chain, flags=flags | self._chain_flags(chain))
+
+    def _stream_reader(self) -> Callable[[np.ndarray, dict], StreamReading]:
+        """One reading through the stages for
+        :meth:`~wavemeter.calibration.base.BaseCalibrator.stream`: each stage in one light
+        pass (:class:`~wavemeter.calibration.cascade_reading.StageReader`), joined and
+        flagged as :meth:`read` joins and flags them, to the numbers :meth:`read` gives
+        (to rounding). With ``retrieval="ml"``, :meth:`read` itself."""
+        if self.retrieval != "pinv":
+            return lambda powers, inputs: _stream_record(self.read(powers))
+        readers = [
+            (np.array(block), StageReader(stage, error, median))
+            for stage, block, error, median in zip(
+                self.stages_,
+                self.stage_ports_,
+                self.model_error_hz_,
+                self.cone_distance_median_,
+                strict=True,
+            )
+        ]
+        corrected = self._stream_corrector()
+        unscaled = np.ones(len(readers))
+
+        def read(powers: np.ndarray, inputs: dict) -> StreamReading:
+            readings = corrected(powers)
+            found = []
+            coarse = self.center_hz_
+            for block, reader in readers:
+                found.append(reader.read(readings[0, block], coarse))
+                coarse = found[-1][0]
+            frequency, std, phase, maps, distance = zip(*found, strict=True)
+            chain = self._joined(
+                np.array(frequency)[:, None],
+                np.array(std)[:, None],
+                np.array(phase)[:, None],
+                [stage_map[np.newaxis] for stage_map in maps],
+                np.array(distance)[:, None],
+                unscaled,
+            )
+            return _stream_record(self._flagged(chain, readings))
+
+        return read
 
     def predict(self, powers, *, coarse_hz=None, temperature_k=None) -> np.ndarray:
         """Absolute source frequency (Hz) of each reading, from the finest stage at the

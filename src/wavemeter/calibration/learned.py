@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -69,10 +70,16 @@ from ..validation import (
     check_positive,
     reading_array,
 )
-from .base import BaseCalibrator, checked_port_names, value_range
+from .base import (
+    SCREEN_MARGIN,
+    BaseCalibrator,
+    StreamReading,
+    checked_port_names,
+    value_range,
+)
 from .delay_search import SEARCH_METHODS, DelaySearchResult
 from .files import state_array, state_float
-from .flags import off_model_threshold
+from .flags import ReadingFlag, off_model_threshold
 from .fsr_guard import check_design_fsr
 from .linear_map import (
     fit_map,
@@ -965,14 +972,57 @@ class Calibrator(BaseCalibrator):
     def _span_margin_std_hz(self, readings, temperature_k=None):
         return self._frequency_std_checked(readings, temperature_k=temperature_k)
 
-    def _off_model(self, readings):
-        """Weighted squared distance of each reading to the calibrated cone, tested."""
+    def _cone_distance(self, readings, phase_rad) -> np.ndarray:
+        """Weighted squared distance (N,) of each reading (offset-corrected) to the calibrated
+        cone at ``phase_rad``, the source power fitted."""
         noise = self.port_noise_std_w_
-        phase = fused_ml_phase_rad(readings, self.map_, noise_std_w=noise)
-        power = source_power_ratio(readings, self.map_, phase, noise)
-        residual = (readings - power[:, None] * (cone_vectors(phase) @ self.map_.T)) / noise
-        distance = np.einsum("ij,ij->i", residual, residual)
+        power = source_power_ratio(readings, self.map_, phase_rad, noise)
+        residual = (readings - power[:, None] * (cone_vectors(phase_rad) @ self.map_.T)) / noise
+        return np.einsum("ij,ij->i", residual, residual)
+
+    def _off_model(self, readings):
+        """Weighted squared distance of each reading to the calibrated cone (at the
+        maximum-likelihood phase, the nearest point), tested."""
+        phase = fused_ml_phase_rad(readings, self.map_, noise_std_w=self.port_noise_std_w_)
+        distance = self._cone_distance(readings, phase)
         return distance > off_model_threshold(self.n_ports_, self.noise_dof_)
+
+    def _stream_reader(self) -> Callable[[np.ndarray, dict], StreamReading]:
+        """One pass over a reading (this class and the thermal one), for :meth:`stream`.
+
+        ``predict``, ``frequency_std_hz`` and ``flags`` each check the calibration, the
+        reading and its inputs, remove the offsets, and ``flags`` reads the frequency and its
+        uncertainty again for the span test (the family's span margin is the reading's own
+        ``frequency_std_hz``): here each is done once, and what does not change from reading
+        to reading once per stream. The ``OFF_MODEL`` test is screened first: the reading's
+        weighted squared distance to the calibrated cone at its retrieved phase (the source
+        power fitted) is at least the distance at the maximum-likelihood phase that
+        ``_off_model`` tests, so a reading whose distance there lies below the threshold by
+        more than ``SCREEN_MARGIN`` (relative) is on the model; any other takes the test
+        itself. The bits are those ``flags`` gives.
+        """
+        corrected = self._stream_corrector()
+        partial = self._partial_span()
+        on_model = off_model_threshold(self.n_ports_, self.noise_dof_) * (1.0 - SCREEN_MARGIN)
+        invalid, off_model = int(ReadingFlag.INVALID), int(ReadingFlag.OFF_MODEL)
+
+        def read(powers: np.ndarray, inputs: dict) -> StreamReading:
+            readings = corrected(powers)
+            given = {n: None if v is None else np.array([v]) for n, v in inputs.items()}
+            temperature = given["temperature_k"]
+            frequency = self._predict_checked(readings, temperature)
+            std = self._frequency_std_checked(readings, True, temperature)
+            flags = self._light_flags(powers, readings)
+            if not flags[0] & invalid:
+                if partial:
+                    flags |= self._span_flags(frequency, std)
+                screened = self._cone_distance(readings, self._phase(readings))[0]
+                if screened > on_model and self._off_model(readings)[0]:
+                    flags |= off_model
+                flags |= self._input_flags(given["coarse_hz"], temperature)
+            return StreamReading(float(frequency[0]), float(std[0]), int(flags[0]))
+
+        return read
 
     def _state(self) -> dict:
         return {

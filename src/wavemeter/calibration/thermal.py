@@ -427,9 +427,8 @@ class ThermalCalibrator(Calibrator):
         rate = self.thermal_phase_rad_per_k_ + phase * self.thermal_delay_per_k_ / stretch
         return (self.temperature_std_k * rate * self._hz_per_rad(temperature_k)) ** 2
 
-    def _model_flags(self, readings, coarse_hz, temperature_k) -> np.ndarray:
-        flags = super()._model_flags(readings, coarse_hz, temperature_k)
-        return flags | temperature_flags(
+    def _input_flags(self, coarse_hz, temperature_k) -> np.ndarray:
+        return temperature_flags(
             temperature_k, self.temperature_range_k_, float(self.temperature_std_k)
         )
 
