@@ -110,20 +110,22 @@ def fused_frequency(retrieval: str, cal, readings, **options) -> np.ndarray:
 @pytest.mark.parametrize("backend", kernels.BACKENDS)
 def test_arctangent_within_three_ulp_of_numpy(backend):
     """With an identity inverse the phase is atan2(p_2, p_1): every magnitude from 1e-150
-    to 1e150, both signs, the reduction boundary (ratio 0.66), the diagonals and the axes
-    (the map product turns -0 into +0, in numpy as in the kernel)."""
+    to 1e150, both signs, the reduction boundary (ratio 0.66), the diagonals, the smallest
+    subnormals (where 0.66 times a quadrature rounds up to itself) and the axes (the map
+    product turns -0 into +0, in numpy as in the kernel)."""
     needs(backend)
     rng = np.random.default_rng(3)
     spread = 10.0 ** rng.uniform(-150, 150, (20000, 2)) * rng.choice([-1.0, 1.0], (20000, 2))
     boundary = np.column_stack([np.ones(4000), rng.uniform(0.65, 0.67, 4000)])
     boundary *= rng.choice([-1.0, 1.0], (4000, 2))
     diagonal = np.array([[1.0, 1.0], [-1.0, 1.0], [1.0, -1.0], [-1.0, -1.0], [3.0, 2.0]])
+    subnormal = np.array([[5e-324, 5e-324], [-5e-324, 5e-324], [1.5e-323, -1e-323]])
     axes = np.array([[0.0, 0.0], [0.0, 5.0], [0.0, -5.0], [2.0, 0.0], [-2.0, 0.0]])
-    xy = np.vstack([spread, boundary, diagonal, axes])
+    xy = np.vstack([spread, boundary, diagonal, subnormal, axes])
     readings = np.column_stack([xy, np.ones(xy.shape[0])])
     phase = kernels.fused_pinv_phase_rad(readings, np.eye(3), backend=backend)
     expected = np.arctan2(xy[:, 1], xy[:, 0])
-    # numba's arctangent is within 1.6 ulp of the exact value, numpy's within 1
+    # numba's arctangent is within 1.5 ulp of the exact value (1e7 inputs), numpy's within 1
     assert np.all(np.abs(phase - expected) <= 3 * np.spacing(np.abs(expected)))
     # on the axes: exactly numpy's 0, +-pi/2 and pi
     np.testing.assert_array_equal(phase[-5:], expected[-5:])
@@ -155,15 +157,20 @@ def test_numba_and_numpy_paths_agree(retrieval, ports, offsets):
 
 
 @pytest.mark.parametrize("retrieval", RETRIEVALS)
-def test_parallel_and_single_thread_kernels_give_the_same_bits(monkeypatch, retrieval):
-    """Large batches run on every core, smaller ones on one thread: the same numbers."""
+def test_shared_and_single_thread_calls_give_the_same_bits(monkeypatch, retrieval):
+    """Large batches are shared among threads in parts (the last one short here), smaller
+    ones run on this thread alone: the same numbers, whichever thread took which part."""
     needs("numba")
+    import numba
+
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 2)  # shared even on one core
     cal, device, rng = fitted(3, seed=21, retrieval=retrieval)
-    readings = sample_readings(cal, device, rng, 3 * kernels.BLOCK_ROWS, np.zeros(3))
+    readings = sample_readings(cal, device, rng, 3 * kernels.BLOCK_ROWS + 5, np.zeros(3))
+    assert readings.shape[0] > 2 * kernels.BLOCK_ROWS  # several parts
     found = {}
-    for parallel, threshold in ((False, readings.shape[0] + 1), (True, 1)):
+    for shared, threshold in ((False, readings.shape[0] + 1), (True, 1)):
         monkeypatch.setitem(kernels.PARALLEL_MIN_READINGS, retrieval, threshold)
-        found[parallel] = fused_frequency(retrieval, cal, readings, backend="numba")
+        found[shared] = fused_frequency(retrieval, cal, readings, backend="numba")
     np.testing.assert_array_equal(found[True], found[False])
 
 
@@ -277,25 +284,51 @@ def test_importing_wavemeter_and_small_batches_leave_numba_unimported():
     assert run.stdout.strip() == "False"
 
 
+def test_the_disk_cache_keeps_a_kernel_per_setting(tmp_path):
+    """numba's cache keys a kernel by its code and free variables only: a kernel built with
+    another setting (here the most Newton steps) must be compiled anew, not loaded."""
+    pytest.importorskip("numba")
+    code = (
+        "import sys, numpy as np\n"
+        "from wavemeter.model import kernels\n"
+        "kernels.MAX_STEPS = int(sys.argv[1])\n"
+        "rng = np.random.default_rng(1)\n"
+        "readings = rng.uniform(1.0, 2.0, (kernels.NUMBA_MIN_READINGS['ml'], 3))\n"
+        "phase = kernels.fused_ml_phase_rad(readings, rng.normal(size=(3, 3)), backend='numba')\n"
+        "print(phase[:20].tolist())\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != kernels.NO_NUMBA_VARIABLE}
+    env["NUMBA_CACHE_DIR"] = str(tmp_path)
+
+    def phases(max_steps: int) -> str:
+        command = [sys.executable, "-c", code, str(max_steps)]
+        return subprocess.run(command, capture_output=True, text=True, check=True, env=env).stdout
+
+    converged = phases(kernels.MAX_STEPS)
+    assert phases(1) != converged  # one step: not the cached kernel of MAX_STEPS steps
+    assert phases(kernels.MAX_STEPS) == converged
+
+
 @pytest.mark.skipif(not hasattr(os, "register_at_fork"), reason="no fork on this platform")
-def test_a_process_forked_after_a_kernel_ran_takes_the_numpy_path():
-    """numba's OpenMP threading layer kills a child forked after the parent ran a parallel
-    loop at the child's first one: the child must not start one."""
+def test_a_process_forked_after_a_kernel_ran_runs_the_kernels_too():
+    """A child forked after its parent shared a call among threads (threads a child does
+    not inherit) runs the kernels too, to the same numbers: no OpenMP, which kills such a
+    child at its first parallel loop, and no wait for a thread that is not there."""
     pytest.importorskip("numba")
     code = (
         "import multiprocessing, numpy as np\n"
         "from wavemeter.model import kernels\n"
-        f"readings = np.tile([2.0, 1.0, 1.0], ({LARGE}, 1))\n"
-        "def phase(backend):\n"
-        "    return kernels.fused_pinv_phase_rad(readings, np.eye(3), backend=backend)[0]\n"
-        "def child(_):\n"
-        "    return kernels.kernel_backend(), phase(None)\n"
+        "readings = np.tile([2.0, 1.0, 1.0], (kernels.PARALLEL_MIN_READINGS['pinv'], 1))\n"
+        "def phase(_):\n"
+        "    found = kernels.fused_pinv_phase_rad(readings, np.eye(3), backend='numba')\n"
+        "    return kernels.kernel_backend(), float(np.ptp(found)), float(found[0])\n"
         "if __name__ == '__main__':\n"
-        "    phase('numba')\n"
+        "    phase(0)\n"
         "    with multiprocessing.get_context('fork').Pool(1) as pool:\n"
-        "        print(*pool.map_async(child, [0]).get(timeout=60)[0])\n"
+        "        print(*pool.map_async(phase, [0]).get(timeout=60)[0])\n"
     )
     env = {k: v for k, v in os.environ.items() if k != kernels.NO_NUMBA_VARIABLE}
+    env["NUMBA_NUM_THREADS"] = "2"  # a shared call even on a single core
     run = subprocess.run(
         [sys.executable, "-c", code],
         capture_output=True,
@@ -304,8 +337,9 @@ def test_a_process_forked_after_a_kernel_ran_takes_the_numpy_path():
         timeout=120,
         env=env,
     )
-    backend, phase = run.stdout.split()
-    assert backend == "numpy" and float(phase) == np.arctan2(1.0, 2.0)
+    backend, spread, phase = run.stdout.split()
+    assert backend == "numba" and float(spread) == 0.0
+    assert float(phase) == pytest.approx(np.arctan2(1.0, 2.0), rel=4 * np.finfo(float).eps)
 
 
 # ---------------------------------------------------------------- the calibrator

@@ -7,19 +7,22 @@ likelihood of :func:`~wavemeter.model.retrieval.cone_ml_phase_rad`; its frequenc
 finite check, the offsets, the products, the arctangent, the scale; the maximum likelihood
 a few times per Newton step) and leaves a temporary at each step. Here:
 
-* **numba** (the optional extra ``fast``): one pass per reading, on every core, over
-  blocks of ``BLOCK_ROWS`` readings, with the check that refuses NaN, inf and dark readings
-  folded in (:func:`_build_kernel`). A kernel is compiled per port count (a constant
-  stride lets the compiler vectorise the map product). Each block forms its products and
-  total powers in the cache; the maximum likelihood then takes its Newton steps for the
-  whole block at once (a vectorised loop per step); last the arctangent, in a vectorised
-  loop too: it is written out (Cephes' rational ``atan`` on ``[0, tan(pi/8)]`` after a
-  range reduction exact to rounding, quadrant by sign), since the C library's ``atan2``
-  cannot be vectorised and costs 7 times numpy's own vectorised ``arctan2``. It is within
-  1.6 units in the last place of the exact value (numpy's within 1). ``fastmath`` stays
-  off: no reassociation, so results do not depend on the vector width.
-* **numpy** (the fallback; and small batches, below ``NUMBA_MIN_READINGS``, where numba's
-  import and, on a busy machine, the wait for its threads cost more than they save): for
+* **numba** (the optional extra ``fast``): one pass per reading with the check that
+  refuses NaN, inf and dark readings folded in (:func:`_build_kernel`), compiled per port
+  count: unsigned row numbers and a constant stride let the compiler load the readings as
+  whole vectors, and the map's coefficients are constants of the loop. The pseudo-inverse
+  takes each reading's product, arctangent, scale and check in one vectorised loop; the
+  maximum likelihood forms a block's products first, takes its Newton steps for the whole
+  block at once (a vectorised loop per step), then its arctangents. The arctangent is
+  written out (Cephes' rational ``atan`` on ``[-0.66, 0.66]`` after a range reduction
+  exact to rounding, octant by sign), since the C library's ``atan2`` cannot be vectorised
+  and costs 7 times numpy's own vectorised ``arctan2``: within 1.5 units in the last place
+  of the exact value over 1e7 inputs, subnormal to 8e307, the axes and diagonals included
+  (numpy's within 1). Of ``fastmath`` only the contraction into fused multiply-adds. Large
+  batches are shared among threads (:func:`_shared`) in ``PARALLEL_PARTS`` parts, each
+  taken by the next thread free.
+* **numpy** (the fallback; and small batches, below ``NUMBA_MIN_READINGS``, where loading
+  numba costs more than it saves): for
   the pseudo-inverse one matrix product per ``NUMPY_CHUNK_ROWS`` readings gives both
   quadratures and the total power as contiguous rows in the cache, then ``arctan2``,
   scale and shift in place; the maximum likelihood is
@@ -36,14 +39,15 @@ numba is imported on the first batch large enough to use it, never when wavemete
 imported; the environment variable ``WAVEMETER_NO_NUMBA`` set to anything but ``""`` or
 ``"0"`` keeps the numpy path. :func:`kernel_backend` tells which path large batches take.
 The compiled kernels are cached on disk (numba's ``cache=True``): the first run compiles
-each (1.6 s the pseudo-inverse's, 3.2 s the maximum likelihood's, per port count), later
-processes load them (0.2 s, after numba's import, 0.1 s).
+each (0.8 s the pseudo-inverse's, 1.6 s the maximum likelihood's, per port count), later
+processes load them (0.2 s, after numba's import, 0.15 s).
 """
 
 from __future__ import annotations
 
 import functools
 import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -66,26 +70,32 @@ __all__ = [
 
 #: environment variable that, set to anything but "" or "0", keeps the numpy path
 NO_NUMBA_VARIABLE = "WAVEMETER_NO_NUMBA"
-#: fewest readings the numba kernels take, by retrieval. With both cores free the warm
-#: kernels win from 100 readings on (pinv 5 us vs numpy 14 us, ml 40 vs 210 us), but a
-#: batch that takes numba first imports it and loads the kernel (0.3 s; 1.5-3 s to compile
-#: on a first run), and with another process on a core each call waits for its thread to
-#: be scheduled (4-8 ms measured). Below these sizes numpy takes under ~0.1 ms (pinv) and
-#: ~0.4 ms (ml): no gain worth either cost
+#: fewest readings the numba kernels take, by retrieval. The warm kernels win from 100
+#: readings on (pinv 5 us vs numpy 15 us, ml 43 vs 205 us), but a batch that takes numba
+#: first imports it and loads the kernel (0.3 s; 0.8-1.6 s to compile on a first run).
+#: Below these sizes numpy takes under ~0.1 ms (pinv) and ~0.4 ms (ml): no gain worth it
 NUMBA_MIN_READINGS = {"pinv": 10_000, "ml": 1_000}
-#: readings per block of the numba kernel: its quadratures (3 x 32 kB) stay in the cache
+#: readings per block of the numba kernel: a block's maximum-likelihood coordinates and
+#: Newton state stay in the cache; a shared call is cut into whole blocks
 BLOCK_ROWS = 4096
-#: readings from which the numba kernel runs on every core (fewer: on this thread). Waking
-#: the other threads costs tens of microseconds on an idle machine (measured crossover: pinv
-#: about 5e4 readings, ml a few thousand); when another process holds a core, each parallel
-#: call waits for its thread to be scheduled (4-8 ms measured): set NUMBA_NUM_THREADS=1 then
-PARALLEL_MIN_READINGS = {"pinv": 1 << 16, "ml": 1 << 12}
+#: readings from which a numba call is shared among threads (fewer: this thread alone). A
+#: worker thread takes tens of microseconds to wake (measured crossover: pinv about 1e5
+#: readings, ml about 1e4). Shared, a large call takes 0.55x one thread's time (pinv; ml
+#: 0.55-0.6x) on a free machine and 5-25% more while another process keeps a core busy
+PARALLEL_MIN_READINGS = {"pinv": 1 << 17, "ml": 1 << 14}
+#: parts a shared call is cut into (whole blocks, at least half the readings above): this
+#: thread and the workers take the next part whenever they are free, so a thread the system
+#: does not schedule for a while (another process on its core) holds back at most one part.
+#: numba's own parallel loops split the work in equal shares up front and wait for the
+#: slowest: 3 to 10 times one thread's time, measured here while other processes kept the
+#: cores busy
+PARALLEL_PARTS = 16
 #: readings per product of the numpy path: its rows (3 x 512 kB) stay in the cache
 NUMPY_CHUNK_ROWS = 1 << 16
 #: ``backend`` values: None picks numba for large batches when it is there
 BACKENDS = ("numba", "numpy")
 
-# Cephes atan (S. L. Moshier): atan(a) = a + a z P(z) / Q(z), z = a^2, |a| <= tan(pi/8)
+# Cephes atan (S. L. Moshier): atan(a) = a + a z P(z) / Q(z), z = a^2, |a| <= 0.66
 _P0 = -8.750608600031904122785e-1
 _P1 = -1.615753718733365076637e1
 _P2 = -7.500855792314704667340e1
@@ -101,20 +111,12 @@ _PI_4_LOW = 3.061616997868382943065e-17
 _PI_4 = 0.25 * np.pi
 _PI_2 = 0.5 * np.pi
 _PI = np.pi
-#: above this ratio of the smaller quadrature to the larger, reduce by pi/4 (Cephes' 0.66)
-_REDUCE_RATIO = 0.66
-
-
-#: ``"child"`` turns True in a process forked after this one ran a kernel: numba's threading
-#: layer here (GNU OpenMP) kills such a child at its first parallel loop, so it runs numpy
-_FORK_GUARD = {"armed": False, "child": False}
-
-
-def _arm_fork_guard() -> None:
-    if not _FORK_GUARD["armed"]:
-        _FORK_GUARD["armed"] = True
-        if hasattr(os, "register_at_fork"):  # where processes can fork
-            os.register_at_fork(after_in_child=functools.partial(_FORK_GUARD.update, child=True))
+#: reduce by pi/4 where the smaller quadrature times this exceeds the larger (a ratio above
+#: Cephes' 0.66); as a product of the smaller, it still holds for the tiniest subnormals, where
+#: 0.66 times the larger would round up to the smaller itself
+_REDUCE_FACTOR = 1.0 / 0.66
+#: the largest finite double: a total power above it is inf
+_LARGEST = float(np.finfo(float).max)
 
 
 @functools.cache
@@ -129,166 +131,230 @@ def _numba_module():
     return numba
 
 
-def _numba_usable() -> bool:
-    return _numba_module() is not None and not _FORK_GUARD["child"]
-
-
 def kernel_backend() -> str:
     """The path batches of ``NUMBA_MIN_READINGS`` readings or more take: ``"numba"`` or
-    ``"numpy"`` (numba missing, ``WAVEMETER_NO_NUMBA`` set, or a process forked after its
-    parent ran a kernel). Imports numba to tell."""
-    return "numba" if _numba_usable() else "numpy"
+    ``"numpy"`` (numba missing or ``WAVEMETER_NO_NUMBA`` set). Imports numba to tell."""
+    return "numpy" if _numba_module() is None else "numba"
 
 
 @functools.cache
-def _build_kernel(ports: int, ml: bool, parallel: bool):
+def _build_kernel(ports: int, ml: bool):
     """The numba kernel for readings of ``ports`` ports, pseudo-inverse or (``ml``)
-    maximum-likelihood retrieval, on every core (``parallel``) or on this thread;
-    compiled on its first call, then loaded from the cache.
+    maximum-likelihood retrieval; compiled on its first call, then loaded from the cache.
 
-    ``kernel(readings, offset_w, frame_map, to_objects, kappa, origin, scale, out)`` writes
-    ``origin + scale * t`` of each reading ``p`` (a row of the C-contiguous ``readings``,
-    shape (N, ports)) to ``out`` (N,) and returns how many readings are NaN, inf or dark
-    (raw total power not in (0, inf)). The phase ``t`` comes from ``y = (p - o) @
-    frame_map``: for the pseudo-inverse ``frame_map = A+[:2].T`` and ``t = atan2(y_2,
-    y_1)`` (``to_objects`` and ``kappa`` unused); for the maximum likelihood ``frame_map``,
-    ``to_objects`` and ``kappa`` are the cone frame of
-    :func:`~wavemeter.model.retrieval.cone_ml_phase_rad`, whose secular root is found by
-    the same bracketed Newton steps, each step for the whole block at once (vectorised;
-    a reading stops moving once converged), and ``t`` is wrapped to [-pi, pi). The
-    arctangent takes quadratures below 8e307 in magnitude (their sum must not overflow).
+    ``kernel(readings, offset, weights, to_objects, kappa, origin, scale, out, start,
+    stop)`` writes ``origin + scale * t`` of each reading ``p`` of rows ``start`` to
+    ``stop`` of the C-contiguous ``readings`` (N, ports) to the same rows of ``out`` (N,)
+    and returns how many of them are NaN, inf or dark (raw total power not in (0, inf));
+    it lets other threads run meanwhile (``nogil``). ``offset`` (``o``) and the three rows
+    of ``weights`` are tuples of ``ports`` numbers (constants of the loops, where arrays
+    would be loaded again for every reading). The phase ``t`` comes from ``y = W (p - o)``:
+    for the pseudo-inverse ``W = A+`` and ``t = atan2(y_2, y_1)`` (its third row,
+    ``to_objects`` and ``kappa`` unused); for the maximum likelihood ``W``, ``to_objects``
+    and ``kappa`` are the cone frame of
+    :func:`~wavemeter.model.retrieval.cone_ml_phase_rad` (``W`` its ``to_frame``
+    transposed), whose secular root is found by the same bracketed Newton steps, each step
+    for a whole block at once (vectorised; a reading stops moving once converged), and
+    ``t`` is wrapped to [-pi, pi). The arctangent takes quadratures below 8e307 in
+    magnitude (their sum must not overflow).
     """
     numba = _numba_module()
+    # numba's cache keys a kernel by its code and the values of its free variables, not by
+    # the decorator's options nor by constants it reads from other modules: every setting
+    # the kernel depends on is one of these variables
     block_rows = BLOCK_ROWS
-    # a free variable of the kernel, so that numba's cache (keyed by the kernel's code and
-    # the values of its free variables, not by the decorator's options) keeps both kinds
-    blocks_of = numba.prange if parallel else range
+    max_steps = MAX_STEPS
+    tolerance = TOLERANCE
+    # unsigned row numbers: numba then leaves out its wrap-around of negative indices, and
+    # the compiler sees reading k at k * ports, so it loads readings as whole vectors
+    unsigned = numba.uint64
+    stride = unsigned(ports)
 
-    @numba.njit(parallel=parallel, fastmath=False, error_model="numpy", cache=True)
-    def kernel(readings, offset_w, frame_map, to_objects, kappa, origin, scale, out):
-        rows = readings.shape[0]
-        flat = readings.reshape(rows * ports)  # constant stride: a vectorised product
+    # of fastmath only the contraction of a product and a sum into one multiply-add
+    # (rounded once, not twice): NaN and inf stay what they are (the check relies on them),
+    # nothing is reassociated
+    @numba.njit(nogil=True, fastmath={"contract"}, error_model="numpy", cache=True)
+    def kernel(readings, offset, weights, to_objects, kappa, origin, scale, out, start, stop):
+        flat = readings.reshape(readings.shape[0] * ports)
+        first_row, second_row, third_row = weights
+
+        def product(k):
+            """Quadratures (and, for ml, the third coordinate) and raw total power of
+            reading ``k``."""
+            y0 = 0.0
+            y1 = 0.0
+            y2 = 0.0
+            power = 0.0
+            base = k * stride
+            for j in range(ports):
+                raw = flat[base + unsigned(j)]
+                power += raw
+                light = raw - offset[j]
+                y0 += light * first_row[j]
+                y1 += light * second_row[j]
+                if ml:
+                    y2 += light * third_row[j]
+            return y0, y1, y2, power
+
+        def dark(power):
+            """1 for a raw total power not in (0, inf) (NaN included), else 0; written
+            with the largest double, which compiles to fewer instructions than inf."""
+            return 0 if (power > 0.0 and power <= _LARGEST) else 1
+
+        def arctangent(y, x):
+            """atan2(y, x): atan(small / large) in [0, pi/4], above the ratio 0.66 through
+            atan(a) = pi/4 + atan((a - 1) / (a + 1)), then reflected to its octant."""
+            ax = abs(x)
+            ay = abs(y)
+            small = min(ax, ay)
+            large = max(ax, ay)
+            reduce = _REDUCE_FACTOR * small > large
+            top = small - large if reduce else small
+            bottom = small + large if reduce else large
+            a = top / bottom if bottom > 0.0 else 0.0
+            z = a * a
+            p = (((_P0 * z + _P1) * z + _P2) * z + _P3) * z + _P4
+            q = ((((z + _Q0) * z + _Q1) * z + _Q2) * z + _Q3) * z + _Q4
+            t = a * (z * p / q) + a
+            t = (t + _PI_4_LOW) + _PI_4 if reduce else t
+            t = (_PI_2 - t) + 2.0 * _PI_4_LOW if ay > ax else t
+            t = (_PI - t) + 4.0 * _PI_4_LOW if np.copysign(1.0, x) < 0.0 else t
+            return np.copysign(t, y)
+
         refused = 0
-        for block in blocks_of((rows + block_rows - 1) // block_rows):
-            start = block * block_rows
-            size = min(block_rows, rows - start)
-            real = np.empty(size)
-            imag = np.empty(size)
-            third = np.empty(size)
-            total = np.empty(size)
-            for k in range(size):
-                y0 = 0.0
-                y1 = 0.0
-                y2 = 0.0
-                power = 0.0
-                first = (start + k) * ports
-                for j in range(ports):
-                    raw = flat[first + j]
-                    power += raw
-                    light = raw - offset_w[j]
-                    y0 += light * frame_map[j, 0]
-                    y1 += light * frame_map[j, 1]
-                    if ml:
-                        y2 += light * frame_map[j, 2]
-                real[k] = y0
-                imag[k] = y1
-                third[k] = y2
-                total[k] = power
+        for begin in range(start, stop, block_rows):
+            first = unsigned(begin)
+            last = unsigned(min(stop, begin + block_rows))
+            bad = 0
             if ml:
-                # the secular root of every reading by bracketed Newton steps, one step
-                # for the whole block at a time (vectorised); converged readings stay
+                # every reading's product first, then the secular roots by bracketed Newton
+                # steps, one step for the whole block at a time (vectorised); converged
+                # readings stay
+                size = last - first
+                real = np.empty(size)
+                imag = np.empty(size)
+                third = np.empty(size)
+                for i in range(size):
+                    real[i], imag[i], third[i], power = product(first + i)
+                    bad += dark(power)
                 k0 = kappa[0]
                 k1 = kappa[1]
                 k2 = kappa[2]
                 root = np.zeros(size)
                 lower = np.full(size, -1.0 / k2)
                 upper = np.full(size, -1.0 / k0)
-                last = upper - lower
+                span = upper - lower
                 going = np.ones(size, dtype=np.int64)
-                for _ in range(MAX_STEPS):
+                for _ in range(max_steps):
                     moving = 0
-                    for k in range(size):
-                        x = root[k]
+                    for i in range(size):
+                        x = root[i]
                         r0 = 1.0 / (1.0 + k0 * x)
                         r1 = 1.0 / (1.0 + k1 * x)
                         r2 = 1.0 / (1.0 + k2 * x)
-                        t0 = k0 * (real[k] * real[k]) * (r0 * r0)
-                        t1 = k1 * (imag[k] * imag[k]) * (r1 * r1)
-                        t2 = k2 * (third[k] * third[k]) * (r2 * r2)
+                        t0 = k0 * (real[i] * real[i]) * (r0 * r0)
+                        t1 = k1 * (imag[i] * imag[i]) * (r1 * r1)
+                        t2 = k2 * (third[i] * third[i]) * (r2 * r2)
                         value = t0 + t1 + t2
                         slope = -2.0 * (t0 * k0 * r0 + t1 * k1 * r1 + t2 * k2 * r2)
-                        a = x if value >= 0.0 else lower[k]
-                        b = x if value <= 0.0 else upper[k]
+                        a = x if value >= 0.0 else lower[i]
+                        b = x if value <= 0.0 else upper[i]
                         newton = x - value / slope
-                        inside = newton >= a and newton <= b and abs(newton - x) <= 0.5 * last[k]
+                        inside = newton >= a and newton <= b and abs(newton - x) <= 0.5 * span[i]
                         step = (newton if inside else 0.5 * (a + b)) - x
                         moved = abs(step) * max(abs(k0 * r0), abs(k1 * r1), abs(k2 * r2))
-                        on = going[k] > 0
-                        root[k] = x + step if on else x
-                        lower[k] = a if on else lower[k]
-                        upper[k] = b if on else upper[k]
-                        last[k] = abs(step) if on else last[k]
-                        going[k] = 1 if (on and moved > TOLERANCE) else 0
-                        moving += going[k]
+                        on = going[i] > 0
+                        root[i] = x + step if on else x
+                        lower[i] = a if on else lower[i]
+                        upper[i] = b if on else upper[i]
+                        span[i] = abs(step) if on else span[i]
+                        going[i] = 1 if (on and moved > tolerance) else 0
+                        moving += going[i]
                     if moving == 0:
                         break
-                for k in range(size):
-                    x = root[k]
-                    z0 = real[k] / (1.0 + x * k0)
-                    z1 = imag[k] / (1.0 + x * k1)
-                    z2 = third[k] / (1.0 + x * k2)
+                for i in range(size):
+                    x = root[i]
+                    z0 = real[i] / (1.0 + x * k0)
+                    z1 = imag[i] / (1.0 + x * k1)
+                    z2 = third[i] / (1.0 + x * k2)
                     o0 = z0 * to_objects[0, 0] + z1 * to_objects[1, 0] + z2 * to_objects[2, 0]
                     o1 = z0 * to_objects[0, 1] + z1 * to_objects[1, 1] + z2 * to_objects[2, 1]
                     o2 = z0 * to_objects[0, 2] + z1 * to_objects[1, 2] + z2 * to_objects[2, 2]
                     # a source power below zero: the other nappe, phase of -x
                     sign = -1.0 if o2 < 0.0 else 1.0
-                    real[k] = sign * o0
-                    imag[k] = sign * o1
-            dest = out[start : start + size]
-            bad = 0
-            for k in range(size):
-                x = real[k]
-                y = imag[k]
-                ax = abs(x)
-                ay = abs(y)
-                small = min(ax, ay)
-                large = max(ax, ay)
-                # atan(small / large), in [0, pi/4]; above the ratio 0.66 through
-                # atan(a) = pi/4 + atan((a - 1) / (a + 1))
-                reduce = small > _REDUCE_RATIO * large
-                top = small - large if reduce else small
-                bottom = small + large if reduce else large
-                a = top / bottom if bottom > 0.0 else 0.0
-                z = a * a
-                p = (((_P0 * z + _P1) * z + _P2) * z + _P3) * z + _P4
-                q = ((((z + _Q0) * z + _Q1) * z + _Q2) * z + _Q3) * z + _Q4
-                t = a * (z * p / q) + a
-                t = (t + _PI_4_LOW) + _PI_4 if reduce else t
-                t = (_PI_2 - t) + 2.0 * _PI_4_LOW if ay > ax else t
-                t = (_PI - t) + 4.0 * _PI_4_LOW if np.copysign(1.0, x) < 0.0 else t
-                t = np.copysign(t, y)
-                if ml:
-                    t = -_PI if t >= _PI else t
-                dest[k] = origin + scale * t
-                power = total[k]
-                bad += 0 if (power > 0.0 and power < np.inf) else 1
+                    t = arctangent(sign * o1, sign * o0)
+                    out[first + i] = origin + scale * (-_PI if t >= _PI else t)
+            else:
+                # one pass: product, arctangent, scale and check of each reading in turn
+                for k in range(first, last):
+                    x, y, _, power = product(k)
+                    out[k] = origin + scale * arctangent(y, x)
+                    bad += dark(power)
             refused += bad
         return refused
 
     return kernel
 
 
+@functools.cache
+def _workers(pid: int, count: int) -> ThreadPoolExecutor:
+    """``count`` worker threads of process ``pid`` (a forked child has none of its parent's
+    threads: it starts its own pool)."""
+    return ThreadPoolExecutor(count, thread_name_prefix=f"wavemeter-kernel-{pid}")
+
+
+def _part_rows(rows: int, retrieval: str) -> int:
+    """Readings per part of a call: all of them below ``PARALLEL_MIN_READINGS``, else a
+    ``PARALLEL_PARTS``-th of them but at least half that threshold (each part pays for
+    handing work to a thread), in whole blocks."""
+    least = PARALLEL_MIN_READINGS[retrieval]
+    if rows < least:
+        return rows
+    part = max(-(-rows // PARALLEL_PARTS), least // 2)
+    return -(-part // BLOCK_ROWS) * BLOCK_ROWS
+
+
+def _shared(kernel, readings, arguments, out, part: int) -> int:
+    """``kernel`` over every reading in parts of ``part`` readings, taken by this thread
+    and ``NUMBA_NUM_THREADS - 1`` workers as they come free; the number of refused
+    readings."""
+    rows = readings.shape[0]
+    workers = _numba_module().config.NUMBA_NUM_THREADS - 1
+    if part >= rows or workers < 1:
+        return kernel(readings, *arguments, out, 0, rows)
+    # one iterator for every thread: each part is taken once (next() holds the GIL)
+    parts = iter(range(0, rows, part))
+
+    def take_parts() -> int:
+        return sum(
+            kernel(readings, *arguments, out, start, min(start + part, rows)) for start in parts
+        )
+
+    helpers = [_workers(os.getpid(), workers).submit(take_parts) for _ in range(workers)]
+    refused = take_parts()
+    # a helper not started yet (its thread not scheduled) has nothing left to do
+    return refused + sum(helper.result() for helper in helpers if not helper.cancel())
+
+
 def _numba_path(ml, readings, matrices, offset_w, origin, scale) -> tuple[np.ndarray, bool]:
     out = np.empty(readings.shape[0])
-    parallel = readings.shape[0] >= PARALLEL_MIN_READINGS["ml" if ml else "pinv"]
-    kernel = _build_kernel(readings.shape[1], ml, parallel)
-    _arm_fork_guard()
-    refused = kernel(np.ascontiguousarray(readings), offset_w, *matrices, origin, scale, out)
+    weights, to_objects, kappa = matrices
+    arguments = (
+        tuple(offset_w.tolist()),
+        tuple(tuple(coefficients) for coefficients in weights.tolist()),
+        to_objects,
+        kappa,
+        origin,
+        scale,
+    )
+    kernel = _build_kernel(readings.shape[1], ml)
+    part = _part_rows(readings.shape[0], "ml" if ml else "pinv")
+    refused = _shared(kernel, np.ascontiguousarray(readings), arguments, out, part)
     return out, refused == 0 and out.size > 0
 
 
-def _numpy_pinv(readings, frame_map, offset_w, origin, scale, check) -> tuple[np.ndarray, bool]:
-    weights = frame_map.T
+def _numpy_pinv(readings, inverse, offset_w, origin, scale, check) -> tuple[np.ndarray, bool]:
+    weights = inverse[:2]
     # one product per chunk: both quadratures (and, to check, the total power) as
     # contiguous rows that stay in the cache
     stacked = np.vstack([weights, np.ones(readings.shape[1])]) if check else weights
@@ -325,9 +391,9 @@ def _numpy_ml(readings, map_, noise_std_w, offset_w, origin, scale, check):
 
 def _use_numba(retrieval: str, samples: int, backend) -> bool:
     if backend is None:
-        return samples >= NUMBA_MIN_READINGS[retrieval] and _numba_usable()
+        return samples >= NUMBA_MIN_READINGS[retrieval] and _numba_module() is not None
     use = check_choice("backend", backend, BACKENDS) == "numba"
-    if use and not _numba_usable():
+    if use and not _numba_module() is not None:
         raise InputError(
             f"backend 'numba' needs numba (pip install 'wavemeter[fast]'), {NO_NUMBA_VARIABLE} "
             "unset, and a process not forked after its parent ran a kernel (start processes "
@@ -363,13 +429,12 @@ def _pinv(powers, map_pinv, offset_w, origin, scale, check, backend) -> np.ndarr
             f"map_pinv must have shape (3, n), got {inverse.shape}", parameter="map_pinv"
         )
     readings, offset = _readings_and_offset(powers, inverse.shape[1], offset_w)
-    frame_map = np.ascontiguousarray(inverse[:2].T)
     origin, scale = float(origin), float(scale)
     if _use_numba("pinv", readings.shape[0], backend):
-        matrices = (frame_map, np.zeros((3, 3)), np.zeros(3))  # no cone frame
+        matrices = (inverse, np.zeros((3, 3)), np.zeros(3))  # no cone frame
         found = _numba_path(False, readings, matrices, offset, origin, scale)
     else:
-        found = _numpy_pinv(readings, frame_map, offset, origin, scale, check)
+        found = _numpy_pinv(readings, inverse, offset, origin, scale, check)
     return _checked(found, readings, check)
 
 
@@ -381,7 +446,7 @@ def _ml(powers, map_, noise_std_w, offset_w, origin, scale, check, backend) -> n
     origin, scale = float(origin), float(scale)
     if _use_numba("ml", readings.shape[0], backend):
         kappa, to_frame, to_objects = cone_frame(matrix, noise_weighted_map(matrix, noise_std_w))
-        matrices = (np.ascontiguousarray(to_frame), np.ascontiguousarray(to_objects), kappa)
+        matrices = (to_frame.T, np.ascontiguousarray(to_objects), kappa)
         found = _numba_path(True, readings, matrices, offset, origin, scale)
     else:
         found = _numpy_ml(readings, matrix, noise_std_w, offset, origin, scale, check)
