@@ -393,11 +393,10 @@ def _use_numba(retrieval: str, samples: int, backend) -> bool:
     if backend is None:
         return samples >= NUMBA_MIN_READINGS[retrieval] and _numba_module() is not None
     use = check_choice("backend", backend, BACKENDS) == "numba"
-    if use and not _numba_module() is not None:
+    if use and _numba_module() is None:
         raise InputError(
-            f"backend 'numba' needs numba (pip install 'wavemeter[fast]'), {NO_NUMBA_VARIABLE} "
-            "unset, and a process not forked after its parent ran a kernel (start processes "
-            "with 'spawn')",
+            f"backend 'numba' needs numba (pip install 'wavemeter[fast]') and "
+            f"{NO_NUMBA_VARIABLE} unset",
             parameter="backend",
         )
     return use
