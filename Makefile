@@ -51,7 +51,7 @@ wideband: $(BIN)/wavemeter
 cascade: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/cascade.py
 
-# issue 13: fit, predict, measure, stream and fleet at scale, side by side (about 10 min)
+# issue 13: fit, predict, measure, calibrate, stream and fleet at scale, side by side (about 6 min)
 scale: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/scale.py
 
