@@ -166,20 +166,22 @@ def _fitted(estimator, *args, **kwargs):
         return estimator.fit(*args, **kwargs)
 
 
-def learned_case(folder: Path, fsrs: int) -> LatencyRun:
-    """The learned calibration of a sweep over ``fsrs`` FSRs; readings inside the sweep."""
+def learned_case(folder: Path, fsrs: int, retrieval: str = "pinv") -> LatencyRun:
+    """The learned calibration of a sweep over ``fsrs`` FSRs with ``retrieval``; readings
+    inside the sweep."""
     device = wm.Interferometer.table1(ports=3, seed=SEED)
     span = fsrs * device.true_fsr_hz
     sweep_hz = np.linspace(device.center_hz - span / 2, device.center_hz + span / 2, 4000)
     sweep = device.powers(sweep_hz, power_w=POWER_W, noise_w=NOISE_W, rng=1)
-    calibration = _fitted(wm.Calibrator(fsr_hz=FSR_HZ), sweep, sweep_hz)
-    path = folder / f"learned_{fsrs}fsr.wmcal.json"
+    calibration = _fitted(wm.Calibrator(fsr_hz=FSR_HZ, retrieval=retrieval), sweep, sweep_hz)
+    path = folder / f"learned_{fsrs}fsr_{retrieval}.wmcal.json"
     calibration.save(path)
     rng = np.random.default_rng(2)
     truth = rng.uniform(sweep_hz[0], sweep_hz[-1], READINGS)
     powers = device.powers(truth, power_w=POWER_W, noise_w=NOISE_W, rng=rng)
     lines = [",".join(_text(value * 1e3) for value in row) for row in powers]
     name = f"learned 3x3, sweep over {fsrs} FSR{'s' if fsrs > 1 else ''}"
+    name += ", ml" if retrieval == "ml" else ""
     header = "P1_mW,P2_mW,P3_mW"
     timed = in_process_s(calibration, header, lines, powers)
     return stream_latency(path, header, lines, name, timed)
@@ -243,6 +245,7 @@ def latency_runs(folder: Path, progress=print) -> list[LatencyRun]:
     for name, case in (
         ("learned, 4 FSRs", lambda: learned_case(folder, 4)),
         ("learned, 1 FSR", lambda: learned_case(folder, 1)),
+        ("learned, 4 FSRs, ml", lambda: learned_case(folder, 4, "ml")),
         ("thermal", lambda: thermal_case(folder)),
         ("cascade", lambda: cascade_case(folder)),
     ):

@@ -817,6 +817,11 @@ class Calibrator(BaseCalibrator):
             readings, self.map_pinv_, *args, offset_w=offset_w, check=check
         )
 
+    def _frequency_of_phase(self, phase_rad, temperature_k=None) -> np.ndarray:
+        """Frequency (Hz) of readings whose retrieved phase is ``phase_rad`` (N,), as
+        ``predict`` gives it (the same operations)."""
+        return self.center_hz_ + phase_rad * self._hz_per_rad(temperature_k)
+
     def _phase(self, powers):
         if self.retrieval == "ml":
             return fused_ml_phase_rad(powers, self.map_, noise_std_w=self.port_noise_std_w_)
@@ -857,9 +862,11 @@ class Calibrator(BaseCalibrator):
         return self._frequency_std_checked(readings, include_calibration, inputs["temperature_k"])
 
     def _frequency_std_checked(
-        self, readings, include_calibration=True, temperature_k=None
+        self, readings, include_calibration=True, temperature_k=None, phase_rad=None
     ) -> np.ndarray:
-        phase = self._phase(readings)
+        """:meth:`frequency_std_hz` of checked, offset-corrected readings (N, n); their
+        retrieved phase ``phase_rad`` (N,) when already known."""
+        phase = self._phase(readings) if phase_rad is None else phase_rad
         gradient = self._phase_gradient(readings, phase)
         per_rad = self._hz_per_rad(temperature_k)
         variance = (phase_std_rad(gradient, self.port_noise_std_w_) * per_rad) ** 2
@@ -999,7 +1006,8 @@ class Calibrator(BaseCalibrator):
         power fitted) is at least the distance at the maximum-likelihood phase that
         ``_off_model`` tests, so a reading whose distance there lies below the threshold by
         more than ``SCREEN_MARGIN`` (relative) is on the model; any other takes the test
-        itself. The bits are those ``flags`` gives.
+        itself. The bits are those ``flags`` gives. The phase is retrieved once and gives the
+        frequency, its uncertainty and the screen.
         """
         corrected = self._stream_corrector()
         partial = self._partial_span()
@@ -1010,13 +1018,14 @@ class Calibrator(BaseCalibrator):
             readings = corrected(powers)
             given = {n: None if v is None else np.array([v]) for n, v in inputs.items()}
             temperature = given["temperature_k"]
-            frequency = self._predict_checked(readings, temperature)
-            std = self._frequency_std_checked(readings, True, temperature)
+            phase = self._phase(readings)  # once: the ML phase is the costly part
+            frequency = self._frequency_of_phase(phase, temperature)
+            std = self._frequency_std_checked(readings, True, temperature, phase_rad=phase)
             flags = self._light_flags(powers, readings)
             if not flags[0] & invalid:
                 if partial:
                     flags |= self._span_flags(frequency, std)
-                screened = self._cone_distance(readings, self._phase(readings))[0]
+                screened = self._cone_distance(readings, phase)[0]
                 if screened > on_model and self._off_model(readings)[0]:
                     flags |= off_model
                 flags |= self._input_flags(given["coarse_hz"], temperature)

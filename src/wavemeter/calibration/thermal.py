@@ -392,15 +392,24 @@ class ThermalCalibrator(Calibrator):
         return 1.0 / (2.0 * np.pi * self.delay_s_ * stretch)
 
     def _phase_at(self, powers, temperature_k):
+        return self._corrected_phase_rad(self._phase(powers), temperature_k)
+
+    def _corrected_phase_rad(self, phase_rad, temperature_k):
+        """``s = wrap(t - alpha dT)``: a retrieved phase corrected for the temperature."""
         offset = self._temperature_offset_k(temperature_k)
-        return wrap_phase_rad(self._phase(powers) - self.thermal_phase_rad_per_k_ * offset)
+        return wrap_phase_rad(phase_rad - self.thermal_phase_rad_per_k_ * offset)
 
     def _object_phase_rad(self, phase_rad, temperature_k=None):
         """``t = s + alpha dT``: the map's phase of a temperature-corrected phase ``s``."""
         return phase_rad + self.thermal_phase_rad_per_k_ * self._temperature_offset_k(temperature_k)
 
     def _predict_checked(self, powers, temperature_k=None):
-        phase = self._phase_at(powers, temperature_k)
+        return self._frequency_of_phase(self._phase(powers), temperature_k)
+
+    def _frequency_of_phase(self, phase_rad, temperature_k=None):
+        """Frequency (Hz) of readings of retrieved phase ``phase_rad`` at ``temperature_k``:
+        the phase corrected for the temperature, over ``df/dt``."""
+        phase = self._corrected_phase_rad(phase_rad, temperature_k)
         return self.center_hz_ + phase * self._hz_per_rad(temperature_k)
 
     def _parameter_frequency_gradient_hz(self, phase_rad, temperature_k=None) -> np.ndarray:
