@@ -43,7 +43,7 @@ from ..calibration.base import value_range
 from ..exceptions import InputError, recorded_calibration_warnings
 from ..io import ColumnRequest, iter_readings, port_key
 from ..io.streaming import CHUNK_ROWS
-from ..jobs.calibrate import SweepRead, fit_sweep_chunks
+from ..jobs.calibrate import SweepRead, build_calibrator, fit_sweep_chunks
 from ..progress import busy, progress_bar
 from ._common import (
     FORCE,
@@ -173,8 +173,6 @@ def _design_fsr(options: dict):
 
 def _calibrator(options: dict, phases):
     """The unfitted calibrator the options ask for (a calibration set with ``--per-fsr``)."""
-    from ..calibration.baselines import ConventionalCalibrator
-    from ..calibration.learned import Calibrator
     from ..calibration.set import CalibrationSet
 
     tolerance, method = options["fsr_tolerance"], options["method"]
@@ -198,40 +196,18 @@ def _calibrator(options: dict, phases):
                 "cascade"
             )
     fsr = _design_fsr(options)
-    if method == "learned":
-        calibrator = Calibrator(fsr_hz=fsr, fsr_tolerance=tolerance, retrieval=retrieval)
-    elif method == "wideband":
-        from ..calibration.wideband import WidebandCalibrator
-
-        calibrator = WidebandCalibrator(
-            fsr_hz=fsr,
-            fsr_tolerance=tolerance,
-            phase_order=options["phase_order"],
-            map_order=options["map_order"],
-            retrieval=retrieval,
-        )
-    elif method == "cascade":
-        from ..calibration.cascade import CascadeCalibrator
-
-        if options["stage_ports"] is not None:
-            _check_stage_groups(options["stage_ports"], fsr)
-        calibrator = CascadeCalibrator(
-            fsr_hz=fsr,
-            retrieval=retrieval,
-            max_order_error=options["max_order_error"],
-            fsr_tolerance=tolerance,
-        )
-    elif method == "thermal":
-        from ..calibration.thermal import ThermalCalibrator
-
-        calibrator = ThermalCalibrator(
-            fsr_hz=fsr,
-            fsr_tolerance=tolerance,
-            retrieval=retrieval,
-            temperature_std_k=options["temperature_std_k"],
-        )
-    else:
-        calibrator = ConventionalCalibrator(fsr_hz=fsr, port_phases_rad=phases)
+    if method == "cascade" and options["stage_ports"] is not None:
+        _check_stage_groups(options["stage_ports"], fsr)
+    settings = {
+        "learned": {},
+        "wideband": {"phase_order": options["phase_order"], "map_order": options["map_order"]},
+        "cascade": {"max_order_error": options["max_order_error"]},
+        "thermal": {"temperature_std_k": options["temperature_std_k"]},
+        "conventional": {"port_phases_rad": phases},
+    }[method]
+    if method != "conventional":
+        settings |= {"fsr_tolerance": tolerance, "retrieval": retrieval}
+    calibrator = build_calibrator(method, fsr_hz=fsr, **settings)
     if method != "thermal" and _given("temperature_std_k"):
         raise InputError(
             f"--temperature-std-k is the temperature sensor noise of a thermal calibration "
