@@ -208,20 +208,29 @@ def test_unchecked_readings_pass_and_no_readings_are_refused(retrieval, backend)
         fused_frequency(retrieval, cal, np.empty((0, 3)), check=True, backend=backend)
 
 
-def test_numpy_chunks_join_seamlessly():
-    """Readings over more than one product of the numpy path: every chunk's phases, its
-    offsets and its check."""
+@pytest.mark.parametrize("shared", [False, True], ids=["one thread", "shared"])
+def test_numpy_parts_and_products_join_seamlessly(monkeypatch, shared):
+    """Readings over several parts of the numpy path, each over several matrix products (the
+    last ones short), on this thread alone or shared among threads: every part's phases,
+    offsets and check, and the same bits either way."""
+    monkeypatch.setattr(kernels, "_cores", lambda: 2)  # shared even on one core
+    monkeypatch.setattr(kernels, "NUMPY_PART_ROWS", 5000)
+    monkeypatch.setattr(kernels, "NUMPY_PRODUCT_SIZE", 3 * 3 * 1500)
+    threshold = 1 if shared else 10**9
+    monkeypatch.setattr(kernels, "NUMPY_PARALLEL_MIN_READINGS", threshold)
     cal, device, rng = fitted(3, seed=9)
-    samples = kernels.NUMPY_CHUNK_ROWS + 5
+    samples = 4 * 5000 + 7
     offset = np.array([1e-6, 2e-6, 3e-6])
     readings = device.powers(random_test_frequencies(device, samples, rng), POWER_W, 0.0, rng)
     readings += offset
-    phase = kernels.fused_pinv_phase_rad(
-        readings, cal.map_pinv_, offset_w=offset, check=True, backend="numpy"
-    )
+    arguments = (readings, cal.map_pinv_)
+    options = {"offset_w": offset, "check": True, "backend": "numpy"}
+    phase = kernels.fused_pinv_phase_rad(*arguments, **options)
     expected = retrieve_phase_rad(readings - offset, cal.map_pinv_)
     assert phase_gap_rad(phase, expected).max() <= PHASE_TOL_RAD
-    readings[samples - 2, 0] = np.inf
+    monkeypatch.setattr(kernels, "NUMPY_PARALLEL_MIN_READINGS", 10**9)
+    np.testing.assert_array_equal(phase, kernels.fused_pinv_phase_rad(*arguments, **options))
+    readings[samples - 2, 0] = np.inf  # in the last, short part
     with pytest.raises(wm.InputError, match=rf"NaN or inf in rows \[{samples - 2}\]"):
         kernels.fused_pinv_phase_rad(readings, cal.map_pinv_, check=True, backend="numpy")
 

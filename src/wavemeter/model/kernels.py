@@ -22,10 +22,12 @@ a few times per Newton step) and leaves a temporary at each step. Here:
   batches are shared among threads (:func:`_shared`) in ``PARALLEL_PARTS`` parts, each
   taken by the next thread free.
 * **numpy** (the fallback; and small batches, below ``NUMBA_MIN_READINGS``, where loading
-  numba costs more than it saves): for
-  the pseudo-inverse one matrix product per ``NUMPY_CHUNK_ROWS`` readings gives both
-  quadratures and the total power as contiguous rows in the cache, then ``arctan2``,
-  scale and shift in place; the maximum likelihood is
+  numba costs more than it saves): for the pseudo-inverse, per ``NUMPY_PART_ROWS``
+  readings, matrix products give both quadratures and the total power as contiguous rows
+  in the cache, then ``arctan2``, scale and shift in place; numpy lets go of the GIL in
+  each, so from ``NUMPY_PARALLEL_MIN_READINGS`` readings on the parts are shared among
+  threads as the numba kernel's are (0.55-0.75x one thread's time). The maximum
+  likelihood is
   :func:`~wavemeter.validation.check_powers` and
   :func:`~wavemeter.model.retrieval.cone_ml_phase_rad` as they are.
 
@@ -60,7 +62,9 @@ __all__ = [
     "BLOCK_ROWS",
     "NO_NUMBA_VARIABLE",
     "NUMBA_MIN_READINGS",
-    "NUMPY_CHUNK_ROWS",
+    "NUMPY_PARALLEL_MIN_READINGS",
+    "NUMPY_PART_ROWS",
+    "NUMPY_PRODUCT_SIZE",
     "fused_ml_frequency_hz",
     "fused_ml_phase_rad",
     "fused_pinv_frequency_hz",
@@ -90,8 +94,17 @@ PARALLEL_MIN_READINGS = {"pinv": 1 << 17, "ml": 1 << 14}
 #: slowest: 3 to 10 times one thread's time, measured here while other processes kept the
 #: cores busy
 PARALLEL_PARTS = 16
-#: readings per product of the numpy path: its rows (3 x 512 kB) stay in the cache
-NUMPY_CHUNK_ROWS = 1 << 16
+#: largest matrix product of the numpy path, m n k: OpenBLAS threads larger ones (its
+#: threshold, 4 x 65536), and its threads, spinning on after the product, would take the
+#: cores from the threads sharing the parts below (a 2-core call took 2x the time)
+NUMPY_PRODUCT_SIZE = 1 << 18
+#: readings per part of the numpy path that threads share: each of its numpy calls must
+#: take well over the ~30 us a waiting thread needs to wake and take the GIL, or the
+#: thread that holds it takes every part (1e6 readings in parts of 8192 took longer shared
+#: than on one thread)
+NUMPY_PART_ROWS = 1 << 16
+#: fewest readings the numpy path shares among threads
+NUMPY_PARALLEL_MIN_READINGS = 1 << 15
 #: ``backend`` values: None picks numba for large batches when it is there
 BACKENDS = ("numba", "numpy")
 
@@ -314,12 +327,10 @@ def _part_rows(rows: int, retrieval: str) -> int:
     return -(-part // BLOCK_ROWS) * BLOCK_ROWS
 
 
-def _shared(kernel, readings, arguments, out, part: int) -> int:
+def _shared(kernel, readings, arguments, out, part: int, workers: int) -> int:
     """``kernel`` over every reading in parts of ``part`` readings, taken by this thread
-    and ``NUMBA_NUM_THREADS - 1`` workers as they come free; the number of refused
-    readings."""
+    and ``workers`` worker threads as they come free; the number of refused readings."""
     rows = readings.shape[0]
-    workers = _numba_module().config.NUMBA_NUM_THREADS - 1
     if part >= rows or workers < 1:
         return kernel(readings, *arguments, out, 0, rows)
     # one iterator for every thread: each part is taken once (next() holds the GIL)
@@ -349,37 +360,61 @@ def _numba_path(ml, readings, matrices, offset_w, origin, scale) -> tuple[np.nda
     )
     kernel = _build_kernel(readings.shape[1], ml)
     part = _part_rows(readings.shape[0], "ml" if ml else "pinv")
-    refused = _shared(kernel, np.ascontiguousarray(readings), arguments, out, part)
+    workers = _numba_module().config.NUMBA_NUM_THREADS - 1
+    refused = _shared(kernel, np.ascontiguousarray(readings), arguments, out, part, workers)
     return out, refused == 0 and out.size > 0
 
 
-def _numpy_pinv(readings, inverse, offset_w, origin, scale, check) -> tuple[np.ndarray, bool]:
-    weights = inverse[:2]
-    # one product per chunk: both quadratures (and, to check, the total power) as
-    # contiguous rows that stay in the cache
-    stacked = np.vstack([weights, np.ones(readings.shape[1])]) if check else weights
-    shift = (weights @ offset_w)[:, None] if offset_w.any() else None
-    samples = readings.shape[0]
-    out = np.empty(samples)
-    rows = np.empty((stacked.shape[0], min(samples, NUMPY_CHUNK_ROWS)))
-    valid = samples > 0
-    for start in range(0, samples, NUMPY_CHUNK_ROWS):
-        stop = min(start + NUMPY_CHUNK_ROWS, samples)
-        chunk = rows[:, : stop - start]
-        with np.errstate(invalid="ignore"):  # inf readings: refused below, or flagged
-            np.matmul(stacked, readings[start:stop].T, out=chunk)
+def _cores() -> int:
+    """Cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def _numpy_pinv_part(readings, weights, shift, origin, scale, check, out, start, stop) -> int:
+    """The numpy path over readings ``start`` to ``stop``, ``NUMPY_PART_ROWS`` at a time:
+    their product by ``weights`` (both quadratures, and to ``check`` the total power) in
+    contiguous rows, in products of at most ``NUMPY_PRODUCT_SIZE``, then ``arctan2``, scale
+    and shift in place; 1 if a reading there is NaN, inf or dark, else 0."""
+    buffer = np.empty((weights.shape[0], min(stop - start, NUMPY_PART_ROWS)))
+    product_rows = max(NUMPY_PRODUCT_SIZE // weights.size, 1)
+    refused = 0
+    for part_start in range(start, stop, NUMPY_PART_ROWS):
+        part_stop = min(part_start + NUMPY_PART_ROWS, stop)
+        rows = buffer[:, : part_stop - part_start]
+        for first in range(part_start, part_stop, product_rows):
+            last = min(first + product_rows, part_stop)
+            product = rows[:, first - part_start : last - part_start]
+            with np.errstate(invalid="ignore"):  # inf readings: refused below, or flagged
+                np.matmul(weights, readings[first:last].T, out=product)
         if shift is not None:
-            chunk[:2] -= shift
-        phase = out[start:stop]
-        np.arctan2(chunk[1], chunk[0], out=phase)
+            rows[:2] -= shift
+        phase = out[part_start:part_stop]
+        np.arctan2(rows[1], rows[0], out=phase)
         if scale != 1.0:
             phase *= scale
         if origin != 0.0:
             phase += origin
-        if check:
-            total = chunk[2]
-            valid = valid and total.min() > 0.0 and total.max() < np.inf
-    return out, bool(valid)
+        if check and not refused:
+            total = rows[2]
+            refused = int(not (total.min() > 0.0 and total.max() < np.inf))
+    return refused
+
+
+def _numpy_pinv(readings, inverse, offset_w, origin, scale, check) -> tuple[np.ndarray, bool]:
+    weights = inverse[:2]
+    stacked = np.vstack([weights, np.ones(readings.shape[1])]) if check else weights
+    shift = (weights @ offset_w)[:, None] if offset_w.any() else None
+    samples = readings.shape[0]
+    out = np.empty(samples)
+    cores = _cores()
+    part = samples
+    if samples >= NUMPY_PARALLEL_MIN_READINGS:  # a share per core, up to a part's size
+        part = min(NUMPY_PART_ROWS, -(-samples // cores))
+    arguments = (stacked, shift, origin, scale, check)
+    refused = _shared(_numpy_pinv_part, readings, arguments, out, part, cores - 1)
+    return out, refused == 0 and samples > 0
 
 
 def _numpy_ml(readings, map_, noise_std_w, offset_w, origin, scale, check):
