@@ -4,6 +4,7 @@ mean over readings is the rate it predicts, checked by Monte Carlo."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -79,3 +80,10 @@ def test_any_error_probability_keeps_tiny_probabilities():
     assert any_error_probability(tiny)[0] == pytest.approx(6e-18, rel=1e-12)
     assert any_error_probability(np.array([[0.5], [0.5]]))[0] == pytest.approx(0.75)
     assert not np.signbit(any_error_probability(np.zeros((3, 2)))).any()
+
+
+def test_any_error_probability_of_a_certain_error_is_one_without_a_warning():
+    """A stage whose order is surely wrong (a reading far outside the band)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert any_error_probability(np.array([[1.0, 0.0], [0.5, 0.0]])).tolist() == [1.0, 0.0]

@@ -135,5 +135,8 @@ def any_error_probability(probabilities) -> np.ndarray:
     """``1 - prod_k (1 - p_k)`` over the first axis: some stage's order is wrong (accurate
     for tiny ``p_k``)."""
     stacked = np.asarray(probabilities, dtype=float)
+    # a p_k of 1 (a reading far outside the band) gives log1p(-1) = -inf and 1 exactly
+    with np.errstate(divide="ignore"):
+        logs = np.log1p(-stacked)
     # + 0.0: no -0.0 where every p_k is 0
-    return -np.expm1(np.sum(np.log1p(-stacked), axis=0)) + 0.0
+    return -np.expm1(np.sum(logs, axis=0)) + 0.0
