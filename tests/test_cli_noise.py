@@ -242,7 +242,7 @@ def test_everything_invalid(meter, laser, tmp_path, capsys):
         ("--rate abc", "'--rate'"),
         ("--rate 10MHz --observation-time 1min", "unknown time unit"),
         ("--rate 10MHz --observation-time -1ms", "must be a finite time > 0"),
-        ("--rate 0Hz", "rate_hz must be a finite sampling rate > 0 Hz"),
+        ("--rate 0Hz", "rate_hz must be a finite number > 0, got 0.0 (use --rate)"),
         ("--time-column clock", "no column 'clock' (given as the time column)"),
     ],
 )

@@ -36,13 +36,16 @@ def as_rng(rng) -> np.random.Generator:
 
 
 def check_positive(name: str, value, *, upper: float | None = None) -> float:
-    """A finite real number > 0 (and < ``upper`` when given), or a clear error."""
+    """A finite real number > 0 (and < ``upper`` when given), or an :class:`InputError`
+    naming the parameter."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
+        raise InputError(
+            f"{name} must be a real number, got {type(value).__name__} {value!r}", parameter=name
+        )
     value = float(value)
     if not np.isfinite(value) or value <= 0 or (upper is not None and value >= upper):
         allowed = f"in (0, {upper})" if upper is not None else "a finite number > 0"
-        raise InputError(f"{name} must be {allowed}, got {value!r}")
+        raise InputError(f"{name} must be {allowed}, got {value!r}", parameter=name)
     return value
 
 

@@ -52,6 +52,7 @@ from ..io import ColumnRequest, ReadingStream, iter_readings
 from ..io.columns import split_unit
 from ..io.streaming import CHUNK_ROWS
 from ..units import TIME_UNITS, frequency_text, seconds_per_unit
+from ..validation import check_positive
 from .measure import ChunkMeasurement, check_stream
 
 __all__ = [
@@ -341,19 +342,6 @@ def _scale_rel_std(calibration) -> float:
     return float(delay_std_s / delay_s) if delay_std_s and delay_s else 0.0
 
 
-def _check_rate(rate_hz) -> float | None:
-    if rate_hz is None:
-        return None
-    if isinstance(rate_hz, bool) or not isinstance(rate_hz, (int, float, np.number)):
-        raise InputError(f"rate_hz must be a number (Hz), got {rate_hz!r}", parameter="rate_hz")
-    if not (math.isfinite(rate_hz) and rate_hz > 0):
-        raise InputError(
-            f"rate_hz must be a finite sampling rate > 0 Hz, got {rate_hz!r}",
-            parameter="rate_hz",
-        )
-    return float(rate_hz)
-
-
 def _open(readings, request, chunk_rows, time_column, calibration, temperature_k):
     """The stream of readings, with the time column among its kept columns."""
     if isinstance(readings, ReadingStream):
@@ -431,7 +419,7 @@ def measure_series(
         is not uniform, or disagrees with the rate given; no usable reading; and what
         :func:`~wavemeter.io.iter_readings` and the calibration refuse.
     """
-    rate_hz = _check_rate(rate_hz)
+    rate_hz = None if rate_hz is None else check_positive("rate_hz", rate_hz)
     if rate_hz is None and time_column is None:
         raise InputError(
             "no sampling rate: give the rate of the readings (rate_hz) or the column with "
