@@ -34,6 +34,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..blas import one_blas_thread
 from ..exceptions import CalibrationWarning, InputError, WavemeterError
 from ..model.cone import phase_to_frequency_hz, wrap_to_period
 from ..validation import (
@@ -283,7 +284,9 @@ class BaseCalibrator:
         powers = raw if dark is None else raw - dark
         names = checked_port_names(port_names, n_ports)
         temperature = self._sweep_temperature(temperature_k, n_samples=raw.shape[0])
-        for note in self._fit_sweep(powers, frequency, monitor, names, dark, temperature):
+        with one_blas_thread():
+            notes = self._fit_sweep(powers, frequency, monitor, names, dark, temperature)
+        for note in notes:
             warnings.warn(note, stacklevel=2)
         return self
 

@@ -44,6 +44,7 @@ from typing import ClassVar
 import numpy as np
 from scipy import linalg
 
+from ..blas import one_blas_thread
 from ..exceptions import InputError
 from ..model.cone import cone_vectors, phase_to_frequency_hz
 from ..model.kernels import (
@@ -585,15 +586,16 @@ class Calibrator(BaseCalibrator):
                 "whole sweep to fit, not chunks to fit_chunks"
             )
         checked = CheckedChunks(chunks, dark_w)
-        moments, sample = self._accumulate(checked)
-        if sample.samples < MIN_SAMPLES:
-            raise InputError(f"need at least {MIN_SAMPLES} samples, got {sample.samples}")
-        names = checked_port_names(port_names, sample.powers_w.shape[1])
-        if sample.stride == 1:  # every reading kept: the sweep is in memory
-            args = (sample.powers_w, sample.frequency_hz, sample.monitor_w, names, checked.dark)
-            notes = super()._fit_sweep(*args, None)
-        else:
-            notes = self._fit_sampled(moments, sample, names, checked.dark, None)
+        with one_blas_thread():
+            moments, sample = self._accumulate(checked)
+            if sample.samples < MIN_SAMPLES:
+                raise InputError(f"need at least {MIN_SAMPLES} samples, got {sample.samples}")
+            names = checked_port_names(port_names, sample.powers_w.shape[1])
+            if sample.stride == 1:  # every reading kept: the sweep is in memory
+                args = (sample.powers_w, sample.frequency_hz, sample.monitor_w, names, checked.dark)
+                notes = super()._fit_sweep(*args, None)
+            else:
+                notes = self._fit_sampled(moments, sample, names, checked.dark, None)
         for note in notes:
             warnings.warn(note, stacklevel=2)
         return self
