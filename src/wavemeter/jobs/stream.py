@@ -34,17 +34,15 @@ from ..calibration.flags import ReadingFlag
 from ..exceptions import CalibrationWarning, InputError
 from ..io import ColumnRequest
 from ..io.reading import (
-    MAX_DBM,
-    SENTINEL_DBM,
-    SENTINEL_W,
     ColumnChecks,
     ColumnPlan,
+    PlainRowConverter,
     convert_rows,
     plan_columns,
 )
 from ..io.source import Source
 from ..io.text import column_names, split_cells
-from ..units import SPEED_OF_LIGHT_M_S, power_to_w, temperature_to_k
+from ..units import SPEED_OF_LIGHT_M_S
 from .measure import about_file, check_stream
 
 __all__ = [
@@ -259,7 +257,7 @@ class _Stream:
         self.width = len(header.names)
         self.fields = [(name, header.names.index(name)) for name in plan.fields]
         self.checks = ColumnChecks()
-        self.plain = _PlainLine.of(plan)
+        self.plain = PlainRowConverter.of(plan)
         self.powers = _Latest()
         self.temperature = self.coarse = None
         temperature = coarse = None
@@ -362,62 +360,6 @@ class _Stream:
         if self.cascade:
             values += (record.order_error_probability,)
         return (*values, record.flags), None
-
-
-class _PlainLine:
-    """The values of a plain valid line (port powers, a temperature) converted directly.
-
-    ``convert_rows`` converts a table's rows and names what is wrong with each invalid one,
-    at a cost of ~70 us per call for three ports (~190 us for nine) whatever the number of
-    rows. A line whose values pass the checks here is valid for it (finite, no power-meter
-    code, dBm within :data:`~wavemeter.io.reading.MAX_DBM`, finite powers summing to more than
-    zero, a finite temperature) and is converted here by the unit functions it uses, to the
-    same numbers; any other line goes through it. Built only for lines without a coarse
-    column: an axis without a unit keeps the unit ``convert_rows`` chose from its first
-    values.
-    """
-
-    def __init__(self, ports: list, temperature: tuple | None, count: int):
-        self.ports = ports
-        self.temperature = temperature
-        self.count = count
-
-    @classmethod
-    def of(cls, plan: ColumnPlan) -> _PlainLine | None:
-        """For the lines of a plan of port columns (and a temperature column); else None."""
-        if set(plan.singles) - {"temperature"}:
-            return None
-        groups: dict[str, list[int]] = {}
-        for index, unit in enumerate(plan.role_units):
-            groups.setdefault(unit or "W", []).append(index)
-        ports = [
-            (unit, [plan.ports[k].name for k in members], np.array(members))
-            for unit, members in groups.items()
-        ]
-        temperature = None
-        if "temperature" in plan.singles:
-            temperature = (plan.singles["temperature"].name, plan.temperature_unit)
-        return cls(ports, temperature, len(plan.ports))
-
-    def convert(self, data: dict[str, float]) -> tuple[np.ndarray, float | None] | None:
-        """Powers (n,) in W and the temperature (K, or None) of a line's values by field
-        name; None when the line is not plainly valid (``convert_rows`` then says why)."""
-        powers_w = np.empty(self.count)
-        for unit, names, members in self.ports:
-            raw = np.array([data[name] for name in names])
-            if not (np.isfinite(raw).all() and (raw <= SENTINEL_W).all()):
-                return None
-            if unit == "dBm" and not ((raw > SENTINEL_DBM) & (raw <= MAX_DBM)).all():
-                return None
-            with np.errstate(over="ignore"):
-                powers_w[members] = power_to_w(raw, unit, names[0])
-        if not (np.isfinite(powers_w).all() and powers_w.sum() > 0):
-            return None
-        if self.temperature is None:
-            return powers_w, None
-        name, unit = self.temperature
-        kelvin = float(temperature_to_k(np.array([data[name]]), unit, name)[0])
-        return (powers_w, kelvin) if math.isfinite(kelvin) else None
 
 
 def _line_label(row: int) -> str:
