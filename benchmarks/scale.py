@@ -17,8 +17,9 @@
   on the fit's sweeps. Targets as the fit's.
 - **predict**: ``Calibrator.predict`` (pinv and ml retrievals) over ``np.arctan2`` alone on
   two columns of the same N, numba and numpy paths (``WAVEMETER_NO_NUMBA``) timed in this
-  one process; 1e8 readings as 10 chunks of 1e7. Targets: pinv <= 1.2x with numba, <= 2x
-  without; ml <= 5x.
+  one process; 1e8 readings as 10 chunks of 1e7, smaller N predicted again and again for
+  at least 2e6 readings per timing; the same runs as throughputs (readings/s).
+  Targets: pinv <= 1.2x with numba, <= 2x without; ml <= 5x.
 - **measure**: ``wavemeter measure`` on CSV and Parquet files of 1e5, 1e6, 1e7 rows
   (``benchmarks/_scale_measure.py``). Target: the 1e7-row peak within 1.2x the 1e5-row
   peak plus the chunk.
@@ -78,6 +79,9 @@ PREDICT_SIZES = (1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000)
 MEASURE_SIZES = (100_000, 1_000_000, 10_000_000)
 #: the largest array predicted at once; bigger N is predicted in chunks of it
 PREDICT_CHUNK = 10_000_000
+#: fewest readings a predict timing takes: smaller N is predicted again and again (a single
+#: call of 1e5 readings, 0.2-0.5 ms, is at the mercy of the shared machine's scheduler)
+MIN_TIMED_READINGS = 2_000_000
 #: sizes timed once (a run takes seconds to minutes)
 ONCE_FROM = 10_000_000
 CHUNKED_FIT_ROWS = 100_000
@@ -249,7 +253,9 @@ def use_numpy(flag: bool) -> None:
     kernels._numba_module.cache_clear()
 
 
-def predict_rows(sizes, runs: int) -> list[list[str]]:
+def predict_rows(sizes, runs: int) -> tuple[list[list[str]], list[list[str]]]:
+    """Per size: the times over np.arctan2's (``PREDICT_HEADERS``) and the throughputs
+    (``THROUGHPUT_HEADERS``), from the same runs."""
     frequency, powers = sweep(20_000)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", wm.CalibrationWarning)
@@ -264,7 +270,10 @@ def predict_rows(sizes, runs: int) -> list[list[str]]:
     readings = device.powers(test_hz, power_w=POWER_W, noise_w=NOISE_W, rng=rng)
     for cal in cals.values():  # compile (or load) the kernels before any clock runs
         cal.predict(readings[: kernels.NUMBA_MIN_READINGS["pinv"]])
-    return [predict_row(samples, readings, cals, runs) for samples in sizes]
+    ratios, throughputs = zip(
+        *(predict_row(samples, readings, cals, runs) for samples in sizes), strict=True
+    )
+    return list(ratios), list(throughputs)
 
 
 def repeat_call(func, argument, times: int) -> None:
@@ -272,18 +281,25 @@ def repeat_call(func, argument, times: int) -> None:
         func(argument)
 
 
-def predict_row(samples: int, readings: np.ndarray, cals: dict, runs: int) -> list[str]:
-    """One size: np.arctan2 alone, then each retrieval and path over it."""
+def predict_row(
+    samples: int, readings: np.ndarray, cals: dict, runs: int
+) -> tuple[list[str], list[str]]:
+    """One size: np.arctan2 alone, then each retrieval and path; their times over
+    np.arctan2's and their throughputs (readings/s)."""
     repeats = runs  # a single first call at 1e7 pays for touching new memory
     count = min(samples, PREDICT_CHUNK)
-    chunks = samples // count
+    # calls per timing: N readings in chunks, and at least MIN_TIMED_READINGS readings
+    calls = max(samples // count, -(-MIN_TIMED_READINGS // count))
+    per_n = samples / (calls * count)  # a timing's share that N readings take
     part = readings[:count]
     y, x = np.ascontiguousarray(part[:, 0]), np.ascontiguousarray(part[:, 1])
     progress(f"predict: {samples:.0e} readings")
     arctan_s, _ = median_time_s(
-        partial(repeat_call, lambda pair: np.arctan2(*pair), (y, x), chunks), repeats
+        partial(repeat_call, lambda pair: np.arctan2(*pair), (y, x), calls), repeats
     )
+    arctan_s *= per_n
     row = [f"{samples:.0e}", f"{arctan_s * 1e3:.3g}"]
+    throughput = [f"{samples:.0e}", f"{samples / arctan_s:.3g}"]
     for retrieval, backend in (
         ("pinv", "numba"),
         ("pinv", "numpy"),
@@ -292,22 +308,34 @@ def predict_row(samples: int, readings: np.ndarray, cals: dict, runs: int) -> li
     ):
         if retrieval == "ml" and backend == "numpy" and samples > 1_000_000:
             row.append("-")  # two orders of magnitude slower: seconds per 1e6
+            throughput.append("-")
             continue
         use_numpy(backend == "numpy")
-        calls = partial(repeat_call, cals[retrieval].predict, part, chunks)
-        seconds, _ = median_time_s(calls, repeats)
+        seconds, _ = median_time_s(
+            partial(repeat_call, cals[retrieval].predict, part, calls), repeats
+        )
+        seconds *= per_n
         ratio = seconds / arctan_s
         target = PREDICT_TARGETS.get((retrieval, backend))
         judged = target is not None and samples >= 100_000
         row.append(f"{ratio:.3g}" + (f" ({status(ratio <= target)})" if judged else ""))
+        throughput.append(f"{samples / seconds:.3g}")
     use_numpy(False)
-    return row
+    return row, throughput
 
 
 PREDICT_HEADERS = (
     "readings",
     "np.arctan2 alone (ms)",
     "pinv, numba (x arctan2)",
+    "pinv, numpy",
+    "ml, numba",
+    "ml, numpy",
+)
+THROUGHPUT_HEADERS = (
+    "readings",
+    "np.arctan2 alone (readings/s)",
+    "pinv, numba",
     "pinv, numpy",
     "ml, numba",
     "ml, numpy",
@@ -381,8 +409,11 @@ def main(argv=None) -> None:
         print(markdown_table(WHOLE_FIT_HEADERS, whole_fit_rows(sizes, args.runs)))
     if "predict" in parts:
         sizes = QUICK["predict"] if quick else PREDICT_SIZES
+        ratios, throughputs = predict_rows(sizes, args.runs)
         print("\n## Predict: time over np.arctan2 alone on the same readings\n")
-        print(markdown_table(PREDICT_HEADERS, predict_rows(sizes, args.runs)))
+        print(markdown_table(PREDICT_HEADERS, ratios))
+        print("\n## Predict: throughput (readings/s), the same runs\n")
+        print(markdown_table(THROUGHPUT_HEADERS, throughputs))
     if "measure" in parts:
         sizes = QUICK["measure"] if quick else MEASURE_SIZES
         print("\n## wavemeter measure on large files (one child process per file)\n")

@@ -34,9 +34,14 @@ def test_predict_row_times_every_path_against_arctan2(scale):
         )
         for retrieval in ("pinv", "ml")
     }
-    row = scale.predict_row(2_000, powers, cals, runs=1)
+    row, throughput = scale.predict_row(2_000, powers, cals, runs=1)
     assert len(row) == len(scale.PREDICT_HEADERS)
+    assert len(throughput) == len(scale.THROUGHPUT_HEADERS)
     assert all(float(cell.split()[0]) > 0 for cell in row[1:])
+    # each path's throughput is the arctangent's over its time ratio (the same runs)
+    arctan_rate = float(throughput[1])
+    for ratio, rate in zip(row[2:], throughput[2:], strict=True):
+        assert float(rate) == pytest.approx(arctan_rate / float(ratio.split()[0]), rel=0.02)
     # the switch between the paths is undone: the next predict takes the default path again
     assert scale.kernels.kernel_backend() in scale.kernels.BACKENDS
     assert np.isfinite(cals["pinv"].predict(powers)).all()
