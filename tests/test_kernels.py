@@ -235,6 +235,28 @@ def test_numpy_parts_and_products_join_seamlessly(monkeypatch, shared):
         kernels.fused_pinv_phase_rad(readings, cal.map_pinv_, check=True, backend="numpy")
 
 
+def test_a_short_call_on_many_cores_wakes_no_more_helpers_than_parts(monkeypatch):
+    """3 parts with 7 workers: this thread and 2 helpers, not 7 (each costs a wake-up)."""
+    submitted = []
+    pool = kernels._workers(os.getpid(), 1)
+
+    class Recording:
+        def submit(self, task):
+            submitted.append(task)
+            return pool.submit(task)
+
+    monkeypatch.setattr(kernels, "_workers", lambda pid, count: Recording())
+
+    def double(readings, out, start, stop) -> int:
+        out[start:stop] = 2.0 * readings[start:stop]
+        return 0
+
+    readings, out = np.arange(2500.0), np.empty(2500)
+    assert kernels._shared(double, readings, (), out, 1000, 7) == 0
+    assert len(submitted) == 2
+    np.testing.assert_array_equal(out, 2.0 * readings)
+
+
 def test_bad_shapes_are_refused():
     with pytest.raises(wm.InputError, match=r"map_pinv must have shape \(3, n\)"):
         kernels.fused_pinv_phase_rad(np.ones((4, 3)), np.ones((2, 3)))

@@ -340,7 +340,9 @@ def _shared(kernel, readings, arguments, out, part: int, workers: int) -> int:
             kernel(readings, *arguments, out, start, min(start + part, rows)) for start in parts
         )
 
-    helpers = [_workers(os.getpid(), workers).submit(take_parts) for _ in range(workers)]
+    pool = _workers(os.getpid(), workers)
+    # no more helpers than parts left for them (a machine of many cores, a short call)
+    helpers = [pool.submit(take_parts) for _ in range(min(workers, -(-rows // part) - 1))]
     refused = take_parts()
     # a helper not started yet (its thread not scheduled) has nothing left to do
     return refused + sum(helper.result() for helper in helpers if not helper.cancel())
