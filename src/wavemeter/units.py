@@ -278,6 +278,12 @@ def parse_quantity(text, kind: str, name: str = "value") -> tuple[float, str | N
     return value, canonical_unit(unit.strip(), kind, name) if unit else None
 
 
+def _in_si(number: float, unit: str | None, units: dict) -> float:
+    """A parsed number in its SI unit: scaled by ``units``' power of ten for ``unit``, as
+    it is for a bare number (None)."""
+    return float(_scaled(np.float64(number), units[unit] if unit else 0))
+
+
 def parse_frequency_hz(text, name: str = "frequency") -> float:
     """A frequency (Hz) from text such as ``50GHz``, ``49.69 GHz`` or ``5e10`` (Hz).
 
@@ -287,7 +293,7 @@ def parse_frequency_hz(text, name: str = "frequency") -> float:
         When the text is not a number with an optional frequency unit.
     """
     number, unit = parse_quantity(text, "frequency", name)
-    return float(_scaled(np.float64(number), FREQUENCY_UNITS[unit] if unit else 0))
+    return _in_si(number, unit, FREQUENCY_UNITS)
 
 
 def parse_optical_frequency_hz(text, name: str = "frequency") -> float:
@@ -305,7 +311,7 @@ def parse_optical_frequency_hz(text, name: str = "frequency") -> float:
         if not number > 0:
             raise InputError(f"{name} {text!r}: a wavelength must be > 0")
         return float(_wavelength_constant(unit) / np.float64(number))
-    return float(_scaled(np.float64(number), FREQUENCY_UNITS[unit] if unit else 0))
+    return _in_si(number, unit, FREQUENCY_UNITS)
 
 
 def parse_power_w(text, name: str = "power") -> float:
@@ -322,14 +328,14 @@ def parse_power_w(text, name: str = "power") -> float:
         raise InputError(f"{name} {text!r}: V is a relative detector scale, not a power")
     if unit == "dBm":
         return float(power_to_w(number, "dBm"))
-    return float(_scaled(np.float64(number), POWER_UNITS[unit] if unit else 0))
+    return _in_si(number, unit, POWER_UNITS)
 
 
 def seconds_per_unit(unit: str) -> float | None:
     """Seconds per time ``unit`` (``s ms us ns``, ``µs``, ``sec``; any case); None when
     ``unit`` is not a time unit."""
     name = _LOOKUP.get(unit.strip().lower())
-    return float(_scaled(np.float64(1.0), TIME_UNITS[name])) if name in TIME_UNITS else None
+    return _in_si(1.0, name, TIME_UNITS) if name in TIME_UNITS else None
 
 
 def parse_time_s(text, name: str = "time") -> float:
@@ -341,7 +347,7 @@ def parse_time_s(text, name: str = "time") -> float:
         When the text is not a number with an optional time unit.
     """
     number, unit = parse_quantity(text, "time", name)
-    return float(_scaled(np.float64(number), TIME_UNITS[unit] if unit else 0))
+    return _in_si(number, unit, TIME_UNITS)
 
 
 #: SI prefixes of frequencies, largest first
