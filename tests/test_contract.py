@@ -291,6 +291,34 @@ class CalibratorContract:
         assert marked[2] & wm.ReadingFlag.POWER_RANGE
         np.testing.assert_array_equal(marked[3:], flags[3:])
 
+    def test_readout_agrees_with_predict_and_isolates_bad_readings(self):
+        """``readout`` gives predict's, frequency_std_hz's and flags' numbers at once; a NaN
+        or dark reading gets NaN values and INVALID without costing the others."""
+        cal, _, test, test_hz = self.fitted("table1", NOISE_W)
+        inputs = reading_inputs(cal, test_hz[:50])
+        readings = test[:50].copy()
+        readings[3], readings[7] = np.nan, 0.0
+        found = cal.readout(readings, **inputs)
+        good = np.ones(50, dtype=bool)
+        good[[3, 7]] = False
+        assert set(found.extras) == set(cal.reading_outputs)
+        assert np.isnan(found.frequency_hz[~good]).all()
+        assert (found.flags[~good] & wm.ReadingFlag.INVALID).all()
+        kept = {name: value[good] if np.ndim(value) else value for name, value in inputs.items()}
+        np.testing.assert_allclose(
+            found.frequency_hz[good], cal.predict(readings[good], **kept), rtol=0, atol=1e-3
+        )
+        np.testing.assert_array_equal(found.flags, cal.flags(readings, **inputs))
+        if "frequency_std" in cal.capabilities:
+            np.testing.assert_allclose(
+                found.frequency_std_hz[good], cal.frequency_std_hz(readings[good], **kept),
+                rtol=1e-9,
+            )
+        else:
+            assert np.isnan(found.frequency_std_hz).all()
+        for values in found.extras.values():
+            assert values.shape == (50,) and np.isnan(values[~good]).all()
+
     def test_score_is_minus_the_rms_error(self):
         cal, device, test, test_hz = self.fitted("table1", NOISE_W)
         inputs = reading_inputs(cal, test_hz)

@@ -27,9 +27,10 @@ import inspect
 import itertools
 import math
 import numbers
+import types
 import warnings
-from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
@@ -59,6 +60,7 @@ from .summary import FitReport, FitValue
 
 __all__ = [
     "BaseCalibrator",
+    "Readout",
     "StreamReading",
     "MIN_SPAN_FSR",
     "READING_INPUTS",
@@ -94,15 +96,42 @@ class StreamReading:
     flags : int
         Quality bits (:class:`~wavemeter.calibration.flags.ReadingFlag`), as ``flags``
         gives them; ``INVALID`` for a reading that cannot be read.
-    order_error_probability : float or None
-        For a cascade: the probability that some stage picked a wrong fringe order (NaN
-        for a reading that cannot be read); None for other calibrations.
+    extras : mapping of str to float
+        The calibration's extra outputs (its ``reading_outputs``, e.g. a cascade's
+        ``order_error_probability``), by name; NaN for a reading that cannot be read.
     """
 
     frequency_hz: float
     frequency_std_hz: float
     flags: int
-    order_error_probability: float | None = None
+    extras: Mapping[str, float] = field(default_factory=dict)
+
+    @property
+    def order_error_probability(self) -> float | None:
+        """A cascade's ``extras["order_error_probability"]``; None for other calibrations."""
+        return self.extras.get("order_error_probability")
+
+
+@dataclass(frozen=True)
+class Readout:
+    """What :meth:`BaseCalibrator.readout` found for a block of readings.
+
+    Attributes
+    ----------
+    frequency_hz : ndarray, shape (N,)
+        Source frequency (Hz); NaN for readings the calibration cannot read.
+    frequency_std_hz : ndarray, shape (N,)
+        Its standard deviation (Hz); NaN where the calibration gives none.
+    flags : ndarray of int64, shape (N,)
+        Quality bits (:class:`~wavemeter.calibration.flags.ReadingFlag`).
+    extras : dict of str to ndarray, shape (N,)
+        The calibration's extra outputs (``reading_outputs``), by name.
+    """
+
+    frequency_hz: np.ndarray
+    frequency_std_hz: np.ndarray
+    flags: np.ndarray
+    extras: dict
 
 
 def checked_port_names(port_names, ports: int) -> list[str]:
@@ -128,6 +157,8 @@ class BaseCalibrator:
     capabilities: ClassVar[frozenset[str]] = frozenset({"power_monitor"})
     #: the method reads absolute frequency without a coarse input (a cascade of stages)
     absolute_frequency: ClassVar[bool] = False
+    #: extra per-reading outputs (name -> unit) that ``readout`` and ``stream`` give
+    reading_outputs: ClassVar[Mapping[str, str]] = types.MappingProxyType({})
     #: ports with a fringe the method needs among those it reads (the cone model: 3)
     fringe_ports_needed: ClassVar[int] = 3
     #: learned attributes common to every calibrator, saved by every calibration file
@@ -777,6 +808,50 @@ class BaseCalibrator:
         save_calibration(self, path)
 
     # ------------------------------------------------------------------ live readout
+    def readout(self, powers, *, coarse_hz=None, temperature_k=None) -> Readout:
+        """Frequency, its uncertainty, the quality flags and the extra outputs of readings.
+
+        Unlike ``predict``, a reading that cannot be read (NaN, no light) does not cost the
+        others: it gets NaN values and the ``INVALID`` flag.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Port readings, in the unit of the calibration sweep.
+        coarse_hz, temperature_k : None, float or array_like, shape (N,)
+            Per-reading inputs; required when named in ``requires``, else optional.
+
+        Returns
+        -------
+        Readout
+        """
+        flags = self.flags(powers, coarse_hz=coarse_hz, temperature_k=temperature_k)
+        readings = reading_array(powers, ports=self.n_ports_)
+        samples = readings.shape[0]
+        frequency = np.full(samples, np.nan)
+        std = np.full(samples, np.nan)
+        extras = {name: np.full(samples, np.nan) for name in self.reading_outputs}
+        usable = (flags & ReadingFlag.INVALID) == 0
+        if usable.any():
+            given = self._reading_inputs(coarse_hz, temperature_k, samples)
+            inputs = {n: None if v is None else v[usable] for n, v in given.items()}
+            found = self._readout_valid(readings[usable], inputs)
+            frequency[usable], std[usable] = found.frequency_hz, found.frequency_std_hz
+            for name in extras:
+                extras[name][usable] = found.extras[name]
+        return Readout(frequency, std, flags, extras)
+
+    def _readout_valid(self, readings: np.ndarray, inputs: dict) -> Readout:
+        """:meth:`readout` of finite, lit readings (no flags needed): ``predict`` and, where
+        a capability, ``frequency_std_hz``."""
+        frequency = self.predict(readings, **inputs)
+        std = (
+            self.frequency_std_hz(readings, **inputs)
+            if "frequency_std" in self.capabilities
+            else np.full(frequency.shape, np.nan)
+        )
+        return Readout(frequency, std, np.zeros(frequency.shape, np.int64), {})
+
     def stream(self, rows, *, coarse_hz=None, temperature_k=None) -> Iterator[StreamReading]:
         """Read readings one at a time, as they arrive: one record out for each row in.
 
@@ -836,15 +911,15 @@ class BaseCalibrator:
             raise InputError(f"rows must be an iterable of readings, got {type(rows).__name__}")
         ports = self.n_ports_
         read = self._stream_reader()
-        cascade = hasattr(self, "order_error_probability")
         nan = float("nan")
+        unread_extras = types.MappingProxyType(dict.fromkeys(self.reading_outputs, nan))
 
         def unread(powers: np.ndarray | None, inputs: dict) -> StreamReading:
             flags = int(ReadingFlag.INVALID)
             if powers is not None:  # the other bits, where flags can tell them
                 with contextlib.suppress(InputError):
                     flags |= int(self.flags(powers, **inputs)[0])
-            return StreamReading(nan, nan, flags, nan if cascade else None)
+            return StreamReading(nan, nan, flags, unread_extras)
 
         def records() -> Iterator[StreamReading]:
             warned = False

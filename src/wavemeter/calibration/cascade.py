@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import types
 import warnings
 from collections.abc import Callable
 
@@ -58,7 +59,7 @@ from ..validation import (
     check_positive,
     check_powers,
 )
-from .base import BaseCalibrator, StreamReading
+from .base import BaseCalibrator, Readout, StreamReading
 from .cascade_reading import (
     NOISE_P_VALUE,
     CascadeReading,
@@ -100,7 +101,7 @@ def _stream_record(chain: CascadeReading) -> StreamReading:
         float(chain.frequency_hz[-1, 0]),
         float(chain.std_hz[-1, 0]),
         int(chain.flags[0]),
-        float(chain.order_error_probability[0]),
+        {"order_error_probability": float(chain.order_error_probability[0])},
     )
 
 
@@ -168,6 +169,7 @@ class CascadeCalibrator(BaseCalibrator):
     method = "cascade"
     absolute_frequency = True
     capabilities = frozenset({"frequency_std", "power_monitor"})
+    reading_outputs = types.MappingProxyType({"order_error_probability": "1"})
 
     def __init__(
         self,
@@ -764,6 +766,17 @@ class CascadeCalibrator(BaseCalibrator):
         rows = readings[:, list(self.stage_ports_[-1])]
         return finest._frequency_std_of(
             rows, chain.frequency_hz[-1], chain.phase_rad[-1], chain.maps[-1], False
+        )
+
+    def _readout_valid(self, readings: np.ndarray, inputs: dict) -> Readout:
+        """One pass through the stages: the finest stage's frequency and uncertainty and
+        the probability of a wrong order."""
+        chain = self._read(self._check_readings(readings))
+        return Readout(
+            chain.frequency_hz[-1],
+            chain.std_hz[-1],
+            np.zeros(readings.shape[0], np.int64),
+            {"order_error_probability": chain.order_error_probability},
         )
 
     def order_error_probability(self, powers) -> np.ndarray:

@@ -54,11 +54,11 @@ __all__ = [
     "MAX_LINE_WARNINGS",
 ]
 
-#: the output columns, in order; a cascade adds ``order_error_probability`` before ``flags``
+#: the output columns, in order; a calibration's ``reading_outputs`` (a cascade's
+#: ``order_error_probability``) come before ``flags``
 STREAM_COLUMNS = ("frequency_hz", "wavelength_nm", "frequency_std_hz", "flags")
 #: invalid lines warned about one by one; later ones are written and counted silently
 MAX_LINE_WARNINGS = 10
-_CASCADE_COLUMN = "order_error_probability"
 
 
 @dataclass(frozen=True)
@@ -270,17 +270,15 @@ class _Stream:
             if coarse_hz is None:
                 coarse = self.coarse = _Latest()
         self.records = calibration.stream(self.powers, coarse_hz=coarse, temperature_k=temperature)
-        self.cascade = hasattr(calibration, _CASCADE_COLUMN)
+        self.extras = tuple(calibration.reading_outputs)
         self.counts = np.zeros(len(ReadingFlag), dtype=np.int64)
         self.bits = [int(bit) for bit in ReadingFlag]
         nan = float("nan")
-        self.unread = (nan, nan, nan, *((nan,) if self.cascade else ()), int(ReadingFlag.INVALID))
+        self.unread = (nan, nan, nan, *(nan for _ in self.extras), int(ReadingFlag.INVALID))
 
     def run(self, numbered, summary: StreamSummary) -> None:
         """Write the header line, then one line per data line until the lines end."""
-        columns = list(STREAM_COLUMNS)
-        if self.cascade:
-            columns.insert(-1, _CASCADE_COLUMN)
+        columns = [*STREAM_COLUMNS[:-1], *self.extras, STREAM_COLUMNS[-1]]
         self._write(",".join(columns))
         try:
             for number, text in numbered:
@@ -357,8 +355,7 @@ class _Stream:
         record = next(self.records)
         frequency = record.frequency_hz
         values = (frequency, SPEED_OF_LIGHT_M_S / frequency * 1e9, record.frequency_std_hz)
-        if self.cascade:
-            values += (record.order_error_probability,)
+        values += tuple(record.extras[name] for name in self.extras)
         return (*values, record.flags), None
 
 
