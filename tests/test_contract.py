@@ -311,7 +311,8 @@ class CalibratorContract:
         np.testing.assert_array_equal(found.flags, cal.flags(readings, **inputs))
         if "frequency_std" in cal.capabilities:
             np.testing.assert_allclose(
-                found.frequency_std_hz[good], cal.frequency_std_hz(readings[good], **kept),
+                found.frequency_std_hz[good],
+                cal.frequency_std_hz(readings[good], **kept),
                 rtol=1e-9,
             )
         else:
