@@ -6,7 +6,7 @@ then the readings one at a time: a reading is written (and flushed), and the clo
 until its output line has been read back, before the next reading is written. That is the
 latency a live consumer sees: the pipe both ways, parsing the line and converting its
 units, the calibration (the numbers of ``predict``, ``frequency_std_hz`` and ``flags`` of one
-reading, read in one pass by :meth:`~wavemeter.calibration.base.BaseCalibrator.stream`),
+reading, read in one pass by :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.stream`),
 writing the line. The first ``WARMUP_READINGS`` readings are left out of the statistics (the
 child imports what the first reading needs), the first one reported on its own. Beside it,
 measured in this process over the same readings: ``jobs.stream_lines`` per line (parsing,

@@ -33,7 +33,7 @@ from types import ModuleType
 
 import numpy as np
 
-from wavemeter.calibration.baselines._labels import LabelLockedCalibrator
+from wavemeter.calibration.methods.baselines._labels import LabelLockedCalibrator
 
 __all__ = [
     "HOQI_INSTALL",

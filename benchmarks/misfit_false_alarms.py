@@ -34,8 +34,8 @@ from _montecarlo import NOISE_W, POWER_W, markdown_table, median_time_s, progres
 from scipy import stats
 
 import wavemeter as wm
-from wavemeter.calibration.learned import fit_learned_map, predict_frequency_hz
-from wavemeter.calibration.misfit import misfit_report
+from wavemeter.calibration.checks.misfit import misfit_report
+from wavemeter.calibration.models.learned_fit import fit_learned_map, predict_frequency_hz
 from wavemeter.simulation.drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
 
 DESIGN_FSR_HZ = 50e9

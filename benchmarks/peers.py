@@ -58,9 +58,15 @@ from wavemeter.baselines import (
     NonlinearFitCalibrator,
     PlaneEllipseCalibrator,
 )
-from wavemeter.calibration.baselines.ellipse import ellipse_phase, fit_ellipse
-from wavemeter.calibration.baselines.nonlinear_fit import NonlinearFitWarning, convergence_share
-from wavemeter.calibration.baselines.plane_ellipse import fit_plane_ellipse, plane_ellipse_phase
+from wavemeter.calibration.methods.baselines.ellipse import ellipse_phase, fit_ellipse
+from wavemeter.calibration.methods.baselines.nonlinear_fit import (
+    NonlinearFitWarning,
+    convergence_share,
+)
+from wavemeter.calibration.methods.baselines.plane_ellipse import (
+    fit_plane_ellipse,
+    plane_ellipse_phase,
+)
 
 PORTS = (3, 4)
 DEFAULT_DEVICES = 30

@@ -4,16 +4,16 @@
   N = 1e3 .. 1e7 samples. Today's method before issue 13 (the golden-section search on the
   direct cost: every evaluation a least-squares fit over all N samples, as
   ``search_delay(cost=map_cost(...))``) against the moment method
-  (:func:`wavemeter.calibration.learned.fit_learned_map`: one pass to accumulate, then the
+  (:func:`wavemeter.calibration.methods.learned.fit_learned_map`: one pass to accumulate, then the
   search on the moments), with the relative differences of the delay and the map; beside
   them the whole ``Calibrator.fit`` (FSR guard, diagnostics included). Peak memory of
-  :func:`~wavemeter.calibration.learned.fit_learned_map_chunks` on chunks of 1e5 samples,
+  :func:`~wavemeter.calibration.methods.learned.fit_learned_map_chunks` on chunks of 1e5 samples,
   in a child process per N. Targets: 1e6 samples <= 0.5 s, 1e7 <= 5 s in bounded memory,
   delay within 1e-10 and map within 1e-9 of today's.
 - **whole fit**: the calibration a user gets, ``Calibrator.fit`` with its checks and
   diagnostics, with every reading diagnosed (the path before sampling, reached by setting
   ``diagnostic_samples`` beyond N) against the fit on moments with the checks on every
-  k-th reading (at most ``DIAGNOSTIC_SAMPLES``, :mod:`wavemeter.calibration.subsample`),
+  k-th reading (at most ``DIAGNOSTIC_SAMPLES``, :mod:`wavemeter.calibration.models.subsample`),
   on the fit's sweeps. Targets as the fit's.
 - **predict**: ``Calibrator.predict`` (pinv and ml retrievals) over ``np.arctan2`` alone on
   two columns of the same N, numba and numpy paths (``WAVEMETER_NO_NUMBA``) timed in this
@@ -61,10 +61,10 @@ import numpy as np  # noqa: E402
 from _montecarlo import markdown_table, median_time_s, progress  # noqa: E402
 
 import wavemeter as wm  # noqa: E402
-from wavemeter.calibration.delay_search import search_delay  # noqa: E402
-from wavemeter.calibration.learned import fit_learned_map  # noqa: E402
-from wavemeter.calibration.linear_map import map_cost, object_vectors, unfitted_cost  # noqa: E402
-from wavemeter.calibration.subsample import DIAGNOSTIC_SAMPLES  # noqa: E402
+from wavemeter.calibration.models.delay_search import search_delay  # noqa: E402
+from wavemeter.calibration.models.learned_fit import fit_learned_map  # noqa: E402
+from wavemeter.calibration.models.linear_map import map_cost, object_vectors, unfitted_cost  # noqa: E402
+from wavemeter.calibration.models.subsample import DIAGNOSTIC_SAMPLES  # noqa: E402
 from wavemeter.model import kernels  # noqa: E402
 
 SEED = 7
@@ -133,7 +133,7 @@ def chunked_fit_peak_bytes(samples: int) -> int:
 
 def chunked_fit_child(samples: int) -> None:
     """Fit ``samples`` samples generated and accumulated a chunk at a time."""
-    from wavemeter.calibration.learned import fit_learned_map_chunks
+    from wavemeter.calibration.models.learned_fit import fit_learned_map_chunks
 
     device = wm.Interferometer.table1(ports=3, seed=SEED)
     frequency = np.linspace(START_HZ, START_HZ + SPAN_FSR * FSR_HZ, samples)

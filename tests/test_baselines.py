@@ -11,19 +11,22 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.baselines._labels import lock_phase
-from wavemeter.calibration.baselines.ellipse import (
+from wavemeter.calibration.methods.baselines._labels import lock_phase
+from wavemeter.calibration.methods.baselines.ellipse import (
     FringeEllipse,
     ellipse_phase,
     fit_conic,
     fit_ellipse,
 )
-from wavemeter.calibration.baselines.nonlinear_fit import (
+from wavemeter.calibration.methods.baselines.nonlinear_fit import (
     NonlinearFitWarning,
     convergence_share,
     design_parameters,
 )
-from wavemeter.calibration.baselines.plane_ellipse import fit_plane_ellipse, plane_ellipse_phase
+from wavemeter.calibration.methods.baselines.plane_ellipse import (
+    fit_plane_ellipse,
+    plane_ellipse_phase,
+)
 
 POWER_W = 1e-3
 NOISE_W = 5e-7

@@ -7,7 +7,7 @@ import pytest
 from threadpoolctl import ThreadpoolController
 
 import wavemeter as wm
-from wavemeter.calibration.learned import Calibrator
+from wavemeter.calibration.methods.learned import Calibrator
 
 FSR_HZ = 50e9
 

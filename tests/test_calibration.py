@@ -8,7 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wavemeter as wm
-from wavemeter.calibration.learned import fit_map, map_cost, object_vectors, predict_frequency_hz
+from wavemeter.calibration.models.learned_fit import predict_frequency_hz
+from wavemeter.calibration.models.linear_map import fit_map, map_cost, object_vectors
 
 from .conftest import NOISE_W, POWER_W, random_test_frequencies
 

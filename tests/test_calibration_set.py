@@ -13,7 +13,7 @@ import pytest
 
 import wavemeter as wm
 from wavemeter.analysis import adjacent_evaluation
-from wavemeter.calibration.set import WINDOW_FSR_TOLERANCE
+from wavemeter.calibration.methods.set import WINDOW_FSR_TOLERANCE
 from wavemeter.model.cone import delay_phase_rad
 
 from .conftest import NOISE_W, POWER_W
@@ -206,7 +206,10 @@ def test_coarse_frequency_outside_every_window_is_refused(calibration_set, test_
     low, high = calibration_set.covered_hz()
     coarse = low - 1e9 if where == "below" else high + 1e9
     with pytest.raises(ValueError, match="coarse_hz .* outside the calibrated span .* THz"):
-        calibration_set.predict(readings, coarse_hz=coarse)
+        calibration_set.predict(readings, coarse_hz=coarse, errors="raise")
+    # by default: NaN and OUTSIDE_SPAN for each of them, the others read as usual
+    assert np.isnan(calibration_set.predict(readings, coarse_hz=coarse)).all()
+    assert np.all(calibration_set.flags(readings, coarse_hz=coarse) == wm.ReadingFlag.OUTSIDE_SPAN)
 
 
 @pytest.mark.parametrize(
@@ -220,7 +223,20 @@ def test_coarse_frequency_outside_every_window_is_refused(calibration_set, test_
 def test_bad_coarse_values_are_refused(calibration_set, test_data, coarse, error, match):
     _, readings = test_data
     with pytest.raises(error, match=match):
-        calibration_set.predict(readings, coarse_hz=coarse)
+        calibration_set.predict(readings, coarse_hz=coarse, errors="raise")
+
+
+def test_a_reading_without_a_coarse_value_gets_nan_and_invalid(calibration_set, test_data):
+    frequency, readings = test_data
+    coarse = frequency.copy()
+    coarse[[3, 8]] = np.nan
+    found = calibration_set.readout(readings, coarse_hz=coarse)
+    assert np.isnan(found.frequency_hz[[3, 8]]).all()
+    assert np.all(found.flags[[3, 8]] & wm.ReadingFlag.INVALID)
+    kept = np.isfinite(coarse)
+    np.testing.assert_array_equal(
+        found.frequency_hz[kept], calibration_set.predict(readings[kept], coarse_hz=frequency[kept])
+    )
 
 
 def test_scalar_coarse_value_applies_to_every_reading(calibration_set, test_data):

@@ -22,7 +22,7 @@ import pytest
 from scipy import stats
 
 import wavemeter as wm
-from wavemeter.calibration.files import read_calibration_file
+from wavemeter.calibration.files.document import read_calibration_file
 from wavemeter.cli import main
 from wavemeter.io import write_table
 from wavemeter.report.html import report_paths

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.files import read_calibration_file
+from wavemeter.calibration.files.document import read_calibration_file
 from wavemeter.io import write_table
 from wavemeter.model.cone import wrap_to_period
 from wavemeter.units import SPEED_OF_LIGHT_M_S

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.files import read_calibration_file
+from wavemeter.calibration.files.document import read_calibration_file
 from wavemeter.cli import main
 from wavemeter.io import write_table
 

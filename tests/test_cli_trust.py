@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.files import read_calibration_file
-from wavemeter.calibration.flags import ReadingFlag
+from wavemeter.calibration.contract.flags import ReadingFlag
+from wavemeter.calibration.files.document import read_calibration_file
 from wavemeter.cli import _readings as readings_module
 from wavemeter.cli import main
 from wavemeter.io import ColumnRequest, read_table, write_table

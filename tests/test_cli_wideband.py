@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.files import read_calibration_file
-from wavemeter.calibration.wideband_orders import MAX_MAP_ORDER, MAX_PHASE_ORDER
+from wavemeter.calibration.files.document import read_calibration_file
+from wavemeter.calibration.models.wideband_orders import MAX_MAP_ORDER, MAX_PHASE_ORDER
 from wavemeter.cli import main
 from wavemeter.io import write_table
 from wavemeter.report.html import report_paths

@@ -31,8 +31,8 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.base import BaseCalibrator
-from wavemeter.calibration.registry import registered
+from wavemeter.calibration.contract.base import BaseCalibrator
+from wavemeter.calibration.files.registry import registered
 
 from .conftest import thermal_sweep
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.diagnostics import MIN_FRINGE_Z, port_health
+from wavemeter.calibration.checks.port_health import MIN_FRINGE_Z, port_health
 
 from .conftest import NOISE_W, POWER_W
 

@@ -20,14 +20,14 @@ import pytest
 from scipy import linalg
 
 import wavemeter as wm
-from wavemeter.calibration.delay_search import (
+from wavemeter.calibration.checks.fsr_guard import estimate_fsr
+from wavemeter.calibration.models.delay_search import (
     EDGE_POINTS,
     MAX_GRID_POINTS,
     check_fringes_explained,
     search_delay,
 )
-from wavemeter.calibration.fsr_guard import estimate_fsr
-from wavemeter.calibration.learned import map_cost, object_vectors
+from wavemeter.calibration.models.linear_map import map_cost, object_vectors
 from wavemeter.model.cone import cone_vectors, delay_phase_rad
 
 from .conftest import NOISE_W, POWER_W

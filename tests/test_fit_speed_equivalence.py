@@ -1,6 +1,6 @@
 """The lean fit diagnostics compute the numbers of the code they replaced (issue 13).
 
-``misfit_report`` (with :mod:`wavemeter.calibration.residual_tests`) and ``cone_vectors``
+``misfit_report`` (with :mod:`wavemeter.calibration.checks.residual_tests`) and ``cone_vectors``
 were rewritten to be fast on large sweeps without changing a decision or a reported number
 beyond rounding. Each case here is computed twice: with today's code and with the code of
 ``FROZEN_COMMIT`` (read from git and loaded beside the package, its own ``cone_vectors``
@@ -37,8 +37,10 @@ import pytest
 from scipy import fft, linalg
 
 import wavemeter as wm
-from wavemeter.calibration import base, learned, misfit, residual_tests
-from wavemeter.calibration.learned import fit_learned_map
+from wavemeter.calibration.checks import misfit, residual_tests
+from wavemeter.calibration.fitting import steps
+from wavemeter.calibration.methods import learned
+from wavemeter.calibration.models.learned_fit import fit_learned_map
 from wavemeter.model import cone
 from wavemeter.simulation.drift import flicker_power_noise, slow_power_drift
 
@@ -474,7 +476,7 @@ def test_calibrator_fit_is_todays(name, retrieval, frozen, monkeypatch):
 
     def compute(report):
         with pytest.MonkeyPatch.context() as patch:
-            for module in (base, learned):
+            for module in (steps, learned):
                 patch.setattr(module, "misfit_report", report)
             return _fit(frequency, powers, monitor, retrieval=retrieval)
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.learned import retrieve_phase_rad
+from wavemeter.calibration.models.learned_fit import retrieve_phase_rad
 from wavemeter.model import kernels
 from wavemeter.model.cone import cone_vectors, phase_to_frequency_hz, wrap_phase_rad
 from wavemeter.model.retrieval import cone_ml_phase_rad
@@ -403,9 +403,16 @@ def test_calibrator_predict_equals_the_steps_one_by_one(monkeypatch, retrieval, 
     one = cal.predict(readings[0])
     assert one.shape == (1,)
     assert frequency_gap_hz(one, predicted[0], cal.fsr_hz_) <= frequency_tol_hz(one, cal.fsr_hz_)
-    # refusals: check_powers' message, and the per-reading inputs checked as before
+    # a reading that cannot be read gets NaN and costs no other; errors="raise" refuses it
+    # with check_powers' message; the per-reading inputs are checked as before
     readings[2, 1] = np.nan
+    coerced = cal.predict(readings)
+    assert np.isnan(coerced[2]) and not np.isnan(np.delete(coerced, 2)).any()
+    kept, before = np.delete(coerced, 2), np.delete(predicted, 2)
+    assert np.all(
+        frequency_gap_hz(kept, before, cal.fsr_hz_) <= frequency_tol_hz(kept, cal.fsr_hz_)
+    )
     with pytest.raises(wm.InputError, match=r"NaN or inf in rows \[2\]"):
-        cal.predict(readings)
+        cal.predict(readings, errors="raise")
     with pytest.raises(wm.InputError, match="coarse_hz must be one value or one per reading"):
         cal.predict(np.full((3, ports), 1e-3), coarse_hz=[1.0, 2.0])

@@ -1,4 +1,4 @@
-"""Fit diagnostics (wavemeter.calibration.misfit): clean sweeps pass, each fault is named.
+"""Fit diagnostics (wavemeter.calibration.checks.misfit): clean sweeps pass, each fault is named.
 
 Clean sweeps are in-model by construction (the simulator is the cone model plus white
 noise), so every warning on them is a false alarm; the thresholds are 1e-6 per test, and
@@ -17,9 +17,9 @@ import pytest
 from scipy import stats
 
 import wavemeter as wm
-from wavemeter.calibration import residual_tests
-from wavemeter.calibration.learned import fit_learned_map
-from wavemeter.calibration.misfit import CAUSES, TEST_P_VALUE, MisfitReport, misfit_report
+from wavemeter.calibration.checks import residual_tests
+from wavemeter.calibration.checks.misfit import CAUSES, TEST_P_VALUE, MisfitReport, misfit_report
+from wavemeter.calibration.models.learned_fit import fit_learned_map
 from wavemeter.exceptions import CalibrationWarning, InputError
 from wavemeter.simulation.drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
 

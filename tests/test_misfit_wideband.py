@@ -23,10 +23,10 @@ import pytest
 from scipy import optimize, special
 
 import wavemeter as wm
-from wavemeter.calibration import residual_tests
-from wavemeter.calibration.learned import fit_learned_map
-from wavemeter.calibration.misfit import TEST_P_VALUE, MisfitReport, misfit_report
-from wavemeter.calibration.residual_tests import Projector
+from wavemeter.calibration.checks import residual_tests
+from wavemeter.calibration.checks.misfit import TEST_P_VALUE, MisfitReport, misfit_report
+from wavemeter.calibration.checks.residual_tests import Projector
+from wavemeter.calibration.models.learned_fit import fit_learned_map
 from wavemeter.exceptions import InputError
 from wavemeter.model.cone import cone_vectors, delay_phase_rad
 from wavemeter.simulation.drift import slow_power_drift

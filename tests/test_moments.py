@@ -22,17 +22,17 @@ import pytest
 from scipy import optimize
 
 import wavemeter as wm
-from wavemeter.calibration import fsr_guard
-from wavemeter.calibration.delay_search import search_delay
-from wavemeter.calibration.learned import fit_learned_map, fit_learned_map_chunks
-from wavemeter.calibration.linear_map import (
+from wavemeter.calibration.checks import fsr_guard
+from wavemeter.calibration.models.delay_search import search_delay
+from wavemeter.calibration.models.learned_fit import fit_learned_map, fit_learned_map_chunks
+from wavemeter.calibration.models.linear_map import (
     delay_information,
     map_cost,
     object_delay_derivative,
     object_vectors,
     unfitted_cost,
 )
-from wavemeter.calibration.moments import (
+from wavemeter.calibration.models.moments import (
     TRUNCATION_TOLERANCE,
     FringeMoments,
     largest_search_delay_s,

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.flags import ReadingFlag
+from wavemeter.calibration.contract.flags import ReadingFlag
 from wavemeter.exceptions import CalibrationWarning, InputError
 from wavemeter.jobs.noise import (
     AMBIGUOUS_STEP_CAUSE,

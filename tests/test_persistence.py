@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.files import FORMAT, SCHEMA_VERSION
+from wavemeter.calibration.files.document import FORMAT, SCHEMA_VERSION
 
 from .conftest import NOISE_W, POWER_W, random_test_frequencies
 

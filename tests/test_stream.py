@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.base import INVALID_READING_CAUSE
+from wavemeter.calibration.contract.streaming import INVALID_READING_CAUSE
 from wavemeter.io import read_table
 from wavemeter.jobs import follow_lines, stream_lines
 from wavemeter.jobs.stream import MAX_LINE_WARNINGS

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.cascade_reading import (
+from wavemeter.calibration.methods.cascade_reading import (
     MIN_SCALED_READINGS,
     NOISE_P_VALUE,
     StageReader,

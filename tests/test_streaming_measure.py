@@ -20,7 +20,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.flags import ReadingFlag
+from wavemeter.calibration.contract.flags import ReadingFlag
 from wavemeter.exceptions import FileFormatError, InputError
 from wavemeter.io import ColumnRequest, iter_readings, read_table, write_table
 from wavemeter.io import text as text_module

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.learned import map_cost, object_vectors
-from wavemeter.calibration.registry import registered
+from wavemeter.calibration.files.registry import registered
+from wavemeter.calibration.models.linear_map import map_cost, object_vectors
 
 from .conftest import NOISE_W, POWER_W, thermal_sweep
 

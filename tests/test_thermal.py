@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.thermal_fit import thermal_phase_rad
+from wavemeter.calibration.models.thermal_fit import thermal_phase_rad
 
 from .conftest import NOISE_W, POWER_W, THERMAL_SWEEP_TEMPERATURES_K, thermal_sweep
 
@@ -160,7 +160,11 @@ def test_predict_and_fit_need_the_temperature(sin_device, calibrated, test_readi
     with pytest.raises(wm.InputError, match="needs temperature_k"):
         wm.ThermalCalibrator().fit(powers, frequency)
     with pytest.raises(wm.InputError, match="temperature_k contains NaN"):
-        calibrated.predict(powers[:2], temperature_k=[293.0, np.nan])
+        calibrated.predict(powers[:2], temperature_k=[293.0, np.nan], errors="raise")
+    # by default a reading without its temperature gets NaN and INVALID, the other is read
+    found = calibrated.readout(powers[:2], temperature_k=[293.0, np.nan])
+    assert np.isfinite(found.frequency_hz[0]) and np.isnan(found.frequency_hz[1])
+    assert found.flags[1] & wm.ReadingFlag.INVALID
     with pytest.raises(wm.InputError, match="Celsius"):
         wm.ThermalCalibrator().fit(powers, frequency, temperature_k=-5.0)
 

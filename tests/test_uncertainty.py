@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.linear_map import fit_map
+from wavemeter.calibration.models.linear_map import fit_map
 from wavemeter.exceptions import InputError
 from wavemeter.model.cone import cone_vectors, delay_phase_rad, wrap_phase_rad
 from wavemeter.model.retrieval import cone_ml_phase_rad, source_power_ratio

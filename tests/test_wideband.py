@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.wideband import ORDER_MARGIN_FSR
+from wavemeter.calibration.methods.wideband import ORDER_MARGIN_FSR
 
 POWER_W = 1e-3
 NOISE_W = 5e-7
@@ -123,7 +123,7 @@ def test_held_out_fsrs_of_a_sweep_with_gaps_are_read_at_the_bound(retrieval):
     gap = (np.floor((truth - frequency[0]) / device.true_fsr_hz) % 4) != 0
     test, truth = test[gap], truth[gap]
     error = cal.predict(test, coarse_hz=truth) - truth
-    bound = rms(cal.crlb_hz(test, coarse_hz=truth, phase_rad=cal.model_phase_rad(truth)))
+    bound = rms(cal.crlb_hz(test, coarse_hz=truth, frequency_hz=truth))
     stated = cal.frequency_std_hz(test, coarse_hz=truth)
     band = rms_band(truth.size)
     assert bound * (1 - band) <= rms(error) <= rms(stated) * (1 + band)
@@ -160,7 +160,15 @@ def test_coarse_missing_or_outside_the_band_is_refused_and_flagged():
         cal.predict(test)
     beyond = np.full(5, frequency[-1] + 3 * cal.fsr_hz_)
     with pytest.raises(wm.InputError, match="outside the calibrated band"):
-        cal.predict(test, coarse_hz=beyond)
+        cal.predict(test, coarse_hz=beyond, errors="raise")
+    # by default such readings get NaN and OUTSIDE_SPAN, and cost no other reading
+    mixed = np.where(np.arange(5) % 2 == 0, beyond, frequency[:5])
+    read = cal.readout(test, coarse_hz=mixed)
+    assert np.isnan(read.frequency_hz[::2]).all() and np.isfinite(read.frequency_hz[1::2]).all()
+    np.testing.assert_array_equal(
+        read.frequency_hz[1::2], cal.predict(test[1::2], coarse_hz=frequency[1:5:2])
+    )
+    assert np.all(read.flags[::2] == wm.ReadingFlag.OUTSIDE_SPAN)
     assert np.all(cal.flags(test, coarse_hz=beyond) & wm.ReadingFlag.OUTSIDE_SPAN)
     just_beyond = frequency[-1] + 0.4 * cal.fsr_hz_
     outside = device.powers(np.full(5, just_beyond), POWER_W, NOISE_W, rng=4)
@@ -253,7 +261,7 @@ def test_three_separated_fsrs_are_followed_and_read_between():
     gap = (np.floor((truth - frequency[0]) / device.true_fsr_hz) % 4) != 0
     test, truth = test[gap], truth[gap]
     error = cal.predict(test, coarse_hz=truth) - truth
-    bound = rms(cal.crlb_hz(test, coarse_hz=truth, phase_rad=cal.model_phase_rad(truth)))
+    bound = rms(cal.crlb_hz(test, coarse_hz=truth, frequency_hz=truth))
     stated = cal.frequency_std_hz(test, coarse_hz=truth)
     band = rms_band(truth.size)
     assert bound * (1 - band) <= rms(error) <= rms(stated) * (1 + band)
@@ -286,7 +294,7 @@ def test_orders_are_raised_while_every_reading_rejects_the_smaller_model():
 def test_a_fit_that_loses_the_fringes_is_refused(monkeypatch):
     """The FSR at the middle of the band must stay in the bracket searched: a growth that
     lost the fringes is an error, not a calibration."""
-    import wavemeter.calibration.wideband as module
+    import wavemeter.calibration.methods.wideband as module
 
     grow = module.fit_band
     monkeypatch.setattr(module, "fit_band", lambda *a, **k: grow(*a, **k) * 0.6)

@@ -1,7 +1,7 @@
 """The baselines under their 0.1 name: ``wavemeter.baselines`` is
-:mod:`wavemeter.calibration.baselines`."""
+:mod:`wavemeter.calibration.methods.baselines`."""
 
-from .calibration.baselines import (
+from .calibration.methods.baselines import (
     ConventionalCalibrator,
     EllipseCalibrator,
     ExtendedConventionalCalibrator,

@@ -136,8 +136,9 @@ def check_frequency(frequency_hz, samples: int, name: str = "frequency_hz") -> n
     return f
 
 
-def check_per_reading(name: str, value, samples: int) -> np.ndarray:
-    """One finite number, or one per reading, as a fresh float64 vector of length ``samples``."""
+def check_per_reading(name: str, value, samples: int, *, finite: bool = True) -> np.ndarray:
+    """One number, or one per reading, as a fresh float64 vector of length ``samples``;
+    finite unless ``finite`` is False (NaN then marks a reading whose input is missing)."""
     try:
         array = np.array(value, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -150,7 +151,7 @@ def check_per_reading(name: str, value, samples: int) -> np.ndarray:
         raise InputError(
             f"{name} must be one value or one per reading ({samples}), got shape {array.shape}"
         )
-    if not np.all(np.isfinite(array)):
+    if finite and not np.all(np.isfinite(array)):
         raise InputError(f"{name} contains NaN or inf")
     return array
 

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..calibration.baselines import ConventionalCalibrator
-from ..calibration.set import clone, window_label
+from ..calibration.methods.baselines import ConventionalCalibrator
+from ..calibration.methods.set import clone, window_label
 from ..exceptions import InputError
-from ..model.cone import wrap_phase_rad
 from ..validation import MIN_SAMPLES, check_frequency, check_per_reading, check_powers
 from .metrics import error_summary_hz, frequency_error_hz
 
@@ -53,26 +52,6 @@ def _calibrated_range_hz(calibration) -> tuple[float, float]:
     return float(low), float(high)
 
 
-def _model_phase_at_truth_rad(calibration, truth_hz, temperature_k) -> np.ndarray:
-    """The phase (rad, wrapped) each true frequency has under the calibration's model:
-    ``model_phase_rad`` of a calibration that has one (a wide band's phase polynomial),
-    else the linear phase of the window (a set's, by the truth) or of the calibration,
-    with the FSR at each reading's chip temperature for a calibration that needs it."""
-    model_phase = getattr(calibration, "model_phase_rad", None)
-    if callable(model_phase):
-        return model_phase(truth_hz)
-    maps = _single_maps(calibration)
-    if _is_set(calibration):
-        index = calibration.window_index(truth_hz)
-    else:
-        index = np.zeros(truth_hz.size, dtype=int)
-    center_hz = np.array([single.center_hz_ for single in maps])[index]
-    fsr_hz = np.array([single.fsr_hz_ for single in maps])[index]
-    if temperature_k is not None:
-        fsr_hz = calibration.fsr_hz_at(temperature_k)
-    return wrap_phase_rad(2.0 * np.pi * (truth_hz - center_hz) / fsr_hz)
-
-
 def crlb_per_reading_hz(
     calibration, powers_w, frequency_hz, temperature_k=None
 ) -> np.ndarray | None:
@@ -88,7 +67,7 @@ def crlb_per_reading_hz(
     Parameters
     ----------
     calibration : BaseCalibrator
-        A fitted calibration; one without the ``"frequency_std"`` capability gives None.
+        A fitted calibration; one without the ``"crlb"`` capability gives None.
     powers_w : array_like, shape (N, n)
         Port readings, in the unit of the calibration sweep.
     frequency_hz : array_like, shape (N,)
@@ -107,13 +86,12 @@ def crlb_per_reading_hz(
         When the readings or frequencies are malformed, or a true frequency lies outside
         the range a set's windows cover (more than half an FSR outside a wide band).
     """
-    if "frequency_std" not in calibration.capabilities:
+    if "crlb" not in calibration.capabilities:
         return None
     readings = check_powers(powers_w)
     truth = check_frequency(frequency_hz, readings.shape[0])
     inputs = _reading_inputs(calibration, truth, temperature_k)
-    phase = _model_phase_at_truth_rad(calibration, truth, inputs.get("temperature_k"))
-    return calibration.crlb_hz(readings, phase_rad=phase, **inputs)
+    return calibration.crlb_hz(readings, frequency_hz=truth, errors="raise", **inputs)
 
 
 def _noise_std_w(calibration) -> float:
@@ -278,7 +256,7 @@ def adjacent_evaluation(calibration, powers, frequency_hz, baseline=None) -> dic
         When no window has at least 4 readings of its own and one in a neighbour.
     """
     template = ConventionalCalibrator() if baseline is None else baseline
-    readings = calibration._check_readings(powers)
+    readings = calibration._corrected(powers)
     frequency = check_frequency(frequency_hz, readings.shape[0])
     position = np.floor((frequency - calibration.window_edges_hz_[0]) / calibration.fsr_hz_)
     pooled = {"own": [], "adjacent": [], "conventional_own": [], "conventional_adjacent": []}

@@ -1,25 +1,26 @@
 """Calibrators: the learned map, calibration sets, baselines, and their files.
 
 Importing this package registers every calibrator class under its file tag
-(:mod:`wavemeter.calibration.registry`).
+(:mod:`wavemeter.calibration.files.registry`).
 """
 
-from .base import BaseCalibrator
-from .baselines import (
+from .contract.base import BaseCalibrator
+from .contract.flags import ReadingFlag
+from .files.document import load_calibration, save_calibration
+from .files.registry import registered
+from .methods.baselines import (
     ConventionalCalibrator,
     EllipseCalibrator,
     ExtendedConventionalCalibrator,
     NonlinearFitCalibrator,
     PlaneEllipseCalibrator,
 )
-from .cascade import CascadeCalibrator
-from .files import load_calibration, save_calibration
-from .flags import ReadingFlag
-from .learned import Calibrator, predict_frequency_hz, retrieve_phase_rad
-from .registry import registered
-from .set import CalibrationSet
-from .thermal import ThermalCalibrator
-from .wideband import WidebandCalibrator
+from .methods.cascade import CascadeCalibrator
+from .methods.learned import Calibrator
+from .methods.set import CalibrationSet
+from .methods.thermal import ThermalCalibrator
+from .methods.wideband import WidebandCalibrator
+from .models.learned_fit import predict_frequency_hz, retrieve_phase_rad
 
 __all__ = [
     "BaseCalibrator",

@@ -410,7 +410,7 @@ def read(
 def read_calibration(path):
     """A calibration file's content, calibrator and metadata (not from stdin: a calibration
     is small and named)."""
-    from ..calibration.files import read_calibration_file
+    from ..calibration.files.document import read_calibration_file
 
     if is_stdio(path):
         raise InputError("a calibration is read from its file, not from stdin ('-')")

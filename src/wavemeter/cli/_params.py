@@ -285,7 +285,7 @@ class OrderParam(click.ParamType):
     lowest : int
         Smallest order allowed.
     highest_name : str
-        Name of the constant in :mod:`wavemeter.calibration.wideband_orders` holding the
+        Name of the constant in :mod:`wavemeter.calibration.models.wideband_orders` holding the
         highest order allowed (``"MAX_PHASE_ORDER"``).
     """
 
@@ -296,7 +296,7 @@ class OrderParam(click.ParamType):
         self.highest_name = highest_name
 
     def convert(self, value, param, ctx):
-        from ..calibration import wideband_orders
+        from ..calibration.models import wideband_orders
 
         highest = getattr(wideband_orders, self.highest_name)
         text = str(value).strip()

@@ -39,7 +39,7 @@ import click
 import numpy as np
 from click.core import ParameterSource
 
-from ..calibration.base import value_range
+from ..calibration.fitting.sweep import value_range
 from ..exceptions import InputError, recorded_calibration_warnings
 from ..io import ColumnRequest, iter_readings, port_key
 from ..io.streaming import CHUNK_ROWS
@@ -155,7 +155,7 @@ def _design_fsr(options: dict):
             )
         return fsrs[0]
     if not _given("fsr"):
-        from ..calibration.cascade import DEFAULT_FSRS_HZ
+        from ..calibration.methods.cascade import DEFAULT_FSRS_HZ
 
         return DEFAULT_FSRS_HZ
     if len(fsrs) < 2:
@@ -173,7 +173,7 @@ def _design_fsr(options: dict):
 
 def _calibrator(options: dict, phases):
     """The unfitted calibrator the options ask for (a calibration set with ``--per-fsr``)."""
-    from ..calibration.set import CalibrationSet
+    from ..calibration.methods.set import CalibrationSet
 
     tolerance, method = options["fsr_tolerance"], options["method"]
     retrieval = options["retrieval"]
@@ -709,7 +709,7 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
       wavemeter calibrate --method cascade cband.csv -o cascade.wmcal.json \\
           --fsr 5THz,500GHz,50GHz --stage-ports 1-3/4-6/7-9
     """
-    from ..calibration.files import save_calibration
+    from ..calibration.files.document import save_calibration
 
     dark_file = options["dark_file"]
     if dark_file is not None and options["dark_w"] is not None:

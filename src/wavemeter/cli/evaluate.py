@@ -399,7 +399,7 @@ def evaluate(
                 f"{calibration.method_label} calibration (one model): calibrate with "
                 "--per-fsr on a sweep over several FSRs"
             )
-        from ..calibration.baselines import ConventionalCalibrator
+        from ..calibration.methods.baselines import ConventionalCalibrator
 
         phases = port_phases_rad(port_phases_deg)
         if phases is None:

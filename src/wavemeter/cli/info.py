@@ -265,7 +265,7 @@ def info(calibration_file):
     Example:
       wavemeter info chip.wmcal.json
     """
-    from ..calibration.files import read_calibration_file
+    from ..calibration.files.document import read_calibration_file
 
     try:
         content = read_calibration_file(calibration_file)

@@ -1,7 +1,7 @@
 """`wavemeter measure`: port readings to frequency with a calibration.
 
 Every output row carries ``flags``, the calibration's quality bits for that reading
-(:class:`wavemeter.calibration.flags.ReadingFlag`; a row skipped as invalid gets
+(:class:`wavemeter.calibration.contract.flags.ReadingFlag`; a row skipped as invalid gets
 ``INVALID``), and ``frequency_std_hz`` where the calibration gives it. A calibration that
 needs the chip temperature (``"temperature_k"`` in its ``requires``: a thermal one) gets it
 from the readings' temperature column or ``--temperature-k`` for the whole file, and the
@@ -49,12 +49,7 @@ from ._common import (
     say,
 )
 from ._data_files import data_files, names_many_files
-from ._readings import (
-    checked_calibration,
-    flag_summary,
-    open_readings,
-    reading_input_options,
-)
+from ._readings import checked_calibration, flag_summary, open_readings, reading_input_options
 from ._streams import is_stdio
 
 

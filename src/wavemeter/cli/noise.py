@@ -32,12 +32,7 @@ from ._common import (
     say,
 )
 from ._params import DURATION
-from ._readings import (
-    checked_calibration,
-    flag_summary,
-    open_readings,
-    reading_input_options,
-)
+from ._readings import checked_calibration, flag_summary, open_readings, reading_input_options
 from ._streams import STDIN_LABEL, is_stdio
 
 #: how to give the sampling rate, as the messages say it

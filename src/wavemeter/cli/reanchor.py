@@ -2,7 +2,7 @@
 
 Readings of one or more lines of known frequency (a reference laser, a gas-cell line)
 re-anchor a learned calibration, single or per FSR, or a thermal one, as
-:mod:`wavemeter.calibration.reanchor` describes; the result is a new calibration file with
+:mod:`wavemeter.calibration.models.reanchor` describes; the result is a new calibration file with
 the original's metadata and ``reanchor_file``, the readings' file. A calibration that needs
 the chip temperature (``"temperature_k"`` in its ``requires``) gets it from the readings'
 temperature column or ``--temperature-k``.
@@ -132,7 +132,7 @@ def reanchor(calibration_file, readings, out_path, frequency_hz, temperature_k, 
       wavemeter reanchor thermal.wmcal.json hcn.csv --frequency 193.4THz --temperature-k 25C \\
           -o thermal-today.wmcal.json
     """
-    from ..calibration.files import save_calibration
+    from ..calibration.files.document import save_calibration
 
     quiet = options["quiet"]
     x_column = options["x_column"]
@@ -140,7 +140,7 @@ def reanchor(calibration_file, readings, out_path, frequency_hz, temperature_k, 
     check_calibration_output(out_path, (calibration_file, readings), force)
     content = read_calibration(calibration_file)
     calibration = content.calibrator
-    if not callable(getattr(calibration, "reanchor", None)):
+    if "reanchor" not in calibration.capabilities:
         raise InputError(
             f"{calibration_file}: a {calibration.method_label} calibration cannot be "
             "re-anchored; re-anchoring needs a learned calibration (single or per FSR) or a "

@@ -20,12 +20,7 @@ import click
 
 from ..jobs import follow_lines, stream_lines
 from ._common import QUIET, column_options, column_request, say
-from ._readings import (
-    check_source,
-    checked_calibration,
-    flag_summary,
-    reading_input_options,
-)
+from ._readings import check_source, checked_calibration, flag_summary, reading_input_options
 from ._streams import STDIN_LABEL
 
 #: exit code of a stream ended by Ctrl-C (128 + SIGINT), as a shell reports it

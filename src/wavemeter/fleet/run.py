@@ -36,12 +36,7 @@ from pathlib import Path
 
 from ..atomic import check_output
 from ..exceptions import FileFormatError, InputError
-from ..jobs.calibrate import (
-    ERROR,
-    DeviceResult,
-    calibrate_device,
-    saved_result,
-)
+from ..jobs.calibrate import ERROR, DeviceResult, calibrate_device, saved_result
 from ..jobs.calibrate import calibrate_options as options_record
 from .page import write_page
 from .summary import write_summary
@@ -349,7 +344,7 @@ def calibrate_fleet(
 
         def done(index: int, result: DeviceResult) -> None:
             if result.ok:
-                from ..calibration.files import save_calibration
+                from ..calibration.files.document import save_calibration
 
                 save_calibration(result.calibration, outputs[index], result.metadata)
             rows[index] = result

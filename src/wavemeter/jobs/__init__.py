@@ -5,13 +5,7 @@ The command line runs these; they know files (``wavemeter.io``) and calibrations
 (``wavemeter.calibration``), and nothing about the command line.
 """
 
-from .calibrate import (
-    DeviceResult,
-    SweepRead,
-    calibrate_device,
-    calibrate_file,
-    fit_sweep_chunks,
-)
+from .calibrate import DeviceResult, SweepRead, calibrate_device, calibrate_file, fit_sweep_chunks
 from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, measure_file
 from .noise import NoiseSeries, measure_series
 from .stream import StreamSummary, follow_lines, stream_lines

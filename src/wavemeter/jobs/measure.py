@@ -9,7 +9,7 @@ untouched). Rows stay in file order, one output row per input row.
 
 The output columns: ``frequency_hz``, ``wavelength_nm`` (vacuum), ``phase_rad``,
 ``frequency_std_hz`` (when asked for or given by the calibration), for a cascade
-``order_error_probability``, ``flags`` (:class:`~wavemeter.calibration.flags.ReadingFlag`
+``order_error_probability``, ``flags`` (:class:`~wavemeter.calibration.contract.flags.ReadingFlag`
 bits; a row skipped as invalid has ``INVALID`` and NaN values), for a calibration that
 needs the chip temperature ``temperature_k``, then the kept columns.
 """
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..calibration.flags import ReadingFlag
+from ..calibration.contract.flags import ReadingFlag
 from ..exceptions import CalibrationWarning, InputError, WavemeterError
 from ..io import ColumnRequest, ReadingStream, iter_readings, table_writer
 from ..io.streaming import CHUNK_ROWS

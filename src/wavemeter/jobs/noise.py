@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..calibration.flags import ReadingFlag
+from ..calibration.contract.flags import ReadingFlag
 from ..exceptions import CalibrationWarning, InputError
 from ..io import ColumnRequest, ReadingStream, iter_readings
 from ..io.columns import split_unit

@@ -6,7 +6,7 @@ column), then turns every data line into an output line the moment it arrives, w
 flushed before the next line is read: ``frequency_hz,wavelength_nm,frequency_std_hz``, for
 a cascade ``order_error_probability``, then ``flags``, floats at full precision (the
 shortest text that reads back to the same float64, as the table writer writes them). Each
-reading goes through the calibration's :meth:`~wavemeter.calibration.base.BaseCalibrator.stream`,
+reading goes through the calibration's :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.stream`,
 so it gets the numbers ``predict``, ``frequency_std_hz`` and ``flags`` give it.
 
 A line that is no reading (another number of cells than the header, text where a number
@@ -29,17 +29,11 @@ from typing import TextIO
 
 import numpy as np
 
-from ..calibration.base import INVALID_READING_CAUSE
-from ..calibration.flags import ReadingFlag
+from ..calibration.contract.flags import ReadingFlag
+from ..calibration.contract.streaming import INVALID_READING_CAUSE
 from ..exceptions import CalibrationWarning, InputError
 from ..io import ColumnRequest
-from ..io.reading import (
-    ColumnChecks,
-    ColumnPlan,
-    PlainRowConverter,
-    convert_rows,
-    plan_columns,
-)
+from ..io.reading import ColumnChecks, ColumnPlan, PlainRowConverter, convert_rows, plan_columns
 from ..io.source import Source
 from ..io.text import column_names, split_cells
 from ..units import SPEED_OF_LIGHT_M_S
@@ -176,7 +170,7 @@ def stream_lines(
     Warns
     -----
     CalibrationWarning
-        Cause :data:`~wavemeter.calibration.base.INVALID_READING_CAUSE` for each of the
+        Cause :data:`~wavemeter.calibration.contract.base.INVALID_READING_CAUSE` for each of the
         first :data:`MAX_LINE_WARNINGS` invalid lines, naming the line and what is wrong.
     """
     source = Path(name)

@@ -501,7 +501,7 @@ def fused_pinv_frequency_hz(
     """Frequency (Hz) ``f0 + t FSR / (2 pi)`` of readings, pseudo-inverse phase ``t``.
 
     ``t = atan2(x_2, x_1)`` of ``x = A+ (p - o)``, as
-    :func:`~wavemeter.calibration.learned.retrieve_phase_rad` gives it.
+    :func:`~wavemeter.calibration.methods.learned.retrieve_phase_rad` gives it.
 
     Parameters
     ----------

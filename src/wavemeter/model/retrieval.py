@@ -324,7 +324,7 @@ def source_power_ratio(powers, map_: np.ndarray, phase_rad, noise_std_w=None) ->
 def pinv_phase_rad(powers, map_pinv) -> np.ndarray:
     """Pseudo-inverse phase ``atan2(x_2, x_1)`` (rad) of ``x = A+ p``, per reading.
 
-    With one inverse it equals :func:`wavemeter.calibration.learned.retrieve_phase_rad`.
+    With one inverse it equals :func:`wavemeter.calibration.methods.learned.retrieve_phase_rad`.
 
     Parameters
     ----------

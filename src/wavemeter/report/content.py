@@ -16,13 +16,13 @@ and the report adds the frequency error against the chip temperature. Its fringe
 drawn at the frequency that has the same model phase at the reference temperature, so that
 readings at every temperature lie on one fringe.
 
-A wide-band calibration (:class:`~wavemeter.calibration.wideband.WidebandCalibrator`) is
+A wide-band calibration (:class:`~wavemeter.calibration.methods.wideband.WidebandCalibrator`) is
 compared with the learned calibration set fitted per FSR on the same sweep (the other way
 to cover a band), reads every reading with the truth as its coarse frequency, and adds the
 cross-validation curve of its orders and the residual phase across the band, per FSR
 window (``diagnostics_["wideband"]``).
 
-A cascade calibration (:class:`~wavemeter.calibration.cascade.CascadeCalibrator`) is shown
+A cascade calibration (:class:`~wavemeter.calibration.methods.cascade.CascadeCalibrator`) is shown
 alone: no other method reads absolute frequency from the same readings. Its errors are
 absolute (a wrong fringe order shows as a whole FSR), its fringes and object space are
 those of its finest stage (the stage the answer comes from), its Cramer-Rao bound and noise
@@ -40,16 +40,16 @@ from scipy import linalg
 
 from ..analysis.evaluation import adjacent_evaluation, crlb_per_reading_hz
 from ..analysis.metrics import error_summary_hz, frequency_error_hz
-from ..calibration.base import BaseCalibrator
-from ..calibration.baselines import ConventionalCalibrator
-from ..calibration.cascade import CascadeCalibrator
-from ..calibration.flags import ReadingFlag
-from ..calibration.learned import Calibrator
-from ..calibration.set import CalibrationSet
-from ..calibration.wideband import WidebandCalibrator
-from ..calibration.wideband_fit import BandModel
+from ..calibration.contract.base import BaseCalibrator
+from ..calibration.contract.flags import ReadingFlag
+from ..calibration.methods.baselines import ConventionalCalibrator
+from ..calibration.methods.cascade import CascadeCalibrator
+from ..calibration.methods.learned import Calibrator
+from ..calibration.methods.set import CalibrationSet
+from ..calibration.methods.wideband import WidebandCalibrator
+from ..calibration.models.wideband_fit import BandModel
 from ..exceptions import InputError, recorded_calibration_warnings
-from ..model.cone import SQRT2, cone_vectors, delay_phase_rad, wrap_phase_rad
+from ..model.cone import SQRT2, cone_vectors, delay_phase_rad
 from ..validation import check_fitted, check_frequency, check_per_reading, check_powers
 from .fringes import FringePanel
 from .page import wideband_record
@@ -295,7 +295,7 @@ def _model_phase_rad(model: Calibrator, frequency_hz, temperature_k=None) -> np.
     chip temperature ``temperature_k`` (K) for a model that needs it."""
     if not _needs_temperature(model):
         return delay_phase_rad(frequency_hz, model.center_hz_, model.delay_s_)
-    from ..calibration.thermal_fit import thermal_phase_rad
+    from ..calibration.models.thermal_fit import thermal_phase_rad
 
     return thermal_phase_rad(
         frequency_hz,
@@ -310,17 +310,10 @@ def _model_phase_rad(model: Calibrator, frequency_hz, temperature_k=None) -> np.
 
 def _crlb_hz(learned: BaseCalibrator, readings: _Readings) -> np.ndarray:
     """Per-reading Cramer-Rao standard deviation (Hz) at the true frequency, under the
-    learned calibration's own model (:func:`crlb_per_reading_hz`; at each reading's chip
-    temperature for a calibration that needs it; a cascade's finest stage's, read with the
-    truth as its coarse frequency, so that a reading the cascade took a wrong order for is
-    bounded where it is)."""
-    if _is_cascade(learned):
-        stage, stage_readings, _ = _finest_stage(learned, readings)
-        return crlb_per_reading_hz(stage, stage_readings.powers_w, readings.frequency_hz)
-    if not _needs_temperature(learned):
-        return crlb_per_reading_hz(learned, readings.powers_w, readings.frequency_hz)
-    phase = wrap_phase_rad(_model_phase_rad(learned, readings.frequency_hz, readings.temperature_k))
-    return learned.crlb_hz(readings.powers_w, temperature_k=readings.temperature_k, phase_rad=phase)
+    learned calibration's own model (:func:`crlb_per_reading_hz`)."""
+    return crlb_per_reading_hz(
+        learned, readings.powers_w, readings.frequency_hz, readings.temperature_k
+    )
 
 
 def _window_rows(calibration: BaseCalibrator, frequency_hz: np.ndarray):

@@ -9,8 +9,8 @@ import numpy as np
 
 from ..analysis.metrics import error_summary_hz, frequency_error_hz
 from ..atomic import atomic_path, check_output
-from ..calibration.baselines import ConventionalCalibrator
-from ..calibration.learned import Calibrator
+from ..calibration.methods.baselines import ConventionalCalibrator
+from ..calibration.methods.learned import Calibrator
 from ..exceptions import InputError
 from ..io import write_table
 from ..model.cone import delay_phase_rad

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from ..atomic import STDOUT, atomic_path, check_output
-from ..calibration.base import BaseCalibrator
+from ..calibration.contract.base import BaseCalibrator
 from ..exceptions import InputError
 from .content import report_content
 from .page import INPUT_ROLES, figure_names, render_page

@@ -18,7 +18,7 @@ import html
 from collections.abc import Mapping
 from datetime import UTC, datetime
 
-from ..calibration.base import BaseCalibrator
+from ..calibration.contract.base import BaseCalibrator
 from ..units import SPEED_OF_LIGHT_M_S
 from .formatting import (
     PHASE_COEFFICIENT_NAMES,

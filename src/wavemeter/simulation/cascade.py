@@ -4,7 +4,7 @@ One source is split (power shares ``split``) into several stages, each an
 :class:`~wavemeter.simulation.interferometer.Interferometer`; a reading holds every stage's
 ports side by side. The coarsest stage's FSR exceeds the band, so its phase is unique
 there; each stage then picks the fringe order of the next (commercial multi-etalon meters
-work this way, see :class:`~wavemeter.calibration.cascade.CascadeCalibrator`).
+work this way, see :class:`~wavemeter.calibration.methods.cascade.CascadeCalibrator`).
 """
 
 from __future__ import annotations

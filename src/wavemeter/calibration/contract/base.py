@@ -1,0 +1,269 @@
+"""The estimator every calibrator is: settings, declarations, reading, description, files.
+
+:class:`BaseCalibrator` is small: its behaviour comes from mixins (settings from
+:mod:`~wavemeter.calibration.contract.params`, reading from
+:mod:`~wavemeter.calibration.contract.reading` and
+:mod:`~wavemeter.calibration.contract.streaming`). What a class adds is its declarations
+(``method``, ``requires``, ``capabilities``, ``reading_outputs``), its ``fit``, the
+methods it reads with (``_phase`` at least) and its learned state for files (``_state`` /
+``_set_state``). Consumers ask a calibration what it declares, never test its type:
+``parts()`` for the sub-calibrations of a composite, ``describe()`` for what it learned.
+Writing a calibrator of your own: see the user guide's plug-in page.
+"""
+
+from __future__ import annotations
+
+import types
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ...exceptions import InputError, WavemeterError
+from ...validation import check_fitted, check_positive
+from ..files.document import save_calibration, state_array
+from ..files.registry import register
+from .params import ParamsMixin
+from .reading import ReadingMixin
+from .records import READING_INPUTS
+from .streaming import StreamMixin
+from .summary import FitReport, FitValue
+
+__all__ = [
+    "BaseCalibrator",
+    "CAPABILITIES",
+    "MAX_MAP_CONDITION",
+    "Part",
+]
+
+#: largest condition number of a loaded map: beyond it the map has lost a dimension
+MAX_MAP_CONDITION = 1e10
+#: what a calibrator may offer besides predict/phase/flags/readout
+CAPABILITIES = (
+    "frequency_std",  # frequency_std_hz: the standard deviation of each reading
+    "crlb",  # crlb_hz: the Cramer-Rao bound of each reading
+    "power_monitor",  # fit takes a source-power monitor
+    "reanchor",  # reanchor: a corrected copy from readings of reference lines
+    "fit_chunks",  # fit_chunks: a sweep read in chunks, in bounded memory
+)
+
+
+@dataclass(frozen=True)
+class Part:
+    """One labelled sub-calibration of a composite (a set's window, a cascade's stage).
+
+    Attributes
+    ----------
+    label : str
+        How people read it (``"window 3 (193.40 to 193.45 THz)"``, ``"stage 2 (500 GHz)"``).
+    kind : {"window", "stage"}
+        What the composite is made of.
+    calibration : BaseCalibrator
+        The fitted sub-calibration.
+    """
+
+    label: str
+    kind: str
+    calibration: BaseCalibrator
+
+
+class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
+    """Common machinery of every calibrator; not used on its own (module docstring)."""
+
+    #: the tag in calibration files; a class with a tag of its own registers itself
+    method: ClassVar[str] = ""
+    #: per-reading inputs (names from READING_INPUTS) that predict/phase need
+    requires: ClassVar[frozenset[str]] = frozenset()
+    #: optional features (names from CAPABILITIES) the class provides
+    capabilities: ClassVar[frozenset[str]] = frozenset({"power_monitor"})
+    #: extra per-reading outputs (name -> unit) that ``readout`` and ``stream`` give
+    reading_outputs: ClassVar[Mapping[str, str]] = types.MappingProxyType({})
+    #: the method reads absolute frequency without a coarse input (a cascade of stages)
+    absolute_frequency: ClassVar[bool] = False
+    #: ports with a fringe the method needs among those it reads (the cone model: 3)
+    fringe_ports_needed: ClassVar[int] = 3
+    #: learned attributes common to every calibrator, saved by every calibration file
+    common_attributes: ClassVar[tuple[str, ...]] = (
+        "fsr_hz_",
+        "center_hz_",
+        "span_hz_",
+        "n_ports_",
+        "n_samples_",
+        "port_names_",
+        "calibration_rms_hz_",
+    )
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if "method" in cls.__dict__ and cls.method:
+            register(cls.method, cls)
+        declared = cls.__dict__.get("capabilities")
+        offered = set(declared) if isinstance(declared, frozenset) else set()
+        unknown = (set(cls.requires) - set(READING_INPUTS)) | (offered - set(CAPABILITIES))
+        if unknown:
+            raise WavemeterError(
+                f"{cls.__qualname__} declares unknown inputs or capabilities {unknown}"
+            )
+
+    def __init__(self, fsr_hz: float = 50e9):
+        self.fsr_hz = fsr_hz
+
+    @property
+    def method_label(self) -> str:
+        """The method as people read it (the file tag, or e.g. ``"learned per FSR"``)."""
+        return type(self).method
+
+    def __repr__(self) -> str:
+        text = self._settings_repr()
+        if hasattr(self, "fsr_hz_"):
+            text += (
+                f" fitted: FSR {self.fsr_hz_ / 1e9:.6g} GHz, {self.n_ports_} ports, "
+                f"{self.n_samples_} samples, RMS {self.calibration_rms_hz_ / 1e6:.3g} MHz"
+            )
+        return text
+
+    def _check_params(self) -> None:
+        check_positive("fsr_hz", self.fsr_hz)
+
+    # ------------------------------------------------------------------ fitting
+    def _start_fit(self, span_hz: tuple[float, float], names: list, samples: int, dark) -> None:
+        """The sweep's layout as the fitted attributes keep it; no offsets yet."""
+        low, high = span_hz
+        self.center_hz_ = 0.5 * (low + high)
+        self.span_hz_ = (low, high)
+        self.n_ports_ = len(names)
+        self.n_samples_ = samples
+        self.port_names_ = names
+        self.dark_w_ = dark
+        self.offset_w_ = np.zeros(len(names))
+
+    def _take_power_range(self, powers_w: np.ndarray) -> None:
+        """The sweep's total power range (W), offset-corrected as readings will be: the
+        range the ``POWER_RANGE`` flag compares readings with."""
+        total = (powers_w - self.offset_w_).sum(axis=1)
+        self.total_power_range_w_ = (float(total.min()), float(total.max()))
+
+    def reanchor(self, powers, frequency_hz, **inputs):
+        """A copy re-anchored to readings of reference lines, where ``"reanchor"`` is a
+        capability.
+
+        Raises
+        ------
+        InputError
+            For a class that cannot be re-anchored.
+        """
+        self._require_capability("reanchor", "cannot be re-anchored")
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ description
+    def parts(self) -> tuple[Part, ...]:
+        """The labelled sub-calibrations of a composite (a set's windows, a cascade's
+        stages), in order; empty for a single calibration."""
+        return ()
+
+    def summary(self) -> FitReport:
+        """The fit report: learned values with standard errors, settings, diagnostics.
+
+        Returns
+        -------
+        FitReport
+            ``report["fsr_hz"].value`` / ``.stderr`` (Hz), ``report.as_dict()``
+            (JSON-ready), ``str(report)`` (aligned text); one report per part.
+        """
+        check_fitted(self)
+        values = {
+            "fsr_hz": FitValue(self.fsr_hz_, self._fsr_std_hz(), "Hz"),
+            "design_fsr_hz": FitValue(self._design_fsr_hz(), None, "Hz"),
+            "center_hz": FitValue(self.center_hz_, None, "Hz"),
+            "calibration_rms_hz": FitValue(self.calibration_rms_hz_, None, "Hz"),
+            **self._summary_values(),
+        }
+        parts = self.parts()
+        return FitReport(
+            method=type(self).method,
+            method_label=self.method_label,
+            settings=self.get_params_for_file(),
+            values=values,
+            ports=tuple(self.port_names_),
+            samples=self.n_samples_,
+            span_hz=tuple(self.span_hz_),
+            diagnostics=self.diagnostics_,
+            windows=tuple(part.calibration.summary() for part in parts),
+            windows_are=f"{parts[0].kind}s" if parts else "windows",
+        )
+
+    describe = summary
+
+    def _fsr_std_hz(self) -> float | None:
+        """Standard error of the fitted FSR (Hz), where the method knows it."""
+        return None
+
+    def _design_fsr_hz(self) -> float:
+        """The design FSR (Hz) ``fsr_hz_`` is compared with in the summary."""
+        return float(self.fsr_hz)
+
+    def _summary_values(self) -> dict:
+        """Method-specific learned values for :meth:`summary` (name -> FitValue)."""
+        return {}
+
+    # ------------------------------------------------------------------ files
+    def save(self, path, metadata: dict | None = None) -> None:
+        """Write the calibration to a versioned JSON file (atomically)."""
+        save_calibration(self, path, metadata)
+
+    def _state(self) -> dict:
+        """Method-specific learned state as JSON-ready values."""
+        raise NotImplementedError
+
+    def _set_state(self, state: dict) -> None:
+        raise NotImplementedError
+
+    def _reading_model_state(self) -> dict:
+        """Dark readings, fitted offsets and the sweep's total power range, JSON-ready."""
+        power_range = self.total_power_range_w_
+        return {
+            "dark_w": None if self.dark_w_ is None else self.dark_w_.tolist(),
+            "offset_w": self.offset_w_.tolist(),
+            "total_power_range_w": None if power_range is None else list(power_range),
+        }
+
+    def _set_reading_model_state(self, state: dict) -> None:
+        """Restore :meth:`_reading_model_state`; missing fields (schema 1) mean none."""
+        ports = (self.n_ports_,)
+        self.dark_w_ = state_array(state, "dark_w", ports) if state.get("dark_w") else None
+        self.offset_w_ = (
+            state_array(state, "offset_w", ports) if "offset_w" in state else np.zeros(ports)
+        )
+        if state.get("total_power_range_w") is None:
+            self.total_power_range_w_ = None
+        else:
+            low, high = state_array(state, "total_power_range_w", (2,))
+            if not 0 < low <= high:
+                raise InputError(
+                    f"field 'total_power_range_w' must be 0 < low <= high (W), got {[low, high]}"
+                )
+            self.total_power_range_w_ = (float(low), float(high))
+
+    def _check_state(self) -> None:
+        """Check a loaded state against the model: a full-rank finite (n, 3) map (when the
+        method has one) and a delay that is ``1 / fsr_hz`` (when it has one)."""
+        matrix = vars(self).get("map_")
+        if matrix is not None:
+            if matrix.shape != (self.n_ports_, 3) or not np.all(np.isfinite(matrix)):
+                raise InputError(
+                    f"map must be {self.n_ports_} x 3 finite numbers, got shape {matrix.shape}"
+                )
+            singular = np.linalg.svd(matrix, compute_uv=False)
+            if not (singular[-1] > 0 and singular[0] / singular[-1] < MAX_MAP_CONDITION):
+                raise InputError(
+                    f"map must have full rank 3 (condition number below {MAX_MAP_CONDITION:g}), "
+                    f"got singular values {singular.tolist()}"
+                )
+        delay = vars(self).get("delay_s_")
+        if delay is not None and not (
+            np.isfinite(delay) and delay > 0 and abs(delay * self.fsr_hz_ - 1.0) < 1e-9
+        ):
+            raise InputError(
+                f"delay_s {delay!r} must be > 0 and equal 1 / fsr_hz ({1.0 / self.fsr_hz_!r} s)"
+            )

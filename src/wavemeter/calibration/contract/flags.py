@@ -1,0 +1,169 @@
+"""Per-reading quality flags: a bit mask that says when a reading cannot be trusted.
+
+Every calibrator's :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.flags` returns one
+integer per reading whose bits are :class:`ReadingFlag` members:
+
+``OFF_MODEL`` (1)
+    The reading's weighted distance to the calibrated cone, ``chi2 = sum_j r_j^2 / s_j^2``
+    (``r`` the residual of the maximum-likelihood fit of phase and power, ``s_j`` the
+    calibrated noise of port ``j``), is improbable: its p-value is below
+    ``OFF_MODEL_P_VALUE`` (1e-6). With the noise estimated on ``dof`` degrees of freedom,
+    ``chi2 / (n - 2)`` follows an F distribution with ``(n - 2, dof)`` degrees of freedom.
+    Only calibrators with a cone map (the learned ones) test it.
+``OUTSIDE_SPAN`` (2)
+    The frequency lies outside the calibrated span by more than 5 standard deviations,
+    for a calibration over less than one FSR (which extrapolates there); for a
+    calibration set, the coarse frequency lies outside the span its windows cover.
+``POWER_RANGE`` (4)
+    The reading's total power (the sum over ports, dark-corrected) lies outside the range
+    of the calibration sweep by more than a factor ``POWER_RANGE_FACTOR`` (2); or by more
+    than ``UNCHECKED_OFFSET_FACTOR`` (1.05) when the calibration could not learn the
+    detector offsets (no dark readings given, and no power monitor that varied, which lets
+    the learned calibrator fit them): at a constant source power an offset is absorbed
+    into the map, exactly, and costs accuracy only at other powers.
+``INVALID`` (8)
+    A value is NaN or infinite (a sentinel the reader turned into NaN), or there is no
+    light: the total power is below ``NO_LIGHT_FRACTION`` (1 %) of the sweep's smallest.
+``TEMPERATURE_RANGE`` (16)
+    For a thermally compensated calibration: the reading's chip temperature lies outside
+    the calibrated temperature range by more than ``TEMPERATURE_MARGIN_FRACTION`` (10 %) of
+    that range, or ``TEMPERATURE_MARGIN_STD`` (5) sensor standard deviations if more: the
+    linear thermal model is extrapolated there.
+``ORDER_AMBIGUOUS`` (32)
+    For a calibration that reads the fringe order from a coarse frequency (the wide-band
+    one): the frequency found lies more than a quarter of the local FSR from the coarse
+    value. A coarse value off by less than that is never flagged and always picks the right
+    order; one off by more is flagged until it is three quarters of an FSR off, beyond
+    which it picks a wrong order unseen (no reading of one interferometer can tell).
+    For a cascade of stages (which needs no coarse value): the probability that some
+    stage picked a wrong order, from the stages' uncertainties and each hand-over's
+    residual (:meth:`~wavemeter.calibration.methods.cascade.CascadeCalibrator.order_error_probability`),
+    exceeds the calibration's ``max_order_error`` (default 1e-6).
+
+The pure functions here decide each rule; the calibrators supply the numbers.
+"""
+
+from __future__ import annotations
+
+import enum
+
+import numpy as np
+from scipy import special
+
+__all__ = [
+    "ReadingFlag",
+    "OFF_MODEL_P_VALUE",
+    "POWER_RANGE_FACTOR",
+    "UNCHECKED_OFFSET_FACTOR",
+    "NO_LIGHT_FRACTION",
+    "SPAN_MARGIN_STD",
+    "TEMPERATURE_MARGIN_FRACTION",
+    "TEMPERATURE_MARGIN_STD",
+    "temperature_flags",
+    "off_model_threshold",
+    "power_flags",
+    "flag_counts",
+]
+
+OFF_MODEL_P_VALUE = 1e-6
+POWER_RANGE_FACTOR = 2.0
+UNCHECKED_OFFSET_FACTOR = 1.05
+NO_LIGHT_FRACTION = 0.01
+#: a reading's frequency must leave a partial span by this many standard deviations
+SPAN_MARGIN_STD = 5.0
+#: a reading's temperature must leave the calibrated range by this fraction of it ...
+TEMPERATURE_MARGIN_FRACTION = 0.1
+#: ... or by this many sensor standard deviations, whichever is more
+TEMPERATURE_MARGIN_STD = 5.0
+
+
+class ReadingFlag(enum.IntFlag):
+    """Bits of the per-reading quality mask (0: nothing to report)."""
+
+    OFF_MODEL = 1
+    OUTSIDE_SPAN = 2
+    POWER_RANGE = 4
+    INVALID = 8
+    TEMPERATURE_RANGE = 16
+    ORDER_AMBIGUOUS = 32
+
+
+def off_model_threshold(ports: int, noise_dof: float) -> float:
+    """Chi-square distance (unitless) above which a reading is ``OFF_MODEL``.
+
+    Parameters
+    ----------
+    ports : int
+        Number of ports ``n``; the fit of phase and power leaves ``n - 2`` degrees of freedom.
+    noise_dof : float
+        Degrees of freedom of the calibrated noise estimate (``inf`` for a known noise).
+
+    Returns
+    -------
+    float
+        ``(n - 2) F^-1(1 - OFF_MODEL_P_VALUE; n - 2, noise_dof)``.
+    """
+    free = ports - 2
+    return float(free * special.fdtri(free, noise_dof, 1.0 - OFF_MODEL_P_VALUE))
+
+
+def power_flags(total_w: np.ndarray, calibrated_range_w, offsets_known: bool) -> np.ndarray:
+    """``INVALID`` (no light) and ``POWER_RANGE`` bits from each reading's total power.
+
+    Parameters
+    ----------
+    total_w : ndarray, shape (N,)
+        Sum of the dark-corrected port readings (W); NaN for a reading with a NaN.
+    calibrated_range_w : None or (float, float)
+        Smallest and largest total power of the calibration sweep (W); None (a file of an
+        older version) skips both tests.
+    offsets_known : bool
+        The calibration measured (dark readings) or fitted the detector offsets; if not,
+        the margin is ``UNCHECKED_OFFSET_FACTOR`` instead of ``POWER_RANGE_FACTOR``.
+
+    Returns
+    -------
+    ndarray of int, shape (N,)
+    """
+    flags = np.zeros(total_w.shape, dtype=np.int64)
+    if calibrated_range_w is None:
+        return flags
+    low, high = calibrated_range_w
+    factor = POWER_RANGE_FACTOR if offsets_known else UNCHECKED_OFFSET_FACTOR
+    with np.errstate(invalid="ignore"):
+        dark = total_w < NO_LIGHT_FRACTION * low
+        outside = (total_w < low / factor) | (total_w > high * factor)
+    flags[dark] |= ReadingFlag.INVALID
+    flags[outside] |= ReadingFlag.POWER_RANGE
+    return flags
+
+
+def flag_counts(flags) -> dict[str, int]:
+    """Readings with each bit set, by bit name (bits no reading has are left out)."""
+    mask = np.asarray(flags, dtype=np.int64)
+    counts = {bit.name: int(np.count_nonzero(mask & bit)) for bit in ReadingFlag}
+    return {name: count for name, count in counts.items() if count}
+
+
+def temperature_flags(
+    temperature_k: np.ndarray, range_k: tuple[float, float], sensor_std_k: float
+) -> np.ndarray:
+    """``TEMPERATURE_RANGE`` bits of readings at chip temperatures ``temperature_k`` (K).
+
+    Parameters
+    ----------
+    temperature_k : ndarray, shape (N,)
+        Chip temperature of each reading (K).
+    range_k : (float, float)
+        Lowest and highest calibration temperature (K).
+    sensor_std_k : float
+        Standard deviation of the temperature sensor (K).
+
+    Returns
+    -------
+    ndarray of int64, shape (N,)
+    """
+    low, high = range_k
+    margin = max(TEMPERATURE_MARGIN_FRACTION * (high - low), TEMPERATURE_MARGIN_STD * sensor_std_k)
+    outside = (temperature_k < low - margin) | (temperature_k > high + margin)
+    return np.where(outside, np.int64(ReadingFlag.TEMPERATURE_RANGE), np.int64(0))

@@ -1,0 +1,291 @@
+"""Fit reports: what a fitted calibrator learned, with standard errors where known.
+
+:meth:`wavemeter.calibration.contract.base.BaseCalibrator.summary` returns a :class:`FitReport`,
+in the spirit of lmfit's fit report: the values with their standard errors and units,
+the settings, the sweep it was fitted on and the diagnostics (the sweep's own FSR, every
+port's fringe, warnings). ``report.as_dict()`` is JSON-ready, ``str(report)`` (or
+``report.text``) the aligned text the command line prints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ...units import SPEED_OF_LIGHT_M_S
+from ..models.delay_search import frequency_text
+
+__all__ = ["FitReport", "FitValue", "LABEL_WIDTH"]
+
+#: width of the label column of the text report
+LABEL_WIDTH = 17
+
+
+@dataclass(frozen=True)
+class FitValue:
+    """One learned value with its standard error (None when the method gives none).
+
+    Attributes
+    ----------
+    value : float
+    stderr : float or None
+    unit : str
+        SI unit of ``value`` and ``stderr`` (empty for pure numbers).
+    """
+
+    value: float
+    stderr: float | None = None
+    unit: str = ""
+
+    def to_dict(self) -> dict:
+        return {"value": self.value, "stderr": self.stderr, "unit": self.unit}
+
+
+def _line(label: str, text: str) -> str:
+    return f"{label:<{LABEL_WIDTH - 1}} {text}"
+
+
+def _thermal_lines(values: dict, diagnostics: dict) -> list[str]:
+    """The thermal rates, the reference temperature and the calibrated range (popped from
+    ``values``); none for a calibration that does not follow temperature."""
+    rate = values.pop("thermal_phase_rad_per_k", None)
+    if rate is None:
+        return []
+    shift = values.pop("fringe_shift_hz_per_k")
+    delay_rate = values.pop("thermal_delay_per_k")
+    reference = values.pop("reference_temperature_k")
+    thermal = diagnostics.get("thermal", {})
+    low, high = thermal.get("temperature_range_k", (reference.value, reference.value))
+    clusters = ", ".join(f"{value:.4g}" for value in thermal.get("temperatures_k", ()))
+    unambiguous = thermal.get("unambiguous_phase_rate_rad_per_k")
+    resolved = (
+        "continuous temperatures: no alias"
+        if unambiguous is None
+        else f"bias rate unambiguous within +-{unambiguous:.3g} rad/K"
+    )
+    return [
+        _line(
+            "bias rate",
+            f"{rate.value:.6g} +- {rate.stderr:.3g} rad/K (fringes move "
+            f"{frequency_text(shift.value)}/K +- {frequency_text(shift.stderr, 3)}/K)",
+        ),
+        _line("delay rate", f"{delay_rate.value:.4g} +- {delay_rate.stderr:.3g} 1/K"),
+        _line(
+            "temperature",
+            f"reference {reference.value:.6g} K, calibrated {low:.6g} to {high:.6g} K "
+            f"(clusters at {clusters} K; {resolved})",
+        ),
+    ]
+
+
+def _samples_text(samples: int, diagnostics: dict) -> str:
+    """The calibration readings, and how many the checks saw when fewer (a long sweep's
+    checks run on every k-th reading)."""
+    diagnosed = diagnostics.get("diagnostic_samples")
+    if isinstance(diagnosed, int) and diagnosed < samples:
+        return f"{samples} (checks and diagnostics on {diagnosed}, every k-th reading)"
+    return str(samples)
+
+
+def _frequency_with_error(value: FitValue) -> str:
+    text = f"{value.value / 1e9:.6f} GHz"
+    if value.stderr is not None:
+        text += f" +- {frequency_text(value.stderr, 3)}"
+    return text
+
+
+def _settings_text(settings: dict) -> str:
+    return ", ".join(f"{name}={value!r}" for name, value in settings.items())
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _number(value) -> str:
+    return f"{value:.3g}" if _is_number(value) else "?"
+
+
+def _per_port(fit: dict, key: str, count: int) -> list:
+    values = fit.get(key)
+    if isinstance(values, list) and len(values) == count:
+        return values
+    return [None] * count
+
+
+def _fit_lines(fit, ports) -> list[str]:
+    """Lines for the fit diagnostics (:mod:`wavemeter.calibration.checks.misfit`): each port's
+    residual against its model-free noise, the map's conditioning, fitted offsets."""
+    if not isinstance(fit, dict) or not fit:
+        return []
+    names = [port.get("name") if isinstance(port, dict) else "?" for port in ports or []]
+    count = len(names)
+    residual = _per_port(fit, "residual_rms_w", count)
+    ratio = _per_port(fit, "noise_ratio", count)
+    lag = _per_port(fit, "lag1_autocorrelation", count)
+    lines = [
+        _line(
+            f"fit {name}",
+            f"residual {_number(rms)} W, {_number(factor)}x the noise, lag-1 autocorrelation "
+            f"{_number(correlation)}",
+        )
+        for name, rms, factor, correlation in zip(names, residual, ratio, lag, strict=True)
+    ]
+    method, dof = fit.get("noise_method"), fit.get("noise_dof")
+    if isinstance(method, str):
+        lines.append(_line("noise from", f"{method} ({_number(dof)} degrees of freedom)"))
+    if _is_number(fit.get("condition_number")):
+        ratio_text = fit.get("pinv_variance_ratio")
+        extra = (
+            f" (pseudo-inverse phase variance {ratio_text:.3g}x the Cramer-Rao bound's)"
+            if _is_number(ratio_text)
+            else ""
+        )
+        lines.append(_line("map", f"condition number {fit['condition_number']:.3g}{extra}"))
+    offsets = fit.get("offset_w")
+    if isinstance(offsets, list) and offsets:
+        text = ", ".join(f"{_number(value)} W" for value in offsets)
+        lines.append(_line("offsets", f"{text} (fitted, subtracted)"))
+    return lines
+
+
+def _diagnostics_lines(diagnostics: dict) -> list[str]:
+    """Lines for a diagnostics record; tolerant of records read from older or foreign files."""
+    lines = []
+    estimate = diagnostics.get("fsr_estimate_hz")
+    if _is_number(estimate):
+        lines.append(_line("sweep FSR", f"{frequency_text(estimate)} (the fringes' own period)"))
+    ports = diagnostics.get("ports")
+    for port in ports if isinstance(ports, list) else []:
+        if not isinstance(port, dict):
+            continue
+        z = port.get("fringe_z")
+        z_text = f"{_number(z)} standard errors" if _is_number(z) else "noiseless"
+        lines.append(
+            _line(
+                f"port {port.get('name')}",
+                f"{port.get('status')}: fringe {_number(port.get('fringe_amplitude_w'))} W "
+                f"({z_text}), noise {_number(port.get('noise_std_w'))} W",
+            )
+        )
+    lines += _fit_lines(diagnostics.get("fit"), ports)
+    notes = diagnostics.get("warnings")
+    for note in notes if isinstance(notes, list) else []:
+        if isinstance(note, dict):
+            lines.append(_line("warning", f"{note.get('cause')}: {note.get('message')}"))
+    return lines
+
+
+@dataclass(frozen=True)
+class FitReport:
+    """What a fitted calibrator learned (see :meth:`BaseCalibrator.summary`).
+
+    Attributes
+    ----------
+    method : str
+        File tag of the class.
+    method_label : str
+        The method as people read it (e.g. ``"learned per FSR"``).
+    settings : dict
+        Settings given to ``__init__``, JSON-ready (retrieval, bracket, window, ...).
+    values : dict of str to FitValue
+        Learned values by name: ``fsr_hz``, ``design_fsr_hz``, ``center_hz``,
+        ``calibration_rms_hz`` for every method; ``noise_std_w``, ``delay_s`` and others
+        where the method has them.
+    ports : tuple of str
+        Port names.
+    samples : int
+        Calibration readings.
+    span_hz : (float, float)
+        Lowest and highest calibration frequency (Hz).
+    diagnostics : dict
+        The calibrator's ``diagnostics_`` (sweep FSR estimate, port health, warnings).
+    windows : tuple of FitReport
+        One report per window of a calibration set (per stage of a cascade); empty
+        otherwise.
+    windows_are : {"windows", "stages"}
+        What ``windows`` holds: a set's windows (numbered from 0) or a cascade's stages
+        (numbered from 1, coarsest first).
+    """
+
+    method: str
+    method_label: str
+    settings: dict
+    values: dict
+    ports: tuple
+    samples: int
+    span_hz: tuple
+    diagnostics: dict = field(default_factory=dict)
+    windows: tuple = ()
+    windows_are: str = "windows"
+
+    def __getitem__(self, name: str) -> FitValue:
+        return self.values[name]
+
+    def as_dict(self) -> dict:
+        """JSON-ready form."""
+        return {
+            "method": self.method,
+            "method_label": self.method_label,
+            "settings": self.settings,
+            "values": {name: value.to_dict() for name, value in self.values.items()},
+            "ports": list(self.ports),
+            "samples": self.samples,
+            "span_hz": list(self.span_hz),
+            "diagnostics": self.diagnostics,
+            "windows": [window.as_dict() for window in self.windows],
+            "windows_are": self.windows_are,
+        }
+
+    @property
+    def text(self) -> str:
+        """Aligned text: one quantity per line, label column ``LABEL_WIDTH`` wide."""
+        values = dict(self.values)
+        fsr, design = values.pop("fsr_hz"), values.pop("design_fsr_hz")
+        center = values.pop("center_hz").value
+        rms = values.pop("calibration_rms_hz").value
+        low, high = self.span_hz
+        lines = [
+            _line("method", self.method_label),
+            _line("settings", _settings_text(self.settings)),
+            _line("FSR", f"{_frequency_with_error(fsr)} (design {design.value / 1e9:g} GHz)"),
+            _line(
+                "centre", f"{center / 1e12:.6f} THz ({SPEED_OF_LIGHT_M_S / center * 1e9:.4f} nm)"
+            ),
+            _line(
+                "span",
+                f"{low / 1e12:.6f} to {high / 1e12:.6f} THz ({(high - low) / 1e9:.4f} GHz, "
+                f"{(high - low) / fsr.value:.3g} FSR)",
+            ),
+            _line("ports", f"{len(self.ports)}: {', '.join(self.ports)}"),
+            _line("samples", _samples_text(self.samples, self.diagnostics or {})),
+            _line("calibration RMS", f"{rms / 1e6:.4f} MHz"),
+        ]
+        noise = values.pop("noise_std_w", None)
+        if noise is not None:
+            lines.append(_line("noise estimate", f"{noise.value:.4g} W (calibration residual)"))
+        delay = values.pop("delay_s", None)
+        if delay is not None:
+            error = "" if delay.stderr is None else f" +- {delay.stderr * 1e12:.3g} ps"
+            lines.append(_line("delay", f"{delay.value * 1e12:.6f} ps{error}"))
+        lines += _thermal_lines(values, self.diagnostics or {})
+        for name, value in values.items():
+            error = "" if value.stderr is None else f" +- {value.stderr:.3g}"
+            lines.append(_line(name, f"{value.value:.6g}{error} {value.unit}".rstrip()))
+        if self.windows:
+            lines.append(_line(self.windows_are, "centre THz      FSR GHz   samples   RMS MHz"))
+            first = 1 if self.windows_are == "stages" else 0
+            for index, window in enumerate(self.windows, start=first):
+                lines.append(
+                    f"  {index:<14} {window['center_hz'].value / 1e12:>10.6f} "
+                    f"{window['fsr_hz'].value / 1e9:>12.6f} {window.samples:>9} "
+                    f"{window['calibration_rms_hz'].value / 1e6:>9.4f}"
+                )
+        lines += _diagnostics_lines(self.diagnostics)
+        if not self.diagnostics:
+            lines.append(_line("diagnostics", "none recorded (a file of wavemeter 0.1)"))
+        elif not self.diagnostics.get("warnings"):
+            lines.append(_line("warnings", "none"))
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.text

@@ -1,0 +1,72 @@
+"""Todd's conventional method: project the readings with the ideal orthonormal map.
+
+``x_hat = O.T @ p`` with ``O`` built from the nominal port phases (Eq. 15-16), phase
+``psi = atan2(x_hat_2, x_hat_1)``. The calibration sweep fixes only what the ideal design
+cannot know: the phase origin, the direction (sign) and the FSR, all from the phase-locking
+of ``psi`` to the known frequencies (:func:`wavemeter.baselines._labels.lock_phase`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ....exceptions import InputError
+from ....model.couplers import equally_spaced_phases_rad, orthonormal_map
+from ...files.document import state_array
+from ._labels import LabelLockedCalibrator, phase_locking
+
+__all__ = ["ConventionalCalibrator", "phase_locking"]
+
+
+class ConventionalCalibrator(LabelLockedCalibrator):
+    """Conventional (Todd et al.) phase retrieval with the ideal orthonormal map.
+
+    Parameters
+    ----------
+    fsr_hz : float
+        Design FSR (Hz); the sweep refines it within +-20 %.
+    port_phases_rad : None or array_like, shape (n,)
+        Nominal fringe phase of each port (rad). Default: equally spaced in port order,
+        ``2 pi j / n``.
+
+    Attributes
+    ----------
+    map_ : ndarray, shape (n, 3)
+        The ideal orthonormal map ``O`` used for projection.
+    direction_ : int
+        +1 or -1: the sign relating the ideal phase to increasing frequency.
+    phase_origin_rad_ : float
+        Ideal-map phase at ``center_hz_`` (rad).
+    fsr_hz_, center_hz_, span_hz_, calibration_rms_hz_ : see :class:`wavemeter.Calibrator`.
+    """
+
+    method = "conventional"
+
+    def __init__(self, fsr_hz: float = 50e9, port_phases_rad=None):
+        self.fsr_hz = fsr_hz
+        self.port_phases_rad = port_phases_rad
+
+    def _learn(self, sweep):
+        powers, frequency_hz = sweep.powers_w, sweep.frequency_hz
+        n = powers.shape[1]
+        if self.port_phases_rad is None:
+            phases = equally_spaced_phases_rad(n)
+        else:
+            phases = np.asarray(self.port_phases_rad, dtype=float)
+            if phases.shape != (n,):
+                raise InputError(
+                    f"port_phases_rad must have one phase per port ({n}), got shape {phases.shape}"
+                )
+        self.map_ = orthonormal_map(phases)
+        self._lock_to_labels(powers, frequency_hz)
+
+    def _raw_phase(self, powers):
+        objects = powers @ self.map_
+        return np.arctan2(objects[:, 1], objects[:, 0])
+
+    def _state(self) -> dict:
+        return {"map": self.map_.tolist(), **self._lock_state()}
+
+    def _set_state(self, state: dict) -> None:
+        self.map_ = state_array(state, "map", (self.n_ports_, 3))
+        self._set_lock_state(state)

@@ -1,0 +1,582 @@
+"""The learned calibration of the paper (Section II.C): closed-form map, 1-D delay search.
+
+:class:`Calibrator` fits the map ``A`` in closed form for each trial delay and searches
+only the delay (:mod:`~wavemeter.calibration.models.learned_fit`); it reads with the
+pseudo-inverse and an arctangent, or the cone maximum likelihood
+(:mod:`~wavemeter.calibration.methods.learned_reading`). Beyond the paper it subtracts
+dark readings or fits per-port offsets, estimates each port's noise, states every
+reading's uncertainty with the calibration's own, and fits a sweep too long for memory on
+its binned moments with the checks on every k-th reading. Theory: the docs' theory pages
+(the learned method, uncertainty per reading, large sweeps).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ...blas import one_blas_thread
+from ...exceptions import InputError
+from ...model.cone import wrap_to_period
+from ...model.uncertainty import fit_parameter_covariance
+from ...validation import MIN_SAMPLES, check_choice, check_fitted, check_positive
+from ..checks.misfit import MisfitReport, misfit_report
+from ..contract.base import BaseCalibrator
+from ..contract.records import ReadingInputs
+from ..contract.summary import FitValue
+from ..files.document import state_array, state_float
+from ..fitting.steps import (
+    SweepFitMixin,
+    check_ports,
+    diagnostics_record,
+    fits_offsets,
+    guard_design_fsr,
+    issue,
+    rms,
+)
+from ..fitting.sweep import FitContext, Sweep, checked_port_names, value_range
+from ..models.delay_search import SEARCH_METHODS
+from ..models.learned_fit import (
+    AFFINE_MIN_POWER_SPREAD,
+    MAX_MOMENT_BYTES,
+    RETRIEVALS,
+    LearnedFit,
+    fit_learned_map,
+    gram_objects,
+    moment_fit,
+    port_noise_from_squares,
+    port_noise_std_w,
+    relative_map,
+)
+from ..models.linear_map import object_delay_derivative, object_vectors
+from ..models.moments import BLOCK_ROWS, FringeMoments, largest_search_delay_s
+from ..models.reanchor import check_reference_readings, fit_reanchor, reanchored_copy
+from ..models.subsample import DIAGNOSTIC_SAMPLES, CheckedChunks, SweepSample
+from .learned_reading import LearnedReadingMixin
+
+__all__ = ["Calibrator", "LearnedContext"]
+
+
+@dataclass(eq=False)
+class LearnedContext(FitContext):
+    """The learned fit's state: besides the common one, for a fit on the binned moments of
+    a long sweep, rows whose products equal those of every reading's objects
+    (:func:`~wavemeter.calibration.models.learned_fit.gram_objects`); None when the sweep
+    in ``sweep`` is every reading."""
+
+    gram: tuple | None = None
+
+
+class Calibrator(LearnedReadingMixin, SweepFitMixin, BaseCalibrator):
+    """Learned linear-map calibration of an n-port interferometric wavelength meter.
+
+    Parameters
+    ----------
+    fsr_hz : float
+        Design free spectral range (Hz); the delay search brackets it.
+    fsr_tolerance : float
+        Relative half width of the FSR bracket, in (0, 1). Default 0.2 (+-20 %).
+    search : {"golden", "brent"}
+        Refinement of the delay after the scan: golden-section (paper) or bounded Brent.
+    xtol : float
+        Relative tolerance on the delay.
+    retrieval : {"pinv", "ml"}
+        Phase retrieval: the paper's pseudo-inverse and arctangent, or the cone-constrained
+        maximum-likelihood phase weighted by each port's noise
+        (:mod:`wavemeter.model.retrieval`, the exact global optimum), which reaches the
+        Cramer-Rao bound also for ill-conditioned maps and unequal port noise.
+
+    Attributes
+    ----------
+    map_ : ndarray, shape (n, 3)
+        Learned map ``A`` (W): readings at the calibration's source power (or, with a
+        monitor, per unit of the mean monitor reading) are ``A @ [cos t, sin t, sqrt 2]``.
+    map_pinv_ : ndarray, shape (3, n)
+        Moore-Penrose inverse of ``map_``.
+    delay_s_ : float
+        Fitted delay imbalance ``tau`` (s).
+    delay_std_s_ : float or None
+        Standard error of ``delay_s_`` (s); None when loaded from a file of version 0.1.
+        The FSR's is ``fsr_hz_**2 * delay_std_s_`` (``summary()["fsr_hz"].stderr``).
+    fsr_hz_ : float
+        Calibrated FSR ``1 / tau`` (Hz).
+    center_hz_ : float
+        Phase origin (Hz): the middle of the calibration sweep.
+    span_hz_ : (float, float)
+        Lowest and highest calibration frequency (Hz).
+    residual_rms_ : float
+        RMS of the fit residual over all readings (W).
+    noise_std_w_ : float
+        Detector noise estimate (W): residual corrected for the ``3 n + 1`` fitted values
+        (``4 n + 1`` with offsets), pooled over the ports.
+    port_noise_std_w_ : ndarray, shape (n,)
+        Noise per port (W) used for weights and uncertainties: each port's own residual
+        with at least ``PER_PORT_MIN_DOF`` degrees of freedom, else the pooled one; where
+        the fit diagnostics find a misfit, their model-free estimate.
+    noise_dof_ : float
+        Degrees of freedom of ``port_noise_std_w_``.
+    offset_w_ : ndarray, shape (n,)
+        Fitted per-port offsets (W), subtracted from every reading; zeros unless fitted.
+    parameter_covariance_ : ndarray, shape (n k + 1, n k + 1)
+        Covariance of the fitted map (row-major, ``k`` = 3 or 4 with offsets) and delay.
+    cost_ : float
+        ``J`` at the fitted delay (W^2).
+    delay_search_ : DelaySearchResult
+        Scan and refinement of ``J(tau)`` (not saved to file).
+    calibration_rms_hz_ : float
+        RMS frequency error on the calibration sweep itself (Hz).
+    diagnostics_ : dict
+        The sweep's own FSR estimate, every port's fringe amplitude and significance, the
+        fit diagnostics (:mod:`wavemeter.calibration.checks.misfit`), the readings they saw
+        (``"diagnostic_samples"``) and the warnings the fit emitted (saved to file).
+
+    Notes
+    -----
+    A sweep of more than ``diagnostic_samples`` readings (2^17), or one read in chunks
+    (:meth:`fit_chunks`), is fitted on the binned moments of every reading: delay, map,
+    ``cost_``, the noise, ``parameter_covariance_`` and ``delay_std_s_`` describe the fit
+    on every reading (equal to those of the direct fit to ~1e-9, the cancellation of ``J``
+    from sums). The check of the design FSR, the port health, the misfit report and
+    ``calibration_rms_hz_`` are made on every k-th reading at that fit
+    (:mod:`wavemeter.calibration.models.subsample`).
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(2001)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> round(cal.fsr_hz_ / 1e9, 2)
+    50.79
+    """
+
+    method = "learned"
+    capabilities = frozenset({"frequency_std", "crlb", "power_monitor", "reanchor", "fit_chunks"})
+    #: nonlinear parameters after the map in ``parameter_covariance_`` (the delay)
+    nonlinear_parameters: ClassVar[int] = 1
+    #: most readings the checks and diagnostics see (:mod:`~wavemeter.calibration.models.subsample`)
+    diagnostic_samples: ClassVar[int] = DIAGNOSTIC_SAMPLES
+
+    def __init__(
+        self,
+        fsr_hz: float = 50e9,
+        fsr_tolerance: float = 0.2,
+        search: str = "golden",
+        xtol: float = 1e-12,
+        retrieval: str = "pinv",
+    ):
+        self.fsr_hz = fsr_hz
+        self.fsr_tolerance = fsr_tolerance
+        self.search = search
+        self.xtol = xtol
+        self.retrieval = retrieval
+
+    def _check_params(self) -> None:
+        super()._check_params()
+        check_positive("fsr_tolerance", self.fsr_tolerance, upper=1.0)
+        check_choice("search", self.search, SEARCH_METHODS)
+        check_positive("xtol", self.xtol, upper=1.0)
+        check_choice("retrieval", self.retrieval, RETRIEVALS)
+
+    def _fsr_tolerance(self) -> float:
+        return self.fsr_tolerance
+
+    # ------------------------------------------------------------------ fitting
+    def _fit_sweep(self, sweep: Sweep) -> list:
+        """Every reading fitted and checked up to ``diagnostic_samples`` of them; beyond,
+        the fit on the moments of every reading and the checks on every k-th."""
+        if sweep.samples > self.diagnostic_samples and self.plain_delay_phase:
+            return self._fit_on_moments(sweep)
+        return self._fit_every_reading(sweep)
+
+    def _fit_every_reading(self, sweep: Sweep) -> list:
+        """The steps on every reading: check, learn, judge; the warnings, not yet issued."""
+        ctx = LearnedContext(sweep)
+        guard_design_fsr(ctx, self.fsr_hz, self.fsr_tolerance)
+        self._start_fit(sweep.span_hz, sweep.port_names, sweep.samples, sweep.dark_w)
+        check_ports(ctx, self.center_hz_, range(sweep.ports), self.fringe_ports_needed)
+        ctx.affine = fits_offsets(sweep)
+        fit = fit_learned_map(
+            sweep.powers_w,
+            sweep.frequency_hz,
+            self.center_hz_,
+            fsr_hz=self.fsr_hz,
+            fsr_tolerance=self.fsr_tolerance,
+            scale=sweep.scale,
+            search=self.search,
+            xtol=self.xtol,
+            affine=ctx.affine,
+        )
+        objects = object_vectors(
+            sweep.frequency_hz, self.center_hz_, fit.delay_s, sweep.scale, ctx.affine
+        )
+        noise, self.noise_dof_ = port_noise_std_w(
+            sweep.powers_w - objects @ fit.map_.T, fit.map_.shape[1]
+        )
+        self._take_fit(fit, fit.map_, noise, float(np.abs(sweep.powers_w).max()))
+        self._set_covariance(ctx)
+        self._take_power_range(sweep.powers_w)
+        return self._judged(ctx)
+
+    def _take_fit(self, fit: LearnedFit, matrix: np.ndarray, noise, largest_w: float) -> None:
+        """The fitted values: the map (n, k) for the relative monitor, the per-port noise (W)
+        floored at the rounding of the largest reading ``largest_w`` (W)."""
+        ports = matrix.shape[0]
+        self.delay_search_ = fit.search
+        # noiseless (simulated) sweeps: keep weights finite at the readings' rounding level
+        noise = np.maximum(noise, np.finfo(float).eps * largest_w)
+        self.delay_s_ = fit.delay_s
+        self.delay_std_s_ = fit.delay_std_s
+        self.fsr_hz_ = 1.0 / fit.delay_s
+        self.cost_ = fit.cost
+        self.residual_rms_ = float(np.sqrt(fit.cost / ports))
+        self.noise_std_w_ = fit.noise_std_w
+        self.port_noise_std_w_ = noise
+        self.offset_w_ = matrix[:, 3].copy() if matrix.shape[1] == 4 else np.zeros(ports)
+        self._set_map(matrix[:, :3])
+
+    def _judged(self, ctx: LearnedContext) -> list:
+        """The fit judged on the readings in ``ctx``: the RMS error on them, the misfit
+        report (its model-free noise taken where it finds a misfit), ``diagnostics_``;
+        every warning, in order."""
+        sweep = ctx.sweep
+        readings = sweep.powers_w - self.offset_w_
+        inputs = ReadingInputs(temperature_k=sweep.temperature_k)
+        error = wrap_to_period(
+            self._frequency_hz(readings, inputs) - sweep.frequency_hz, self.fsr_hz_
+        )
+        self.calibration_rms_hz_ = rms(error)
+        misfit = self._misfit_report(ctx)
+        noise = misfit.misfit_noise()
+        if noise is not None:  # weight and state uncertainties with the model-free noise
+            self.port_noise_std_w_, self.noise_dof_ = noise
+            self._set_covariance(ctx)
+        self.diagnostics_, notes = diagnostics_record(
+            ctx, misfit, method=self._method_record(ctx), notes=self._fit_notes(ctx)
+        )
+        return notes
+
+    def _method_record(self, ctx: LearnedContext) -> dict:
+        """Method-specific entries of ``diagnostics_`` (none here)."""
+        return {}
+
+    def _fit_notes(self, ctx: LearnedContext) -> list:
+        """Method-specific warnings of the fit (none here)."""
+        return []
+
+    # ------------------------------------------------------------------ the model on the sweep
+    def _set_covariance(self, ctx: LearnedContext) -> None:
+        """Covariance of map (and offsets) and the nonlinear parameters at the current
+        per-port noise (the paper's fit is unweighted: the sandwich covariance holds for
+        unequal noise)."""
+        matrix = np.column_stack([self.map_, self.offset_w_]) if ctx.affine else self.map_
+        objects, derivatives = self._sweep_objects(ctx)
+        self.parameter_covariance_ = fit_parameter_covariance(
+            objects,
+            derivatives,
+            matrix,
+            self.port_noise_std_w_,
+            weighted=False,
+            noise_directions_w=self._sweep_noise_directions_w(ctx),
+        )
+
+    def _sweep_objects(self, ctx: LearnedContext) -> tuple[np.ndarray, np.ndarray]:
+        """The sweep's object vectors (N, k) and their derivatives (q, N, k) by the
+        nonlinear parameters (here the delay alone); for a fit on the moments, rows with
+        their products."""
+        if ctx.gram is not None:
+            objects, derivative = ctx.gram
+            return objects, derivative[None]
+        sweep = ctx.sweep
+        args = (sweep.frequency_hz, self.center_hz_, self.delay_s_, sweep.scale, ctx.affine)
+        return object_vectors(*args), object_delay_derivative(*args)[None]
+
+    def _misfit_report(self, ctx: LearnedContext) -> MisfitReport:
+        """The sweep against this calibration's cone map (:mod:`~..checks.misfit`)."""
+        sweep = ctx.sweep
+        offsets = offset_std = None
+        if ctx.affine:
+            offsets = self.offset_w_
+            variances = np.diag(self.parameter_covariance_)[: 4 * self.n_ports_]
+            offset_std = np.sqrt(variances.reshape(self.n_ports_, 4)[:, 3])
+        return misfit_report(
+            sweep.powers_w,
+            sweep.frequency_hz,
+            self.center_hz_,
+            self.delay_s_,
+            self.map_,
+            scale=sweep.scale,
+            offset_w=offsets,
+            offset_std_w=offset_std,
+            dark_given=self.dark_w_ is not None,
+            weighted_retrieval=self.retrieval == "ml",
+            phase_rad=self._sweep_model_phase_rad(ctx),
+            phase_noise_std_rad=self._sweep_phase_noise_rad(ctx),
+        )
+
+    def _sweep_model_phase_rad(self, ctx: LearnedContext) -> np.ndarray | None:
+        """The model phase of each sweep reading when it is not ``2 pi (f - f0) tau``
+        (None: it is)."""
+        return None
+
+    def _sweep_phase_noise_rad(self, ctx: LearnedContext) -> np.ndarray | None:
+        """Phase scatter (rad) the model expects of each sweep reading besides the
+        detector noise (None: none)."""
+        return None
+
+    def _sweep_noise_directions_w(self, ctx: LearnedContext) -> np.ndarray | None:
+        """That scatter as noise of each sweep reading along one direction (N, n), W
+        (None: none); see :func:`~wavemeter.model.uncertainty.fit_parameter_covariance`."""
+        return None
+
+    # ------------------------------------------------------------------ large sweeps
+    def fit_chunks(self, chunks, port_names=None, *, dark_w=None):
+        """Learn the calibration from a sweep read in chunks, in memory bounded by the chunk.
+
+        One pass: every chunk is checked, binned into the sweep's moments and sampled
+        (every k-th reading), then dropped. A sweep of up to ``diagnostic_samples``
+        readings is then fitted as :meth:`fit` fits it (the sample holds every reading: the
+        same numbers, bit for bit); a longer one is fitted on the moments and diagnosed on
+        the sample, as :meth:`fit` does with a long sweep given whole (the same numbers to
+        rounding; see the class notes).
+
+        Parameters
+        ----------
+        chunks : iterable of (frequency_hz, powers, power_monitor_w)
+            In sweep order: ``frequency_hz`` (m,) Hz, ``powers`` (m, n) port readings (W or
+            any unit linear in power), ``power_monitor_w`` (m,) or None, the same ``n`` and
+            either always or never a monitor; any sizes, empty ones too.
+        port_names : None or sequence of str, length n
+            Names of the port columns, kept in the calibration file.
+        dark_w : None or array_like, shape (n,)
+            Per-port dark readings (W), subtracted from every reading, in fit and predict.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        InputError
+            As :meth:`fit`; a chunk's message names it and its first reading (zero-based).
+            When the sweep spans so many fringes that its moments would take more than
+            ``MAX_MOMENT_BYTES`` (the design FSR is then checked first), or for a class
+            without the ``"fit_chunks"`` capability.
+        EdgeMinimumError
+            As :meth:`fit`.
+
+        Warns
+        -----
+        CalibrationWarning
+            As :meth:`fit`.
+        """
+        self._check_params()
+        if "fit_chunks" not in self.capabilities:
+            raise InputError(
+                f"{type(self).__name__} fits every reading of its sweep at once (no "
+                "'fit_chunks' in its capabilities): give the whole sweep to fit, not chunks "
+                "to fit_chunks"
+            )
+        checked = CheckedChunks(chunks, dark_w)
+        with one_blas_thread():
+            moments, sample = self._accumulate(checked)
+            if sample.samples < MIN_SAMPLES:
+                raise InputError(f"need at least {MIN_SAMPLES} samples, got {sample.samples}")
+            names = checked_port_names(port_names, sample.powers_w.shape[1])
+            sweep = Sweep(
+                sample.powers_w, sample.frequency_hz, sample.monitor_w, names, checked.dark
+            )
+            if sample.stride == 1:  # every reading kept: the sweep is in memory
+                notes = self._fit_every_reading(sweep)
+            else:
+                notes = self._fit_sampled(moments, sample, sweep, None)
+        issue(notes)
+        return self
+
+    def _fit_on_moments(self, sweep: Sweep) -> list:
+        """A sweep too long for every check: the fit on the moments of every reading, the
+        checks on every k-th (:meth:`_fit_sampled`)."""
+        rows = range(0, sweep.samples, BLOCK_ROWS)
+        blocks = (sweep.rows(slice(start, start + BLOCK_ROWS)) for start in rows)
+        moments, sample = self._accumulate(
+            (block.frequency_hz, block.powers_w, block.monitor_w) for block in blocks
+        )
+        return self._fit_sampled(moments, sample, sweep, value_range(sweep.temperature_k))
+
+    def _accumulate(self, chunks) -> tuple[FringeMoments | None, SweepSample]:
+        """One pass over checked, dark-subtracted chunks: their moments (None once they
+        outgrow ``MAX_MOMENT_BYTES``) and the sample."""
+        moments = FringeMoments(largest_search_delay_s(self.fsr_hz, self.fsr_tolerance), 0.0)
+        sample = SweepSample(self.diagnostic_samples)
+        for frequency, powers, monitor in chunks:
+            sample.add(frequency, powers, monitor)
+            if moments is not None:
+                moments.add(frequency, powers, monitor)
+                if moments.nbytes > MAX_MOMENT_BYTES:
+                    moments = None  # the check of the design FSR (on the sample) speaks first
+        return moments, sample
+
+    def _fit_sampled(self, moments, sample: SweepSample, sweep: Sweep, temperature_range) -> list:
+        """Fit on the moments of every reading, check and diagnose on the sample; the
+        warnings, not yet issued."""
+        checked = Sweep(
+            sample.powers_w,
+            sample.frequency_hz,
+            sample.monitor_w,
+            sweep.port_names,
+            sweep.dark_w,
+            monitor_mean_w=None if sample.monitor_w is None else sample.monitor_mean_w,
+        )
+        ctx = LearnedContext(checked, temperature_range_k=temperature_range)
+        guard_design_fsr(
+            ctx,
+            self.fsr_hz,
+            self.fsr_tolerance,
+            step_hz=sample.median_step_hz(),
+            span_hz=sample.span_hz,
+        )
+        if moments is None:
+            raise InputError(
+                f"the sweep spans {sample.span_hz / self.fsr_hz:.4g} FSRs of "
+                f"{self.fsr_hz / 1e9:.6g} GHz: its binned moments would take more than "
+                f"{MAX_MOMENT_BYTES >> 20} MiB; one map does not hold over so many FSRs: "
+                "calibrate it per FSR (CalibrationSet) or with WidebandCalibrator",
+                parameter="fsr_hz",
+            )
+        self._start_fit(
+            (sample.low_hz, sample.high_hz), sweep.port_names, sample.samples, sweep.dark_w
+        )
+        check_ports(ctx, self.center_hz_, range(checked.ports), self.fringe_ports_needed)
+        ctx.affine = (
+            sample.monitor_w is not None
+            and sweep.dark_w is None
+            and sample.monitor_relative_std >= AFFINE_MIN_POWER_SPREAD
+        )
+        moments.center_hz = self.center_hz_
+        fit = moment_fit(
+            moments,
+            fsr_hz=self.fsr_hz,
+            fsr_tolerance=self.fsr_tolerance,
+            search=self.search,
+            xtol=self.xtol,
+            affine=ctx.affine,
+        )
+        noise, self.noise_dof_ = port_noise_from_squares(
+            moments.port_residual_w2(fit.delay_s, fit.map_), moments.samples, fit.map_.shape[1], 1
+        )
+        mean_scale = moments.mean_scale
+        self._take_fit(fit, relative_map(fit.map_, mean_scale), noise, sample.largest_w)
+        ctx.gram = gram_objects(moments, fit.delay_s, ctx.affine, mean_scale)
+        self._set_covariance(ctx)
+        offsets = float(self.offset_w_.sum())
+        low, high = sample.total_range_w
+        self.total_power_range_w_ = (low - offsets, high - offsets)
+        return self._judged(ctx)
+
+    # ------------------------------------------------------------------ re-anchoring
+    def reanchor(self, powers, frequency_hz, *, temperature_k=None) -> Calibrator:
+        """A copy re-anchored to readings of reference lines of known frequency.
+
+        The bias phase (and, when the lines pin it better than the sweep did, the delay) is
+        corrected as :mod:`wavemeter.calibration.models.reanchor` describes; the phase of
+        each reading is retrieved as :meth:`phase` does. This calibrator is untouched.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Readings of one or more reference lines (W, the unit of the calibration).
+        frequency_hz : float or array_like, shape (N,)
+            Known frequency of each reading (Hz); readings of equal frequency are one line.
+        temperature_k : None, float or array_like, shape (N,)
+            Accepted for the common API; not used by this calibrator.
+
+        Returns
+        -------
+        Calibrator
+            A deep copy with the corrected ``map_`` (and ``delay_s_``, ``fsr_hz_``,
+            ``delay_std_s_``) and ``diagnostics_["reanchor"]``: ``phase_shift_rad``,
+            ``phase_shift_std_rad``, ``delay_change_s`` (None when kept),
+            ``delay_change_std_s``, ``lines_hz``, ``readings``.
+
+        Raises
+        ------
+        InputError
+            Naming ``powers``, ``frequency_hz`` or ``temperature_k`` for readings or values
+            that are missing, not finite or of the wrong shape.
+        """
+        check_fitted(self)
+        raw, frequency, _ = check_reference_readings(
+            powers, frequency_hz, self.n_ports_, temperature_k
+        )
+        readings = raw - self._reading_offset_w()
+        phase = self._phase(readings)
+        reading_std = self._frequency_std_at(readings, include_calibration=False)
+        fit = fit_reanchor(
+            phase,
+            frequency,
+            self.center_hz_,
+            self.delay_s_,
+            delay_std_s=self.delay_std_s_,
+            reading_phase_std_rad=reading_std * (2.0 * np.pi / self.fsr_hz_),
+        )
+        return reanchored_copy(self, fit)
+
+    # ------------------------------------------------------------------ description and files
+    def _fsr_std_hz(self) -> float | None:
+        """``FSR^2 sigma_tau`` (Hz); None for a file of 0.1, which did not keep it."""
+        return None if self.delay_std_s_ is None else self.fsr_hz_**2 * self.delay_std_s_
+
+    def _summary_values(self) -> dict:
+        return {
+            "delay_s": FitValue(self.delay_s_, self.delay_std_s_, "s"),
+            "noise_std_w": FitValue(self.noise_std_w_, None, "W"),
+            "cost_w2": FitValue(self.cost_, None, "W^2"),
+        }
+
+    def _state(self) -> dict:
+        return {
+            "map": self.map_.tolist(),
+            "delay_s": self.delay_s_,
+            "delay_std_s": self.delay_std_s_,
+            "cost_w2": self.cost_,
+            "residual_rms_w": self.residual_rms_,
+            "noise_std_w": self.noise_std_w_,
+            "port_noise_std_w": self.port_noise_std_w_.tolist(),
+            "noise_dof": self.noise_dof_,
+            "parameter_covariance": self.parameter_covariance_.tolist(),
+        }
+
+    def _set_state(self, state: dict) -> None:
+        ports = self.n_ports_
+        self._set_map(state_array(state, "map", (ports, 3)))
+        self.delay_s_ = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
+        # files of 0.1 have no standard error of the delay
+        self.delay_std_s_ = (
+            state_float(state, "delay_std_s", minimum=0.0)
+            if state.get("delay_std_s") is not None
+            else None
+        )
+        self.cost_ = state_float(state, "cost_w2", minimum=0.0)
+        self.residual_rms_ = state_float(state, "residual_rms_w", minimum=0.0)
+        self.noise_std_w_ = state_float(state, "noise_std_w", minimum=0.0)
+        if "port_noise_std_w" in state:
+            self.port_noise_std_w_ = state_array(state, "port_noise_std_w", (ports,))
+            self.noise_dof_ = state_float(state, "noise_dof", minimum=2.0, open_minimum=True)
+            self.parameter_covariance_ = state_array(state, "parameter_covariance", (None, None))
+            size = self.parameter_covariance_.shape[0]
+            sizes = (3 * ports + self.nonlinear_parameters, 4 * ports + self.nonlinear_parameters)
+            if self.parameter_covariance_.shape != (size, size) or size not in sizes:
+                raise ValueError(
+                    f"field 'parameter_covariance' must be square of size {sizes[0]} or "
+                    f"{sizes[1]}, got shape {self.parameter_covariance_.shape}"
+                )
+            if np.any(self.port_noise_std_w_ <= 0):
+                raise ValueError("field 'port_noise_std_w' must hold positive numbers (W)")
+        else:
+            # schema 1: one pooled noise, its degrees of freedom, no parameter covariance
+            self.port_noise_std_w_ = np.full(ports, self.noise_std_w_)
+            self.noise_dof_ = max(self.n_samples_ * ports - 3.0 * ports - 1.0, 3.0)
+            self.parameter_covariance_ = None

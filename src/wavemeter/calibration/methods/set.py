@@ -1,0 +1,559 @@
+"""One calibration per FSR-wide window of a sweep over many FSRs (paper Section IV, Fig. 8, 9).
+
+A single map ``A`` is optimal for the span it was learned on; over a wide band the fringe
+amplitudes and the bias drift slowly, so the paper calibrates one FSR at a time and applies
+each map to readings of its own FSR. :class:`CalibrationSet` does that for a sweep over many
+FSRs:
+
+1. the global delay is fitted on the whole sweep (the most precise FSR there is, and the
+   only fit that can tell the true delay from a side minimum of ``J``), and checked to
+   explain the fringes;
+2. the sweep is cut into contiguous windows of exactly one fitted FSR, centred on the sweep;
+3. each window is calibrated on its own readings alone, refitting the delay within
+   +-15 % of the global FSR: the paper's per-FSR protocol, which also follows a local FSR
+   that drifts across the band (dispersion). A one-FSR window has no side minimum of ``J``
+   in that bracket, and its delay costs only the ``3/N`` part of ``CRLB sqrt(1 + 3/N)``.
+
+Retrieval needs a coarse frequency per reading (the laser set point, a coarse meter, the
+previous reading), good to better than half an FSR: it picks the window, and of the
+window's readings modulo the FSR it picks the alias nearest the coarse value.
+"""
+
+from __future__ import annotations
+
+import copy
+import warnings
+
+import numpy as np
+
+from ...exceptions import CalibrationWarning, InputError, recorded_calibration_warnings
+from ...model.cone import wrap_to_period
+from ...validation import (
+    MIN_SAMPLES,
+    check_coarse_inside,
+    check_fitted,
+    check_frequency,
+    check_monitor,
+    check_per_reading,
+    check_positive,
+    check_powers,
+)
+from ..contract.base import BaseCalibrator, Part
+from ..contract.records import ReadingInputs
+from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
+from ..files.registry import calibrator_class
+from ..models.reanchor import ReanchorFit, check_reference_readings, reanchored_copy
+from .learned import Calibrator
+
+__all__ = ["CalibrationSet", "WINDOW_FSR_TOLERANCE", "clone", "window_label"]
+
+#: half width of each window's delay bracket about the global FSR: room for the local FSR of
+#: a dispersive band (8 % at the ends of 10 FSRs with a group-delay dispersion of 1e-24 s^2)
+WINDOW_FSR_TOLERANCE = 0.15
+
+
+def clone(calibrator: BaseCalibrator, **settings) -> BaseCalibrator:
+    """A new unfitted calibrator of the same class and settings, with ``settings`` changed."""
+    params = calibrator.get_params()
+    params.update({key: value for key, value in settings.items() if key in params})
+    return type(calibrator)(**params)
+
+
+def window_label(edges_hz: np.ndarray, index: int) -> str:
+    return f"window {index} ({edges_hz[index] / 1e12:.6f} to {edges_hz[index + 1] / 1e12:.6f} THz)"
+
+
+class CalibrationSet(BaseCalibrator):
+    """A calibration per FSR-wide window of a sweep spanning many FSRs.
+
+    Parameters
+    ----------
+    fsr_hz : float
+        Design free spectral range (Hz); the global delay search brackets it.
+    fsr_tolerance : float
+        Relative half width of the global FSR bracket, in (0, 1). Default 0.2.
+    window : None or calibrator
+        An unfitted single-FSR calibrator whose settings every window copies (its FSR set
+        to the global one and, where it has one, its bracket to +-15 %). Default:
+        ``Calibrator()``; e.g. ``Calibrator(retrieval="ml")`` or
+        ``ConventionalCalibrator(port_phases_rad=...)``.
+
+    Attributes
+    ----------
+    windows_ : list of BaseCalibrator
+        One fitted calibrator per window, low to high frequency; each has its own
+        ``span_hz_`` (the readings it was fitted on), ``center_hz_`` and ``fsr_hz_``.
+    window_edges_hz_ : ndarray, shape (K + 1,)
+        Window boundaries (Hz), exactly one global FSR apart, centred on the sweep.
+    delay_s_ : float
+        Global delay ``tau`` (s) fitted on the whole sweep.
+    delay_std_s_ : float or None
+        Its standard error (s); None when loaded from a file of version 0.1.
+    fsr_hz_ : float
+        Global FSR ``1 / tau`` (Hz).
+    center_hz_ : float
+        Middle of the sweep (Hz).
+    span_hz_ : (float, float)
+        Lowest and highest sweep frequency (Hz).
+    calibration_rms_hz_ : float
+        RMS frequency error on the sweep itself, each reading given its true frequency as
+        the coarse value (Hz).
+    diagnostics_ : dict
+        Those of the whole-sweep fit: the sweep's own FSR, port health, warnings.
+    """
+
+    method = "calibration_set"
+    requires = frozenset({"coarse_hz"})
+
+    def __init__(self, fsr_hz: float = 50e9, fsr_tolerance: float = 0.2, window=None):
+        self.fsr_hz = fsr_hz
+        self.fsr_tolerance = fsr_tolerance
+        self.window = window
+
+    @property
+    def capabilities(self) -> frozenset[str]:
+        """What each window offers, but fitting in chunks: a set reads its sweep whole."""
+        return self._window_template().capabilities - {"fit_chunks"}
+
+    @property
+    def method_label(self) -> str:
+        """The window method, per FSR (e.g. ``"learned per FSR"``)."""
+        return f"{type(self._window_template()).method} per FSR"
+
+    def _window_template(self) -> BaseCalibrator:
+        return Calibrator() if self.window is None else self.window
+
+    def _check_params(self) -> None:
+        super()._check_params()
+        check_positive("fsr_tolerance", self.fsr_tolerance, upper=1.0)
+        template = self._window_template()
+        if (
+            not isinstance(template, BaseCalibrator)
+            or template.requires
+            or isinstance(template, CalibrationSet)
+        ):
+            raise InputError(
+                "window must be an unfitted single-FSR calibrator that needs nothing but the "
+                f"readings (e.g. Calibrator(), ConventionalCalibrator()); got {template!r}"
+            )
+
+    def _requirement_reason(self) -> str:
+        return (
+            "a CalibrationSet holds one map per FSR window and needs each reading's "
+            "approximate frequency (Hz, within half an FSR, e.g. the laser set point) to pick "
+            "the window"
+        )
+
+    def _window_calibrator(self, fsr_hz: float) -> BaseCalibrator:
+        return clone(self._window_template(), fsr_hz=fsr_hz, fsr_tolerance=WINDOW_FSR_TOLERANCE)
+
+    def get_params_for_file(self) -> dict:
+        """Settings as JSON-ready values; the window as its tag and settings."""
+        template = self._window_template()
+        return {
+            "fsr_hz": self.fsr_hz,
+            "fsr_tolerance": self.fsr_tolerance,
+            "window": {"method": type(template).method, "params": template.get_params_for_file()},
+        }
+
+    @classmethod
+    def _params_from_file(cls, params: dict) -> dict:
+        """Settings of a file: ``window`` as tag and settings; files of 0.1 name the window
+        ``method`` with ``retrieval`` and ``port_phases_rad`` beside it."""
+        params = dict(params)
+        window = params.pop("window", None)
+        if window is None:
+            tag = params.pop("method", "learned")
+            retrieval = params.pop("retrieval", "pinv")
+            phases = params.pop("port_phases_rad", None)
+            window = {
+                "method": tag,
+                "params": {"retrieval": retrieval}
+                if tag == "learned"
+                else {"port_phases_rad": phases},
+            }
+        if not isinstance(window, dict) or not isinstance(window.get("params"), dict):
+            raise InputError(f"window must be an object with method and params, got {window!r}")
+        window_class = calibrator_class(window.get("method"))
+        if window_class is None or window_class is cls:
+            raise InputError(f"unknown window calibration method {window.get('method')!r}")
+        params["window"] = window_class(**window_class._params_from_file(window["params"]))
+        return params
+
+    # ------------------------------------------------------------------ fitting
+    def fit(self, powers, frequency_hz, power_monitor_w=None, port_names=None, *, dark_w=None):
+        """Fit the global delay, cut the sweep into one-FSR windows, calibrate each window.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n)
+            Port readings (W, or any unit linear in power) over a sweep of at least about
+            one FSR (it is cut into ``round(span / FSR)`` windows).
+        frequency_hz : array_like, shape (N,)
+            Known source frequency of each reading (Hz).
+        power_monitor_w : None or array_like, shape (N,)
+            Source-power monitor reading (W, or any unit linear in power).
+        port_names : None or sequence of str, length n
+            Names of the port columns, kept in the calibration file.
+        dark_w : None or array_like, shape (n,)
+            Per-port dark readings (W), subtracted from every reading.
+
+        Returns
+        -------
+        self
+
+        Warns
+        -----
+        CalibrationWarning
+            Those of the whole-sweep fit, except ``"dispersion"`` (the windows follow it),
+            and those of each window (named), except the port health the whole sweep gave.
+
+        Raises
+        ------
+        EdgeMinimumError
+            When the global delay is not inside the FSR bracket (including a side minimum
+            of ``J`` on a sweep of several FSRs), or a window's delay is not within
+            +-15 % of the global one.
+        ValueError
+            When the sweep is shorter than half an FSR or a window holds too few readings;
+            the message names the window.
+        """
+        self._check_params()
+        with recorded_calibration_warnings() as caught:
+            whole = Calibrator(fsr_hz=self.fsr_hz, fsr_tolerance=self.fsr_tolerance).fit(
+                powers, frequency_hz, power_monitor_w, port_names, dark_w=dark_w
+            )
+        notes = [note for note in caught if note.cause != "dispersion"]
+        powers = check_powers(powers, min_samples=MIN_SAMPLES)
+        if whole.dark_w_ is not None:
+            powers = powers - whole.dark_w_
+        frequency = check_frequency(frequency_hz, powers.shape[0])
+        monitor = check_monitor(power_monitor_w, powers.shape[0])
+        fsr = whole.fsr_hz_
+        low, high = whole.span_hz_
+        count = round((high - low) / fsr)
+        if count < 1:
+            raise InputError(
+                f"the sweep spans {(high - low) / 1e9:.6g} GHz, less than half the fitted FSR "
+                f"({fsr / 1e9:.6g} GHz): a calibration set needs a sweep over whole FSRs; use "
+                "wavemeter.Calibrator for a single FSR"
+            )
+        edges = whole.center_hz_ + (np.arange(count + 1) - count / 2) * fsr
+        position = np.floor((frequency - edges[0]) / fsr)
+        # the readings are dark-corrected here: windows subtract nothing more (zeros mark
+        # the dark as known, so that no window fits offsets of its own)
+        window_dark = None if whole.dark_w_ is None else np.zeros(whole.n_ports_)
+        windows = []
+        for index in range(count):
+            rows = position == index
+            window = self._window_calibrator(fsr)
+            try:
+                with recorded_calibration_warnings() as caught:
+                    window.fit(
+                        powers[rows],
+                        frequency[rows],
+                        None if monitor is None else monitor[rows],
+                        whole.port_names_,
+                        dark_w=window_dark,
+                    )
+            except InputError as exc:
+                raise type(exc)(
+                    f"{window_label(edges, index)}: {exc}", parameter=exc.parameter
+                ) from exc
+            # the whole-sweep fit has judged the ports once already
+            notes += [
+                CalibrationWarning(
+                    f"{window_label(edges, index)}: {note}", cause=note.cause, remedy=note.remedy
+                )
+                for note in caught
+                if note.cause != "dead_port"
+            ]
+            windows.append(window)
+        self.delay_s_ = whole.delay_s_
+        self.delay_std_s_ = whole.delay_std_s_
+        self.diagnostics_ = {
+            **whole.diagnostics_,
+            "warnings": [note.record() for note in notes],
+        }
+        self.dark_w_ = whole.dark_w_
+        self.offset_w_ = np.zeros(whole.n_ports_)
+        self.total_power_range_w_ = whole.total_power_range_w_
+        self.fsr_hz_ = fsr
+        self.center_hz_ = whole.center_hz_
+        self.span_hz_ = whole.span_hz_
+        self.n_ports_ = whole.n_ports_
+        self.n_samples_ = whole.n_samples_
+        self.port_names_ = whole.port_names_
+        self.window_edges_hz_ = edges
+        self.windows_ = windows
+        read = self._frequency_hz(powers, ReadingInputs(coarse_hz=frequency))
+        error = wrap_to_period(read - frequency, fsr)
+        self.calibration_rms_hz_ = float(np.sqrt(np.mean(error**2)))
+        for note in notes:
+            warnings.warn(note, stacklevel=2)
+        return self
+
+    # ------------------------------------------------------------------ windows
+    def covered_hz(self) -> tuple[float, float]:
+        """Lowest and highest coarse frequency (Hz) the set has a window for.
+
+        The union of the windows and the calibration sweep: readings beyond the outer
+        window edges but inside the sweep use the outer window.
+        """
+        check_fitted(self)
+        edges = self.window_edges_hz_
+        return min(float(edges[0]), self.span_hz_[0]), max(float(edges[-1]), self.span_hz_[1])
+
+    def window_index(self, coarse_hz) -> np.ndarray:
+        """Index into ``windows_`` of the window for each coarse frequency.
+
+        Parameters
+        ----------
+        coarse_hz : float or array_like, shape (N,)
+            Approximate frequency (Hz).
+
+        Returns
+        -------
+        ndarray of int, shape (N,) (shape (1,) for a scalar)
+
+        Raises
+        ------
+        ValueError
+            When a coarse frequency lies outside :meth:`covered_hz`.
+        """
+        check_fitted(self)
+        coarse = check_per_reading("coarse_hz", coarse_hz, np.size(coarse_hz))
+        low, high = self.covered_hz()
+        check_coarse_inside(
+            coarse,
+            (coarse >= low) & (coarse <= high),
+            f"outside the calibrated span {low / 1e12:.6f} to {high / 1e12:.6f} THz: no window "
+            "has a map there",
+        )
+        position = np.floor((coarse - self.window_edges_hz_[0]) / self.fsr_hz_)
+        return np.clip(position, 0, len(self.windows_) - 1).astype(int)
+
+    def _per_window(self, readings: np.ndarray, coarse: np.ndarray, retrieve) -> np.ndarray:
+        """``retrieve(window, readings, coarse)`` applied to each window's readings."""
+        index = self.window_index(coarse)
+        result = np.empty(readings.shape[0])
+        for window_number in np.unique(index):
+            rows = index == window_number
+            result[rows] = retrieve(self.windows_[window_number], readings[rows], coarse[rows])
+        return result
+
+    def parts(self) -> tuple[Part, ...]:
+        """One part per window, low to high frequency."""
+        check_fitted(self)
+        edges = self.window_edges_hz_
+        return tuple(
+            Part(window_label(edges, index), "window", window)
+            for index, window in enumerate(self.windows_)
+        )
+
+    # ------------------------------------------------------------------ retrieval
+    def _coverage(self, inputs: ReadingInputs):
+        low, high = self.covered_hz()
+        coarse = inputs.coarse_hz
+        return (
+            (coarse >= low) & (coarse <= high),
+            f"outside the calibrated span {low / 1e12:.6f} to {high / 1e12:.6f} THz: no "
+            "window has a map there",
+        )
+
+    def _frequency_hz(self, readings, inputs: ReadingInputs) -> np.ndarray:
+        """The window's frequency alias (modulo its FSR) nearest each coarse value."""
+
+        def nearest_alias(window, rows, coarse_rows):
+            fine = window.predict(rows)
+            return coarse_rows + wrap_to_period(fine - coarse_rows, window.fsr_hz_)
+
+        return self._per_window(readings, inputs.coarse_hz, nearest_alias)
+
+    def _phase_rad(self, readings, inputs: ReadingInputs) -> np.ndarray:
+        """The phase (rad) of each reading in its window, zero at the window's centre."""
+        return self._per_window(
+            readings, inputs.coarse_hz, lambda window, rows, _: window.phase(rows)
+        )
+
+    def _frequency_std(self, readings, inputs: ReadingInputs, include_calibration: bool):
+        """The standard deviation (Hz) of the window that reads each reading."""
+        return self._per_window(
+            readings,
+            inputs.coarse_hz,
+            lambda window, rows, _: window.frequency_std_hz(
+                rows, include_calibration=include_calibration
+            ),
+        )
+
+    def _crlb(self, readings, inputs: ReadingInputs, frequency_hz) -> np.ndarray:
+        """The bound under the map and noise of each reading's window."""
+        index = self.window_index(inputs.coarse_hz)
+        result = np.empty(readings.shape[0])
+        for window_number in np.unique(index):
+            rows = index == window_number
+            result[rows] = self.windows_[window_number].crlb_hz(
+                readings[rows], frequency_hz=None if frequency_hz is None else frequency_hz[rows]
+            )
+        return result
+
+    def reanchor(self, powers, frequency_hz, *, coarse_hz=None, temperature_k=None):
+        """A copy whose windows are re-anchored to readings of reference lines.
+
+        Each reading goes to the window of its known frequency (the exact coarse value);
+        every window with readings is re-anchored by its own ``reanchor`` (bias phase, and
+        delay where its lines pin it better, :mod:`wavemeter.calibration.models.reanchor`). A
+        window without a line gets the phase shift linearly interpolated in window centre
+        frequency between the nearest re-anchored windows below and above it (the shifts
+        unwrapped in frequency order: a bias change is common to all windows and a delay
+        change adds a part linear in frequency), or held from the nearest one beyond the
+        outermost; its delay is kept, and the shift's standard error is that of the
+        interpolation (model error not included). The global delay and the window edges
+        are kept. This set is untouched.
+
+        Parameters
+        ----------
+        powers : array_like, shape (N, n) or (n,)
+            Readings of one or more reference lines (W, the unit of the calibration).
+        frequency_hz : float or array_like, shape (N,)
+            Known frequency of each reading (Hz), inside :meth:`covered_hz`.
+        coarse_hz, temperature_k : None, float or array_like, shape (N,)
+            Accepted for the common API (checked); not used: the known frequency is the
+            coarse value.
+
+        Returns
+        -------
+        CalibrationSet
+            A deep copy; each window's ``diagnostics_["reanchor"]`` tells what it changed
+            (``interpolated_from``: indices of the windows its shift came from, empty when it
+            had lines) and ``diagnostics_["reanchor"]`` of the set lists every window's.
+
+        Raises
+        ------
+        InputError
+            Naming ``powers``, ``frequency_hz`` (also a frequency outside the calibrated
+            span), ``coarse_hz`` or ``temperature_k``; naming ``window`` when the windows
+            cannot be re-anchored.
+        """
+        check_fitted(self)
+        raw, frequency, temperature = check_reference_readings(
+            powers, frequency_hz, self.n_ports_, temperature_k
+        )
+        if coarse_hz is not None:
+            try:
+                check_per_reading("coarse_hz", coarse_hz, frequency.size)
+            except InputError as exc:
+                raise InputError(str(exc), parameter="coarse_hz") from exc
+        low, high = self.covered_hz()
+        outside = (frequency < low) | (frequency > high)
+        if outside.any():
+            raise InputError(
+                f"frequency_hz {frequency[outside][0]!r} Hz is outside the calibrated span "
+                f"{low / 1e12:.6f} to {high / 1e12:.6f} THz: no window to re-anchor there",
+                parameter="frequency_hz",
+            )
+        if "reanchor" not in self.windows_[0].capabilities:
+            raise InputError(
+                f"windows of method {type(self.windows_[0]).method!r} cannot be re-anchored",
+                parameter="window",
+            )
+        readings = raw - self._reading_offset_w()
+        index = self.window_index(frequency)
+        windows = list(self.windows_)
+        anchored = np.unique(index)
+        for number in anchored:
+            rows = index == number
+            windows[number] = self.windows_[number].reanchor(
+                readings[rows],
+                frequency[rows],
+                temperature_k=None if temperature is None else temperature[rows],
+            )
+            windows[number].diagnostics_["reanchor"]["interpolated_from"] = []
+        centers = np.array([window.center_hz_ for window in self.windows_])
+        records = [windows[number].diagnostics_["reanchor"] for number in anchored]
+        shifts = np.unwrap([record["phase_shift_rad"] for record in records])
+        variances = np.square([record["phase_shift_std_rad"] for record in records])
+        for number in np.setdiff1d(np.arange(len(windows)), anchored):
+            # weight of each re-anchored window: linear interpolation, held beyond the ends
+            weight = np.array(
+                [
+                    np.interp(centers[number], centers[anchored], unit)
+                    for unit in np.eye(anchored.size)
+                ]
+            )
+            shift_std = float(np.sqrt(weight**2 @ variances))
+            fit = ReanchorFit(
+                phase_shift_rad=float(weight @ shifts),
+                phase_shift_std_rad=shift_std,
+                delay_change_s=None,
+                delay_change_std_s=None,
+                covariance=np.diag([shift_std**2, 0.0]),
+                lines_hz=(),
+                readings=0,
+            )
+            source = anchored[weight > 0].tolist()
+            windows[number] = reanchored_copy(
+                self.windows_[number], fit, {**fit.record(), "interpolated_from": source}
+            )
+        corrected = copy.deepcopy(self)
+        corrected.windows_ = windows
+        corrected.diagnostics_ = {
+            **(corrected.diagnostics_ or {}),
+            "reanchor": {
+                "lines_hz": np.unique(frequency).tolist(),
+                "readings": int(frequency.size),
+                "windows": [window.diagnostics_["reanchor"] for window in windows],
+            },
+        }
+        return corrected
+
+    def _offsets_known(self) -> bool:
+        return super()._offsets_known() or any(w._offsets_known() for w in self.windows_)
+
+    def _model_flags(self, readings, inputs: ReadingInputs) -> np.ndarray:
+        """Each window's own bits."""
+        return self._per_window(
+            readings, inputs.coarse_hz, lambda window, rows, _: window.flags(rows)
+        ).astype(np.int64)
+
+    # ------------------------------------------------------------------ reporting
+    def _fsr_std_hz(self) -> float | None:
+        """Standard error of the global FSR (Hz), from the whole-sweep fit."""
+        return None if self.delay_std_s_ is None else self.fsr_hz_**2 * self.delay_std_s_
+
+    # ------------------------------------------------------------------ persistence
+    def _state(self) -> dict:
+        return {
+            "delay_s": self.delay_s_,
+            "delay_std_s": self.delay_std_s_,
+            "window_edges_hz": self.window_edges_hz_.tolist(),
+            "windows": [calibrator_fields(window) for window in self.windows_],
+        }
+
+    def _set_state(self, state: dict) -> None:
+        edges = state_array(state, "window_edges_hz", (None,))
+        documents = state.get("windows")
+        if edges.size < 2 or np.any(np.diff(edges) <= 0):
+            raise InputError("window_edges_hz must be at least 2 increasing finite frequencies")
+        if not isinstance(documents, list) or len(documents) != edges.size - 1:
+            raise InputError(f"windows must list {edges.size - 1} calibrations, one per window")
+        windows = [
+            calibrator_from_fields(document, f"window {index}")
+            for index, document in enumerate(documents)
+        ]
+        expected = type(self._window_template())
+        for index, window in enumerate(windows):
+            if type(window) is not expected or window.n_ports_ != self.n_ports_:
+                raise InputError(
+                    f"window {index} must be a {expected.method!r} calibration of "
+                    f"{self.n_ports_} ports, got {type(window).method!r} with {window.n_ports_}"
+                )
+        self.delay_s_ = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
+        # files of 0.1 have no standard error of the delay
+        self.delay_std_s_ = (
+            state_float(state, "delay_std_s", minimum=0.0)
+            if state.get("delay_std_s") is not None
+            else None
+        )
+        self.window_edges_hz_ = edges
+        self.windows_ = windows
