@@ -143,8 +143,8 @@ def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quie
       wavemeter simulate -o band.csv --spectral sin --span-fsr 88 --samples 176000
       wavemeter simulate -o cband.csv --cascade 5THz,500GHz,50GHz --spectral sin \\
           --samples 20000 --test 100000
-      wavemeter simulate -o sweep.csv --laser 65536 --laser-out laser.csv \\
-          --white-fm 1.6e8 --laser-drift 1e9 --force
+      wavemeter simulate -o chip.csv --laser 65536 --laser-out laser.csv \\
+          --white-fm 1.6e8 --laser-drift 1e9
     """
     context = click.get_current_context()
     given = {

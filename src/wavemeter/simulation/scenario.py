@@ -76,9 +76,10 @@ _SPECTRAL_FIELDS = {
 class Scenario:
     """A simulated device and its recordings: what ``wavemeter simulate`` writes.
 
-    Every field is checked when the scenario is made (and the device drawn), so a scenario
-    that exists can be recorded. Fields left None are not set: a cascade refuses the
-    single device's settings only when they are set.
+    Every field is checked when the scenario is made (and the device drawn: a spectral slope
+    that takes a responsivity to zero within the sweep is refused too), so a scenario that
+    exists can be recorded. Fields left None are not set: a cascade refuses the single
+    device's settings only when they are set.
 
     Parameters
     ----------
@@ -230,6 +231,9 @@ class Scenario:
         object.__setattr__(self, "_device", device)
         object.__setattr__(self, "_preset", preset)
         object.__setattr__(self, "_noise_w", self._detector_noise_w())
+        ends_hz = self.sweep_hz()[[0, -1]]  # the spectral slopes are linear: check the ends
+        for stage in device.stages if self.is_cascade else (device,):
+            stage.true_map(frequency_hz=ends_hz)
 
     # ------------------------------------------------------------------ the device
     @property
