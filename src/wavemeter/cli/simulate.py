@@ -42,7 +42,7 @@ def _in_option_words(command):
     (``dark_offset_w`` -> ``--dark-offset``; a field without ``_`` only where the message
     starts with it, as ``ports must be ...``), and the option of the field at fault is
     named when the message does not name it. Other errors pass as they are."""
-    fields = {item.name for item in dataclasses.fields(Scenario)}
+    fields = {item.name for item in dataclasses.fields(Scenario) if item.init}
     options = {param.name: param.opts[0] for param in command.params if param.name in fields}
     try:
         yield

@@ -19,7 +19,7 @@ than one without (as ``wavemeter simulate`` has always drawn it).
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -220,17 +220,23 @@ class Scenario:
     flicker_fm_hz2: float = 0.0
     random_walk_fm_hz2_per_s: float = 0.0
     laser_drift_hz_per_s: float = 0.0
+    #: drawn when the scenario is made: the device, its spectral preset, the noise std (W)
+    _device: Interferometer | CascadeInterferometer = field(init=False, repr=False, compare=False)
+    _preset: SpectralPreset | None = field(init=False, repr=False, compare=False)
+    _noise_std_w: float | np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        fields = {item.name: getattr(self, item.name) for item in dataclasses.fields(self)}
-        values = checks.normalised(fields)
+        given = {
+            item.name: getattr(self, item.name) for item in dataclasses.fields(self) if item.init
+        }
+        values = checks.normalised(given)
         checks.check_related(values)
         for name, value in values.items():
             object.__setattr__(self, name, value)
         device, preset = self._cascade() if self.is_cascade else self._single_device()
         object.__setattr__(self, "_device", device)
         object.__setattr__(self, "_preset", preset)
-        object.__setattr__(self, "_noise_w", self._detector_noise_w())
+        object.__setattr__(self, "_noise_std_w", self._detector_noise_w())
         ends_hz = self.sweep_hz()[[0, -1]]  # the spectral slopes are linear: check the ends
         for stage in device.stages if self.is_cascade else (device,):
             stage.true_map(frequency_hz=ends_hz)
@@ -255,26 +261,9 @@ class Scenario:
     def _single_device(self) -> tuple[Interferometer, SpectralPreset | None]:
         """Table 1, then the spectral behaviour, the dark offset and the thermal platform."""
         fsr_hz = DEFAULT_FSR_HZ if self.fsr_hz is None else self.fsr_hz
-        device = Interferometer.table1(self.ports, seed=self.seed, fsr_hz=fsr_hz)
-        given = {
-            field: getattr(self, name)
-            for name, field in _SPECTRAL_FIELDS.items()
-            if getattr(self, name) is not None
-        }
-        if self.spectral is None and set(given) <= {"dispersion_s2"}:
-            device, preset = (
-                dataclasses.replace(device, dispersion_s2=given.get("dispersion_s2", 0.0)),
-                None,
-            )
-        else:
-            preset = (
-                SPECTRAL_PRESETS[self.spectral]
-                if self.spectral
-                else SpectralPreset(0.0, 0.0, 0.0, 0.0)
-            )
-            preset = dataclasses.replace(preset, **given)
-            rng = np.random.default_rng([self.seed, SPECTRAL_STREAM])
-            device = device.with_spectral(preset, seed=rng)
+        device, preset = self._spectral(
+            Interferometer.table1(self.ports, seed=self.seed, fsr_hz=fsr_hz)
+        )
         offset_w = self.dark_offset_w
         if offset_w is not None:
             offset_w = checks.per_port("dark_offset_w", offset_w, device.ports, single=True)
@@ -282,6 +271,23 @@ class Scenario:
         if self.platform is not None:
             device = device.with_thermal(self.platform)
         return device, preset
+
+    def _spectral(self, device: Interferometer) -> tuple[Interferometer, SpectralPreset | None]:
+        """The device with the platform's dispersion and slopes, each replaced by its field
+        when given; with ``dispersion_s2`` alone (or nothing) no slopes are drawn."""
+        given = {
+            preset_field: getattr(self, name)
+            for name, preset_field in _SPECTRAL_FIELDS.items()
+            if getattr(self, name) is not None
+        }
+        if self.spectral is None and set(given) <= {"dispersion_s2"}:
+            return dataclasses.replace(device, dispersion_s2=given.get("dispersion_s2", 0.0)), None
+        preset = SpectralPreset(0.0, 0.0, 0.0, 0.0)
+        if self.spectral is not None:
+            preset = SPECTRAL_PRESETS[self.spectral]
+        preset = dataclasses.replace(preset, **given)
+        rng = np.random.default_rng([self.seed, SPECTRAL_STREAM])
+        return device.with_spectral(preset, seed=rng), preset
 
     def _cascade(self) -> tuple[CascadeInterferometer, None]:
         """The cascade centred in its band; refuses a band its coarsest stage does not
@@ -309,8 +315,9 @@ class Scenario:
 
     # ------------------------------------------------------------------ recordings
     def sweep_hz(self) -> np.ndarray:
-        """Frequencies (Hz) of one calibration sweep, shape (samples,): ``span_fsr`` true
-        FSRs about a single device's centre, or a cascade's band, ends included."""
+        """Frequencies (Hz) of one calibration sweep, shape (samples,): evenly over
+        ``span_fsr`` true FSRs about a single device's centre, the last a step short of
+        the span (:meth:`Interferometer.sweep_hz`); or a cascade's band, ends included."""
         if self.is_cascade:
             return np.linspace(*self._band_hz, self.samples)
         span = DEFAULT_SPAN_FSR if self.span_fsr is None else self.span_fsr
@@ -355,7 +362,7 @@ class Scenario:
             frequency_hz,
             rng,
             power_w=self.power_w,
-            noise_w=self._noise_w,
+            noise_w=self._noise_std_w,
             power_fluctuation=self.power_fluctuation,
             power_unit=self.power_unit,
             monitor=varies and self.monitor,

@@ -140,6 +140,7 @@ def normalised(fields: dict) -> dict:
     values = dict(fields)
     positive = {"low": 0.0, "low_open": True}
     non_negative = {"low": 0.0}
+    optical = {"low": OPTICAL_BAND_HZ[0], "high": OPTICAL_BAND_HZ[1]}
     values["ports"] = _count("ports", values["ports"], 3, MAX_PORTS)
     values["seed"] = _count("seed", values["seed"], 0)
     values["samples"] = _count("samples", values["samples"], MIN_SAMPLES)
@@ -166,7 +167,7 @@ def normalised(fields: dict) -> dict:
     values["port_noise_w"] = _optional(
         _numbers, "port_noise_w", values["port_noise_w"], " (W)", **non_negative
     )
-    values["dispersion_s2"] = _optional(_number, "dispersion_s2", values["dispersion_s2"], " s^2")
+    values["dispersion_s2"] = _optional(_number, "dispersion_s2", values["dispersion_s2"], " (s^2)")
     values["spectral"] = _optional(_choice, "spectral", values["spectral"], tuple(SPECTRAL_PRESETS))
     for name in ("coupler_slope_sigma_per_thz", "responsivity_slope_sigma_per_thz"):
         values[name] = _optional(_number, name, values[name], " (1/THz)", **non_negative)
@@ -196,7 +197,7 @@ def normalised(fields: dict) -> dict:
         "laser_center_hz",
         values["laser_center_hz"],
         " (Hz)",
-        **dict(zip(("low", "high"), OPTICAL_BAND_HZ, strict=True)),
+        **optical,
     )
     for name, unit in (
         ("white_fm_hz2_per_hz", " (Hz^2/Hz)"),
