@@ -177,9 +177,9 @@ def test_library_errors_get_the_option_of_their_parameter(
 
 
 def test_hints_follow_the_running_command(tmp_path, capsys, monkeypatch):
-    import wavemeter.cli.simulate as simulate
+    from wavemeter.simulation import Scenario
 
-    monkeypatch.setattr(simulate, "_readings", _raising(InputError("bad", parameter="x_unit")))
+    monkeypatch.setattr(Scenario, "tables", _raising(InputError("bad", parameter="x_unit")))
     err = one_error(*run(capsys, f"simulate -o {tmp_path / 's.csv'} --samples 10")[::2])
     assert err.rstrip().endswith("bad (use --write-axis-unit)")
     exists = InputError("x.csv exists", parameter="force")

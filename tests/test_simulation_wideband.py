@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.cli.simulate import _SPECTRAL_STREAM, SPECTRAL_PLATFORMS
+from wavemeter.cli.simulate import SPECTRAL_PLATFORMS
 from wavemeter.io import ColumnRequest, read_table
 from wavemeter.simulation import SPECTRAL_PRESETS, Interferometer, SpectralPreset
 from wavemeter.simulation.coupler_draws import symmetry_classes
+from wavemeter.simulation.scenario import SPECTRAL_STREAM
 
 from .conftest import NOISE_W, POWER_W, one_error, run_cli
 
@@ -38,7 +39,7 @@ def _wide(ports: int = 4, seed: int = 7) -> Interferometer:
 
 def _cli_device(seed: int, preset="sin") -> Interferometer:
     """The device ``wavemeter simulate --seed SEED`` simulates with a spectral preset."""
-    rng = np.random.default_rng([seed, _SPECTRAL_STREAM])
+    rng = np.random.default_rng([seed, SPECTRAL_STREAM])
     return Interferometer.table1(3, seed=seed).with_spectral(preset, seed=rng)
 
 

@@ -26,6 +26,7 @@ __all__ = [
     "TEMPERATURE_UNITS",
     "TIME_UNITS",
     "OPTICAL_BAND_HZ",
+    "SENTINEL_DBM",
     "canonical_unit",
     "axis_to_hz",
     "hz_to_axis",
@@ -55,6 +56,8 @@ TEMPERATURE_UNITS = {"K": 0.0, "C": 273.15}
 TIME_UNITS = {"s": 0, "ms": -3, "us": -6, "ns": -9}
 #: plausible optical frequencies (Hz): 100-1000 THz, i.e. about 300-3000 nm
 OPTICAL_BAND_HZ = (100e12, 1000e12)
+#: dBm readings at or below this are a power meter's "no reading" code
+SENTINEL_DBM = -200.0
 
 _KINDS = {
     "frequency": FREQUENCY_UNITS,

@@ -82,7 +82,7 @@ def cli(ctx):
     Example:
       wavemeter simulate -o sweep.csv --test 20000
       wavemeter calibrate sweep.csv -o chip.wmcal.json --fsr 50GHz
-      wavemeter measure chip.wmcal.json readings.csv -o frequencies.csv
+      wavemeter measure chip.wmcal.json sweep-test.csv -o frequencies.csv
       wavemeter evaluate chip.wmcal.json sweep-test.csv --sweep sweep.csv
     """
     if ctx.invoked_subcommand is None:

@@ -24,6 +24,7 @@ import numpy as np
 from ..exceptions import InputError, WavemeterError
 from ..units import (
     FREQUENCY_UNITS,
+    SENTINEL_DBM,
     WAVELENGTH_UNITS,
     axis_to_hz,
     canonical_unit,
@@ -52,8 +53,6 @@ __all__ = [
 
 #: raw readings above this (any linear unit) are instrument "no reading" codes (9.91e37)
 SENTINEL_W = 1e20
-#: dBm readings at or below this are a power meter's "no reading" code
-SENTINEL_DBM = -200.0
 #: dBm readings above this (1 kW) are not a detector's reading: flagged invalid
 MAX_DBM = 60.0
 #: the reason a row whose ports sum to zero or less is invalid (dark readings have it)

@@ -1,10 +1,12 @@
 """Simulated interferometers with the impairments of the paper's Table 1 and hardware faults,
-and lasers with power-law frequency noise to measure with them."""
+lasers with power-law frequency noise to measure with them, and the scenarios
+``wavemeter simulate`` records (:class:`Scenario`)."""
 
 from .cascade import ISSUE_CASCADE_FSRS_HZ, CascadeInterferometer
 from .drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
 from .interferometer import Interferometer
 from .laser import laser_frequency_hz
+from .scenario import Scenario
 from .spectral_presets import SPECTRAL_PRESETS, SpectralPreset
 from .thermal_presets import THERMAL_PRESETS, ThermalPreset
 
@@ -20,4 +22,5 @@ __all__ = [
     "flicker_power_noise",
     "thermal_ramp_rad",
     "laser_frequency_hz",
+    "Scenario",
 ]
