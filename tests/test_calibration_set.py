@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.analysis import adjacent_evaluation
 from wavemeter.calibration.methods.set import WINDOW_FSR_TOLERANCE
+from wavemeter.calibration.methods.set_checks import adjacent_evaluation
 from wavemeter.model.cone import delay_phase_rad
 
 from .conftest import NOISE_W, POWER_W

@@ -130,15 +130,15 @@ def test_simulated_sweeps_carry_their_temperature(files):
 
 def test_info_shows_the_rates_the_device_has(files, device, capsys):
     out = ok(capsys, f"info {files['cal']}")
-    rate, rate_std = map(float, re.search(r"bias rate\s+(\S+) \+- (\S+) rad/K", out).groups())
+    rate, rate_std = map(float, re.search(r"bias phase rate\s+(\S+) \+- (\S+) rad/K", out).groups())
     delay_rate, delay_rate_std = map(
         float, re.search(r"delay rate\s+(\S+) \+- (\S+) 1/K", out).groups()
     )
     assert abs(rate - device.thermal_phase_rad_per_k) < MAX_Z * rate_std
     assert abs(delay_rate - device.thermal_delay_per_k) < MAX_Z * delay_rate_std
-    reference = float(re.search(r"reference (\S+) K", out).group(1))
+    reference = float(re.search(r"reference temperature\s+(\S+) K", out).group(1))
     assert reference == pytest.approx(np.mean(SWEEP_TEMPERATURES_K))
-    assert "calibrated 292 to 295 K" in out
+    assert "calibrated temperatures 292 to 295 K" in out
     assert re.search(r"bias rate unambiguous within \+-2\.09 rad/K", out)  # pi / 1.5 K
     assert "(column temperature_k)" in out
     assert f"{3 * SWEEP_SAMPLES} = 400 + 400 + 400 rows" in out
@@ -302,8 +302,8 @@ def test_the_report_shows_the_rates_and_the_error_against_temperature(files, tmp
     assert code == 0 and err == ""
     assert (tmp_path / "report-temperature.png").stat().st_size > 0
     text = page.read_text()
-    assert "bias phase rate (rad/K)" in text and "calibrated temperatures (K)" in text
-    assert "292 to 295 (clusters at 292, 293.5, 295)" in text
+    assert "<td>bias phase rate</td>" in text
+    assert "calibrated temperatures 292 to 295 K (clusters at 292, 293.5, 295 K;" in text
     assert "[phase_drift]" in text
 
 

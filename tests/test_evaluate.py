@@ -371,7 +371,10 @@ def test_cli_set_says_where_the_coarse_frequency_came_from(cli_files, tmp_path, 
         fmt="%.17g",
     )
     printed, noted = run(capsys, f"evaluate {cli_files['set']} {cli_files['test']}")
-    assert "coarse frequency of each reading (calibration sets): the true frequency" in printed
+    assert (
+        "coarse frequency of each reading (learned per FSR calibrations): the true frequency"
+        in printed
+    )
     assert noted == ""
     command = f"evaluate {cli_files['set']} {with_coarse} --coarse coarse_hz"
     report = json.loads(run(capsys, command + " --json")[0])
@@ -380,7 +383,7 @@ def test_cli_set_says_where_the_coarse_frequency_came_from(cli_files, tmp_path, 
         coarse != test[:, 0]
     )
     printed, noted = run(capsys, command)
-    assert "(calibration sets): column coarse_hz" in printed
+    assert "(learned per FSR calibrations): column coarse_hz" in printed
     assert "coarse frequency, which must lie within half an FSR of the truth" in noted
 
 

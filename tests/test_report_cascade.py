@@ -17,9 +17,10 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.analysis.metrics import error_summary_hz
+from wavemeter.calibration.methods.cascade_report import order_errors
 from wavemeter.exceptions import InputError
-from wavemeter.report.content import comparison_calibration, order_errors, retrieved_frequency_hz
+from wavemeter.model.errors import error_summary_hz
+from wavemeter.report.content import comparison_calibration, retrieved_frequency_hz
 from wavemeter.report.html import report_paths, write_report
 
 from .conftest import NOISE_W, POWER_W
@@ -104,14 +105,15 @@ def test_the_page_shows_stages_hand_overs_and_the_wrong_orders(fitted, tmp_path)
     written = write_report(calibration, sweep, test, page)
     assert written == report_paths(page, calibration)
     text = page.read_text(encoding="utf-8")
-    assert "<h2>Cascade: stages and hand-overs</h2>" in text
+    assert "<h3>stages</h3>" in text and "<h3>hand-overs</h3>" in text
     for record in calibration.diagnostics_["cascade"]["stages"]:
         assert f"<td>{', '.join(record['ports'])}</td>" in text
     assert [f"stage {k} to {k + 1}" for k in (1, 2)] == re.findall(
         r"<td>(stage \d to \d)</td>", text
     )
     wrong = int(np.count_nonzero(wrong_orders(calibration, test)))
-    assert f"On the test readings: {wrong} of {TEST_READINGS} readings off" in text
+    assert "<h2>wrong fringe orders</h2>" in text
+    assert f"<p>{wrong} of {TEST_READINGS} readings off" in text
     # the errors table holds the absolute errors, wrong orders and all
     error = calibration.predict(test.powers_w) - test.frequency_hz
     rms_mhz = error_summary_hz(error)["rms_hz"] / 1e6

@@ -355,16 +355,16 @@ def test_an_interrupt_leaves_an_existing_output_untouched(chip, tmp_path, monkey
     out = tmp_path / f"f{extension}"
     out.write_bytes(b"the previous results")
     calibration = chip["calibration"]
-    predict = calibration.predict
+    readout = calibration.readout
     calls = []
 
     def interrupted_at_the_third_chunk(powers, **extra):
         calls.append(len(powers))
         if len(calls) == 3:
             raise KeyboardInterrupt
-        return predict(powers, **extra)
+        return readout(powers, **extra)
 
-    monkeypatch.setattr(calibration, "predict", interrupted_at_the_third_chunk)
+    monkeypatch.setattr(calibration, "readout", interrupted_at_the_third_chunk)
     with pytest.raises(KeyboardInterrupt):
         measure_file(calibration, data, out, chunk_rows=7, drop_invalid=True)
     assert len(calls) == 3

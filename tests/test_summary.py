@@ -130,7 +130,8 @@ def test_every_calibrator_has_a_summary(sweep, tag, tmp_path):
     if tag == "calibration_set":
         assert len(report.windows) == 2 and "windows" in report.text
     if tag == "cascade":
-        assert len(report.windows) == 2 and "handover_1_2_margin_std" in report.text
+        assert len(report.windows) == 2 and "hand-over 1 to 2 margin (std)" in report.text
+        assert "hand-overs:" in report.text and "stage 1 to 2" in report.text
         assert report.windows_are == "stages" and "\n  2 " in report.text
 
 

@@ -1,13 +1,12 @@
 """Figures of merit and evaluations of calibrations on readings of known frequency, and
 frequency-noise metrology of a laser from a meter's readings."""
 
-from .evaluation import adjacent_evaluation, crlb_per_reading_hz, evaluate_calibrations
-from .metrics import error_summary_hz, frequency_error_hz
+from ..model.errors import error_summary_hz, frequency_error_hz
+from .evaluation import crlb_per_reading_hz, evaluate_calibrations
 from .noise import FrequencyNoise, beta_separation_line_hz2_per_hz, frequency_noise
 from .power_law import power_law_deviations, power_law_psd_hz2_per_hz
 
 __all__ = [
-    "adjacent_evaluation",
     "crlb_per_reading_hz",
     "error_summary_hz",
     "evaluate_calibrations",

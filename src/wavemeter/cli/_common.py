@@ -48,7 +48,6 @@ __all__ = [
     "frequency_text",
     "optical_text",
     "noise_text",
-    "cascade_lines",
 ]
 
 #: Unicode categories never printed: controls (C0, C1, DEL), format characters (bidi
@@ -162,75 +161,6 @@ def _finite(value) -> float | None:
     """A finite number of a calibration file, else None (a file may be hand-edited)."""
     is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
     return float(value) if is_number and math.isfinite(value) else None
-
-
-def _number_text(value, unit: str = "", digits: int = 3) -> str:
-    number = _finite(value)
-    return "?" if number is None else f"{number:.{digits}g}{unit}"
-
-
-def _frequency_entry(value, digits: int = 6) -> str:
-    number = _finite(value)
-    return "?" if number is None else frequency_text(number, digits)
-
-
-def _stage_line(record: dict) -> str:
-    ports = record.get("ports")
-    ports = ", ".join(map(str, ports)) if isinstance(ports, list) else "?"
-    return (
-        f"FSR {_frequency_entry(record.get('fsr_hz'))}, ports {ports}, phase order "
-        f"{record.get('phase_order', '?')}, map order {record.get('map_order', '?')}, median "
-        f"std {_frequency_entry(record.get('median_std_hz'), 4)}, sweep RMS "
-        f"{_frequency_entry(record.get('rms_hz'), 4)}, z spread {_number_text(record.get('z_std'))}"
-    )
-
-
-def _handover_line(record: dict) -> str:
-    return (
-        f"FSR ratio {_number_text(record.get('ratio'))} (largest usable "
-        f"{_number_text(record.get('largest_usable_ratio'))}), margin "
-        f"{_number_text(record.get('margin_std'))} std (worst "
-        f"{_number_text(record.get('worst_margin_std'))}), predicted wrong-order rate "
-        f"{_number_text(record.get('predicted_rate'))}, wrong orders on the sweep "
-        f"{record.get('wrong_on_sweep', '?')} (expected "
-        f"{_number_text(record.get('expected_wrong'))})"
-    )
-
-
-def cascade_lines(diagnostics) -> list[str]:
-    """What ``diagnostics_["cascade"]`` of a cascade calibration holds, one line per stage
-    (FSR, ports, orders, median standard deviation, RMS and z-score spread on the sweep),
-    per hand-over (FSR ratio and the largest the noise allows, margin in standard
-    deviations, predicted wrong-order rate, wrong orders on the sweep) and the coarsest
-    stage's edge margin; none for other calibrations."""
-    record = diagnostics.get("cascade") if isinstance(diagnostics, dict) else None
-    if not isinstance(record, dict):
-        return []
-
-    def line(label: str, text: str) -> str:
-        return printable(f"{label:<{LABEL_WIDTH}}{text}")
-
-    lines = [
-        line(f"stage {stage.get('stage', '?')}", _stage_line(stage))
-        for stage in record.get("stages") or []
-        if isinstance(stage, dict)
-    ]
-    lines += [
-        line(
-            f"hand-over {handover.get('from_stage', '?')}->{handover.get('to_stage', '?')}",
-            _handover_line(handover),
-        )
-        for handover in record.get("handovers") or []
-        if isinstance(handover, dict)
-    ]
-    lines.append(
-        line(
-            "edge margin",
-            f"{_number_text(record.get('edge_margin_std'))} std (the coarsest stage's unique "
-            "range beyond the band, at the band's ends)",
-        )
-    )
-    return lines
 
 
 # ---------------------------------------------------------------------------- shared options

@@ -47,12 +47,15 @@ def check_coarse(calibration, cal_path, stream, coarse_hz) -> None:
         return
     if stream.coarse_column is not None or coarse_hz is not None:
         return
-    if hasattr(calibration, "windows_"):
-        low, high = calibration.covered_hz()
+    parts = calibration.parts()
+    if parts:
+        low = min(part.range_hz[0] for part in parts)
+        high = max(part.range_hz[1] for part in parts)
+        kind = parts[0].kind
         raise InputError(
-            f"{cal_path} is a per-FSR calibration set ({len(calibration.windows_)} windows, "
+            f"{cal_path} is a {calibration.method_label} calibration ({len(parts)} {kind}s, "
             f"{low / 1e12:.6f} to {high / 1e12:.6f} THz): it needs a coarse frequency per "
-            f"reading to pick the window; {COARSE_OPTIONS}"
+            f"reading to pick the {kind}; {COARSE_OPTIONS}"
         )
     low, high = calibration.span_hz_
     raise InputError(

@@ -50,7 +50,6 @@ from ._common import (
     PORT_PHASES,
     QUIET,
     about,
-    cascade_lines,
     check_calibration_output,
     column_options,
     column_request,
@@ -729,8 +728,6 @@ def calibrate(sweeps, out_path, port_phases_deg, force, **options):
     to_stderr = is_stdio(out_path)
     say(quiet, _read_line(read_sweeps), err=to_stderr)
     say(quiet, calibration.summary().text, err=to_stderr)
-    for line in cascade_lines(getattr(calibration, "diagnostics_", None)):
-        say(quiet, line, err=to_stderr)
     say(quiet, f"wrote {'the calibration to stdout' if to_stderr else out_path}", err=to_stderr)
 
 

@@ -1,9 +1,8 @@
 """`wavemeter evaluate`: frequency errors on readings of known frequency.
 
-A cascade calibration reads absolute frequency without a coarse input; its wrong fringe
-orders (readings off by half the finest stage's FSR or more) are counted against the number
-its ``order_error_probability`` predicts, and against the readings it flags
-``ORDER_AMBIGUOUS``.
+Each calibration's own checks on the test readings (``evaluation_checks``: a cascade's
+wrong fringe orders against those it predicts and flags; with ``--adjacent``, a set's maps
+on the neighbouring FSRs) are printed beside the errors.
 """
 
 from __future__ import annotations
@@ -78,37 +77,27 @@ def _table(labels, header, rows) -> list[str]:
 
 
 def _coarse_users(calibrations: dict) -> str:
-    """The kinds of calibration that need a coarse frequency, for the messages:
-    ``calibration sets``, ``wideband calibrations``."""
+    """The calibrations that need a coarse frequency, for the messages
+    (``learned per FSR calibrations``, ``wideband calibrations``)."""
     kinds = [
-        "calibration sets"
-        if hasattr(calibration, "windows_")
-        else f"{calibration.method} calibrations"
+        f"{calibration.method_label} calibrations"
         for calibration in calibrations.values()
         if "coarse_hz" in calibration.requires
     ]
     return ", ".join(dict.fromkeys(kinds))
 
 
-def _is_cascade(calibration) -> bool:
-    """Whether a calibration reads absolute frequency through stages (a cascade)."""
-    return calibration.absolute_frequency and hasattr(calibration, "stages_")
-
-
-def _order_lines(report: dict) -> list[str]:
-    """One line per cascade: wrong orders seen, predicted and flagged
-    (:func:`wavemeter.report.content.order_errors`)."""
-    samples = report["samples"]
+def _check_lines(checks: dict) -> list[str]:
+    """One line per check a calibration made of itself (its wrong fringe orders, ...)."""
     return [
-        f"fringe orders of {label}: {record['wrong_orders']} of {samples} readings off by half "
-        f"the finest stage's FSR or more, {record['expected_wrong_orders']:.3g} expected from "
-        f"its order_error_probability; {record['flagged_order_ambiguous']} flagged "
-        f"ORDER_AMBIGUOUS ({record['wrong_orders_flagged']} of the wrong ones)"
-        for label, record in report.get("order_errors", {}).items()
+        f"{check.title} of {label}: {check.text}"
+        for label, found in checks.items()
+        for check in found
+        if check.name != "adjacent"
     ]
 
 
-def _print_evaluation(report: dict, calibrations: dict) -> None:
+def _print_evaluation(report: dict, calibrations: dict, checks: dict) -> None:
     say(
         False,
         f"{report['test_file']}: {report['samples']} readings, truth {report['truth_column']} "
@@ -146,7 +135,7 @@ def _print_evaluation(report: dict, calibrations: dict) -> None:
             f"from the calibration residual of {report['crlb_method']}, its map taken as the "
             "true one)",
         )
-    for line in _order_lines(report):
+    for line in _check_lines(checks):
         say(False, line)
     users = _coarse_users(calibrations)
     if report["coarse_from"] == "coarse_hz":
@@ -182,26 +171,23 @@ def _placement_notes(report: dict, calibrations: dict) -> list[str]:
                 f"({gross} of {samples}) are off by more than half the FSR "
                 f"({fsr / 1e9:.6f} GHz)"
             )
-        needs_coarse = "coarse_hz" in calibrations[label].requires
-        if _is_cascade(calibrations[label]):
+        calibration = calibrations[label]
+        needs_coarse = "coarse_hz" in calibration.requires
+        divided = calibration.parts()
+        if calibration.absolute_frequency:
             reason = (
-                "a cascade picks each reading's fringe order from its coarser stages and reads "
-                "only the band it was calibrated on: readings outside it, or noisier than its "
-                "hand-overs allow, come back whole FSRs off (measure writes each reading's "
-                "order_error_probability and flags ORDER_AMBIGUOUS)"
+                f"a {calibration.method_label} calibration picks each reading's fringe order "
+                "itself and reads only the band it was calibrated on: readings outside it, or "
+                "noisier than it allows, come back whole FSRs off (measure writes each "
+                "reading's flags, ORDER_AMBIGUOUS where the order is in doubt)"
             )
         elif needs_coarse and report["coarse_from"] == "truth":
             reason = "its maps misread them even with the true frequency as the coarse value"
-        elif needs_coarse and hasattr(calibrations[label], "windows_"):
-            reason = (
-                "a calibration set picks each reading's window and alias by its coarse "
-                "frequency, which must lie within half an FSR of the truth"
-            )
         elif needs_coarse:
+            picks = f"{divided[0].kind} and alias" if divided else "fringe order"
             reason = (
-                f"a {calibrations[label].method_label} calibration picks each reading's "
-                "fringe order by its coarse frequency, which must lie within half an FSR of "
-                "the truth"
+                f"a {calibration.method_label} calibration picks each reading's {picks} by "
+                "its coarse frequency, which must lie within half an FSR of the truth"
             )
         elif high - low > SPAN_OVER_FSR_LIMIT * fsr:
             reason = (
@@ -248,6 +234,16 @@ def _print_adjacent(adjacent: dict) -> None:
         )
     ]
     say(False, "\n".join(_table(labels, header, rows)))
+
+
+def _checks(calibration, table, adjacent: bool) -> list:
+    """The checks a calibration makes of itself on the test readings; its adjacent-window
+    evaluation only when asked for (it fits the conventional method per window)."""
+    return [
+        check
+        for check in calibration.evaluation_checks(table.powers_w, table.x_hz)
+        if adjacent or check.name != "adjacent"
+    ]
 
 
 def _test_temperature_k(calibrations: dict, table):
@@ -331,13 +327,15 @@ def evaluate(
       wavemeter evaluate set.wmcal.json test.csv --adjacent --json
     """
     calibration = load(calibration_file)
-    if sweep is not None and _is_cascade(calibration):
-        raise InputError(
-            f"--sweep fits another method on the sweep to compare with, and {calibration_file} "
-            f"is a {calibration.method_label} calibration, which has none (no other method "
-            "reads absolute frequency from the readings of its stages): leave --sweep out, or "
-            "pass another calibration file with --compare"
-        )
+    if sweep is not None:
+        try:
+            calibration.comparison()
+        except InputError as exc:
+            raise InputError(
+                f"--sweep fits another method on the sweep to compare with, and "
+                f"{calibration_file} names none ({exc}): leave --sweep out, or pass another "
+                "calibration file with --compare"
+            ) from exc
     if coarse_column is not None and calibration.absolute_frequency and not compare_files:
         raise InputError(
             f"{calibration_file} is a {calibration.method_label} calibration: it reads the "
@@ -371,8 +369,7 @@ def evaluate(
         "truth_unit": table.x_unit,
         "coarse_column": table.coarse_column,
     }
-    from ..analysis.evaluation import adjacent_evaluation, evaluate_calibrations
-    from ..report.content import order_errors
+    from ..analysis.evaluation import evaluate_calibrations
 
     with about(test):
         report.update(
@@ -384,37 +381,28 @@ def evaluate(
                 temperature_k=_test_temperature_k(calibrations, table),
             )
         )
-        orders = {
-            label: order_errors(other, table.powers_w, table.x_hz)
+        checks = {
+            label: _checks(other, table, adjacent and other is calibration)
             for label, other in calibrations.items()
-            if _is_cascade(other)
         }
-    if orders:
-        report["order_errors"] = orders
-    if adjacent:
-        if not hasattr(calibration, "windows_"):
-            raise InputError(
-                f"--adjacent needs a per-FSR calibration set (it applies each FSR window's "
-                f"map to its neighbours); {calibration_file} is a "
-                f"{calibration.method_label} calibration (one model): calibrate with "
-                "--per-fsr on a sweep over several FSRs"
-            )
-        from ..calibration.methods.baselines import ConventionalCalibrator
-
-        phases = port_phases_rad(port_phases_deg)
-        if phases is None:
-            phases = calibration.windows_[0].get_params().get("port_phases_rad")
-        with about(test):
-            report["adjacent"] = adjacent_evaluation(
-                calibration,
-                table.powers_w,
-                table.x_hz,
-                ConventionalCalibrator(port_phases_rad=phases),
-            )
+    if adjacent and not any(check.name == "adjacent" for check in checks[calibration.method_label]):
+        raise InputError(
+            f"--adjacent needs a per-FSR calibration set (it applies each FSR window's map "
+            f"to its neighbours); {calibration_file} is a {calibration.method_label} "
+            "calibration (one model): calibrate with --per-fsr on a sweep over several FSRs"
+        )
+    for label, found in checks.items():
+        for check in found:
+            if check.name == "adjacent":
+                if "unavailable" in check.record:
+                    raise InputError(f"{test}: {check.record['unavailable']}")
+                report["adjacent"] = check.record
+            else:
+                report.setdefault(check.name, {})[label] = check.record
     if as_json:
         click.echo(json.dumps(report, indent=1))  # JSON: text escaped by json
     elif not options["quiet"]:
-        _print_evaluation(report, calibrations)
+        _print_evaluation(report, calibrations, checks)
         if adjacent:
             _print_adjacent(report["adjacent"])
     for line in _placement_notes(report, calibrations):

@@ -15,15 +15,13 @@ the coarsest stage's edge margin (``diagnostics_["cascade"]``).
 
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 
 import click
 
 from ..exceptions import FileFormatError
-from ..report.formatting import PHASE_COEFFICIENT_NAMES, scientific_with_error
-from ._common import cascade_lines, printable
+from ._common import printable
 
 #: extensions of the data files the readers take (sweeps, readings), never calibrations
 DATA_EXTENSIONS = frozenset(
@@ -155,107 +153,6 @@ def metadata_lines(metadata: dict) -> list[str]:
     return lines
 
 
-def _number(value) -> float | None:
-    """A finite number of a calibration file, else None (a file may be hand-edited)."""
-    return float(value) if _is_number(value) and math.isfinite(value) else None
-
-
-def _coefficient_lines(record: dict) -> list[str]:
-    """One line per phase coefficient ``c_i`` (s^i) with its standard error."""
-    values = record.get("phase_coefficients_s")
-    errors = record.get("phase_coefficients_std_s")
-    if not isinstance(values, list):
-        return []
-    if not isinstance(errors, list) or len(errors) != len(values):
-        errors = [None] * len(values)
-    lines = []
-    for order, (value, error) in enumerate(zip(values, errors, strict=True), start=1):
-        number = _number(value)
-        if number is None:
-            lines.append(_line(f"phase c{order}", "?"))
-            continue
-        unit = "s" if order == 1 else f"s^{order}"
-        name = PHASE_COEFFICIENT_NAMES.get(order, f"order {order}")
-        text = scientific_with_error(number, _number(error), " +- ")
-        lines.append(_line(f"phase c{order}", f"{text} {unit} ({name})"))
-    return lines
-
-
-def _cross_validation_lines(orders: dict) -> list[str]:
-    """How the orders were chosen, and the table of the candidates scored."""
-    lines = [_line("orders", str(orders.get("reason", orders.get("method", "?"))))]
-    candidates = orders.get("candidates")
-    if not isinstance(candidates, list) or not candidates:
-        return lines
-    widths = [len(title) + 2 for title in CV_HEADER]
-    lines.append(
-        printable("  " + "".join(f"{t:>{w}}" for t, w in zip(CV_HEADER, widths, strict=True)))
-    )
-    for candidate in candidates:
-        if not isinstance(candidate, dict):
-            continue
-        rms = _number(candidate.get("cv_rms_hz"))
-        cells = (
-            str(candidate.get("phase_order", "?")),
-            str(candidate.get("map_order", "?")),
-            str(candidate.get("parameters", "?")),
-            "?" if rms is None else f"{rms / 1e6:.4f}",
-        )
-        row = "".join(f"{cell:>{w}}" for cell, w in zip(cells, widths, strict=True))
-        lines.append(
-            printable("  " + row + ("  <- chosen" if candidate.get("chosen") is True else ""))
-        )
-    return lines
-
-
-def _residual_phase_line(rows) -> list[str]:
-    """The RMS residual phase per FSR window: its range over the band and the worst window."""
-    if not isinstance(rows, list):
-        return []
-    windows = [
-        (rms, row)
-        for row in rows
-        if isinstance(row, dict) and (rms := _number(row.get("rms_rad"))) is not None
-    ]
-    if not windows:
-        return [_line("residual phase", "not recorded")]
-    lowest = min(rms for rms, _ in windows)
-    highest, worst = max(windows, key=lambda pair: pair[0])
-    center, mean = _number(worst.get("center_hz")), _number(worst.get("mean_rad"))
-    where = "?" if center is None else f"{center / 1e12:.6f} THz"
-    mean_text = "?" if mean is None else f"{mean * 1e3:.3g}"
-    return [
-        _line(
-            "residual phase",
-            f"RMS {lowest * 1e3:.3g} to {highest * 1e3:.3g} mrad over {len(windows)} FSR "
-            f"windows; largest in the window at {where} (mean {mean_text} mrad, "
-            f"{worst.get('readings', '?')} readings)",
-        )
-    ]
-
-
-def wideband_lines(diagnostics) -> list[str]:
-    """What ``diagnostics_["wideband"]`` of a wide-band calibration holds, as lines: orders
-    and parameter count, the phase coefficients with standard errors, how the orders were
-    chosen (cross-validation curve), the residual phase across the band. None for other
-    calibrations."""
-    record = diagnostics.get("wideband") if isinstance(diagnostics, dict) else None
-    if not isinstance(record, dict):
-        return []
-    lines = [
-        _line(
-            "wide band",
-            f"phase order {record.get('phase_order', '?')}, map order "
-            f"{record.get('map_order', '?')}, {record.get('n_parameters', '?')} fitted parameters",
-        ),
-        *_coefficient_lines(record),
-    ]
-    orders = record.get("orders")
-    if isinstance(orders, dict):
-        lines += _cross_validation_lines(orders)
-    return lines + _residual_phase_line(record.get("residual_phase"))
-
-
 @click.command()
 @click.argument("calibration_file", metavar="CAL", type=click.Path(dir_okay=False))
 def info(calibration_file):
@@ -286,10 +183,6 @@ def info(calibration_file):
         )
     )
     click.echo(printable(content.calibrator.summary().text))
-    diagnostics = getattr(content.calibrator, "diagnostics_", None)
-    model_lines = wideband_lines(diagnostics) + cascade_lines(diagnostics)
-    if model_lines:
-        click.echo("\n".join(model_lines))
     click.echo("\n".join(metadata_lines(content.metadata)))
 
 

@@ -217,15 +217,15 @@ def calibrate_options(
 
 
 def _noise_std_w(calibration) -> float:
-    noise = getattr(calibration, "noise_std_w_", None)
-    if noise is None and getattr(calibration, "port_noise_std_w_", None) is not None:
-        noise = np.mean(calibration.port_noise_std_w_)
-    return math.nan if noise is None else float(noise)
+    """The detector noise estimate (W) the calibration states; NaN where it states none."""
+    noise = calibration.summary().values.get("noise_std_w")
+    return math.nan if noise is None else float(noise.value)
 
 
 def _crlb_rms_hz(calibration, table, inputs: dict) -> float:
-    """RMS (Hz) of the Cramer-Rao bound of the sweep's readings; NaN without ``crlb_hz``."""
-    if not hasattr(calibration, "crlb_hz"):
+    """RMS (Hz) of the Cramer-Rao bound of the sweep's readings; NaN where the calibration
+    gives no bound (no ``"crlb"`` capability)."""
+    if "crlb" not in calibration.capabilities:
         return math.nan
     if "coarse_hz" in calibration.requires:
         inputs = {**inputs, "coarse_hz": table.x_hz}
@@ -486,10 +486,10 @@ def fit_sweep_chunks(
     CalibrationWarning
         As ``fit``.
     """
-    if not hasattr(calibrator, "fit_chunks"):
+    if "fit_chunks" not in calibrator.capabilities:
         raise InputError(
-            f"a {calibrator.method_label} calibration is fitted on the whole sweep at once; "
-            "only the learned one is fitted in chunks"
+            f"a {calibrator.method_label} calibration is fitted on the whole sweep at once "
+            "(no 'fit_chunks' among its capabilities)"
         )
     found: dict = {"temperature": [np.inf, -np.inf]}
 

@@ -25,10 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration.contract.flags import ReadingFlag
-from ..exceptions import CalibrationWarning, InputError, WavemeterError
+from ..exceptions import InputError, WavemeterError
 from ..io import ColumnRequest, ReadingStream, iter_readings, table_writer
 from ..io.streaming import CHUNK_ROWS
-from ..units import SPEED_OF_LIGHT_M_S, frequency_text
+from ..units import SPEED_OF_LIGHT_M_S
 
 __all__ = [
     "measure_file",
@@ -36,13 +36,10 @@ __all__ = [
     "ChunkMeasurement",
     "check_stream",
     "MEASURE_CHUNK_ROWS",
-    "READING_NOISE_CAUSE",
 ]
 
 #: rows measured per chunk by default (a few MB of readings and results): those read at a time
 MEASURE_CHUNK_ROWS = CHUNK_ROWS
-#: cause of the warning that a cascade's readings are noisier than its calibration sweep
-READING_NOISE_CAUSE = "reading_noise"
 
 
 @dataclass
@@ -251,8 +248,8 @@ class ChunkMeasurement:
         self.coarse_hz = coarse_hz
         self.temperature_k = temperature_k
         self.thermal = "temperature_k" in calibration.requires
-        self.cascade = hasattr(calibration, "stages_")
-        self.noise_scale = np.ones(len(calibration.stages_)) if self.cascade else None
+        self.extras = tuple(calibration.reading_outputs)
+        self.states: list = []
         self.warnings: dict[tuple[type, str], Warning] = {}
 
     def chunk(self, table) -> dict[str, np.ndarray]:
@@ -262,7 +259,7 @@ class ChunkMeasurement:
         phase = np.full(rows, np.nan)
         std = np.full(rows, np.nan)
         flags = np.where(table.invalid, int(ReadingFlag.INVALID), 0)
-        order_error = np.full(rows, np.nan) if self.cascade else None
+        extras = {name: np.full(rows, np.nan) for name in self.extras}
         temperature = None
         if self.thermal:
             temperature = (
@@ -283,21 +280,14 @@ class ChunkMeasurement:
         if valid.size:
             with about_file(table.source), warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                if self.cascade:  # every stage in one pass
-                    found = self.calibration.read(powers)
-                    frequency[valid] = found.frequency_hz[-1]
-                    phase[valid] = found.phase_rad[-1]
-                    std[valid] = found.std_hz[-1]
-                    order_error[valid] = found.order_error_probability
-                    flags[valid] = found.flags
-                    self.noise_scale = np.maximum(self.noise_scale, found.noise_scale)
-                else:
-                    frequency[valid] = self.calibration.predict(powers, **extra)
-                    if self.phase:
-                        phase[valid] = self.calibration.phase(powers, **extra)
-                    if self.uncertainty:
-                        std[valid] = self.calibration.frequency_std_hz(powers, **extra)
-                    flags[valid] = self.calibration.flags(powers, **extra)
+                found = self.calibration.readout(powers, **extra)
+                frequency[valid] = found.frequency_hz
+                phase[valid] = found.phase_rad
+                std[valid] = found.frequency_std_hz
+                flags[valid] = found.flags
+                for name, values in extras.items():
+                    values[valid] = found.extras[name]
+                self.states.append(found.state)
             for warning in caught:
                 key = (warning.category, str(warning.message))
                 self.warnings.setdefault(key, warning.message)
@@ -308,7 +298,7 @@ class ChunkMeasurement:
             columns["phase_rad"] = phase
         columns |= {
             **({"frequency_std_hz": std} if self.uncertainty else {}),
-            **({} if order_error is None else {"order_error_probability": order_error}),
+            **extras,
             "flags": flags,
             **({} if temperature is None else {"temperature_k": temperature}),
         }
@@ -317,34 +307,9 @@ class ChunkMeasurement:
         return columns
 
     def finish(self) -> list[Warning]:
-        """The warnings of the whole file: those the chunks gave, each once, then the
-        cascade's reading-noise warning decided from every chunk."""
-        found = list(self.warnings.values())
-        if self.cascade and (noisier := _noise_warning(self.calibration, self.noise_scale)):
-            found.append(noisier)
-        return found
-
-
-def _noise_warning(calibration, noise_scale: np.ndarray) -> CalibrationWarning | None:
-    """The warning that a cascade's readings are noisier than its calibration sweep, from
-    the largest noise scale of each stage over the chunks (K,); None when none is."""
-    noisier = np.flatnonzero(noise_scale > 1.0)
-    if noisier.size == 0:
-        return None
-    fsrs = calibration.stage_fsrs_hz_
-    stages = ", ".join(
-        f"{noise_scale[index]:.3g}x in stage {index + 1} ({frequency_text(fsrs[index])})"
-        for index in noisier
-    )
-    return CalibrationWarning(
-        f"the readings are noisier than the calibration sweep: their detector noise is "
-        f"{stages} the calibrated one (estimated from the readings' distances to each stage's "
-        "model); frequency_std_hz and order_error_probability follow the readings' noise, "
-        "and wrong orders grow more likely with it",
-        cause=READING_NOISE_CAUSE,
-        remedy="lower the readings' noise (more power, averaging) or recalibrate in the "
-        "conditions of use",
-    )
+        """The warnings of the whole file: those the chunks gave, each once, then those the
+        calibration draws from every chunk's readout (``readout_notes``)."""
+        return list(self.warnings.values()) + self.calibration.readout_notes(self.states)
 
 
 @contextlib.contextmanager

@@ -336,10 +336,10 @@ class _Unwrapper:
 
 
 def _scale_rel_std(calibration) -> float:
-    """``delay_std_s_ / delay_s_`` of a calibration that states it, else 0."""
-    delay_std_s = getattr(calibration, "delay_std_s_", None)
-    delay_s = getattr(calibration, "delay_s_", None)
-    return float(delay_std_s / delay_s) if delay_std_s and delay_s else 0.0
+    """The relative standard error of the calibrated FSR (that of the frequency scale), as
+    the calibration states it; 0 where it states none."""
+    fsr = calibration.summary().values["fsr_hz"]
+    return float(fsr.stderr / fsr.value) if fsr.stderr else 0.0
 
 
 def _open(readings, request, chunk_rows, time_column, calibration, temperature_k):

@@ -10,6 +10,7 @@ from .cone import (
     wrap_to_period,
 )
 from .couplers import fourier_matrix, mmi_matrix, orthonormal_map
+from .errors import error_summary_hz, frequency_error_hz
 from .limits import check_noise_std, crlb_frequency_std, crlb_ideal_frequency_std
 from .orders import (
     any_error_probability,
@@ -34,6 +35,8 @@ __all__ = [
     "phase_to_frequency_hz",
     "wrap_phase_rad",
     "wrap_to_period",
+    "error_summary_hz",
+    "frequency_error_hz",
     "fourier_matrix",
     "mmi_matrix",
     "orthonormal_map",

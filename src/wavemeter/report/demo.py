@@ -7,13 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.metrics import error_summary_hz, frequency_error_hz
 from ..atomic import atomic_path, check_output
 from ..calibration.methods.baselines import ConventionalCalibrator
 from ..calibration.methods.learned import Calibrator
 from ..exceptions import InputError
 from ..io import write_table
 from ..model.cone import delay_phase_rad
+from ..model.errors import error_summary_hz, frequency_error_hz
 from ..model.limits import crlb_frequency_std
 from ..simulation.interferometer import Interferometer
 

@@ -14,11 +14,11 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..calibration.contract.figures import FigureData
 from .formatting import frequency_error_unit, significant
 from .plotting import (
     DATA_ZORDER,
     FIGURE_HEIGHT_IN,
-    FIT_ZORDER,
     MARKER_ALPHA,
     MARKER_SIZE,
     REFERENCE_ALPHA,
@@ -36,8 +36,7 @@ __all__ = [
     "plot_residuals",
     "plot_error_histogram",
     "plot_error_against_temperature",
-    "plot_cross_validation",
-    "plot_residual_phase",
+    "plot_figure_data",
     "CIRCLE_POINTS",
 ]
 
@@ -318,8 +317,8 @@ def plot_error_against_temperature(
         Retrieved minus true frequency per method (Hz).
     reference : str
         Key of ``error_hz`` shown alone in the bottom panel (the thermal calibration).
-    calibrated_range_k : (float, float)
-        Lowest and highest calibration temperature (K).
+    calibrated_range_k : None or (float, float)
+        Lowest and highest calibration temperature (K), shaded where known.
     crlb_std_hz : None or array_like, shape (N,)
         Per-reading Cramer-Rao standard deviation (Hz).
 
@@ -342,17 +341,18 @@ def plot_error_against_temperature(
             zorder=REFERENCE_ZORDER,
             label="CRLB ±1σ (RMS)",
         )
-    low, high = (float(value) for value in calibrated_range_k)
     for axes, axes_unit in ((top, unit), (bottom, fine_unit)):
-        axes.axvspan(
-            low,
-            high,
-            color="tab:olive",
-            alpha=0.12,
-            linewidth=0,
-            zorder=1,
-            label="calibrated temperatures",
-        )
+        if calibrated_range_k is not None:
+            low, high = (float(value) for value in calibrated_range_k)
+            axes.axvspan(
+                low,
+                high,
+                color="tab:olive",
+                alpha=0.12,
+                linewidth=0,
+                zorder=1,
+                label="calibrated temperatures",
+            )
         axes.axhline(0.0, color="black", linewidth=0.6, zorder=1)
         axes.set_ylabel(f"frequency error ({axes_unit})")
         legend_outside(axes)
@@ -361,127 +361,75 @@ def plot_error_against_temperature(
     return figure
 
 
-def plot_cross_validation(parameters, cv_rms_hz, orders, chosen, reason: str):
-    """Held-out RMS frequency error of each order pair scored, against its parameter count.
+def _display_scale(values: np.ndarray, unit: str) -> tuple[float, str]:
+    """The SI value of one display unit that suits ``values``, and its name: frequencies
+    (``Hz``) as frequency errors are shown, phases (``rad``) in mrad when small."""
+    if unit == "Hz":
+        return frequency_error_unit(values)
+    if unit == "rad" and values.size and float(np.max(np.abs(values))) < MRAD_BELOW_RAD:
+        return 1e-3, "mrad"
+    return 1.0, unit
 
-    Parameters
-    ----------
-    parameters : array_like of int, shape (K,)
-        Fitted numbers of each candidate.
-    cv_rms_hz : array_like, shape (K,)
-        Its RMS frequency error on the held-out FSR windows (Hz).
-    orders : sequence of (int, int), length K
-        Its phase order ``P`` and map order ``J``, written beside its marker.
-    chosen : array_like of bool, shape (K,)
-        The candidate chosen (ringed).
-    reason : str
-        How the orders were chosen; shown instead of the curve when nothing was scored
-        (orders given, or too few FSR windows).
+
+def plot_figure_data(data: FigureData):
+    """A figure a calibration declares (:class:`FigureData`): its series as lines, markers
+    or levels, chosen points ringed, points labelled, a frequency axis as an offset.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
     figure, (axes,) = new_figure()
-    axes.set_title("Choice of the orders: held-out error against parameters")
-    count = np.asarray(parameters, dtype=float)
-    if count.size == 0:
+    axes.set_title(data.caption.split(":")[0].split(".")[0])
+    if not data.series or all(series.x.size == 0 for series in data.series):
         axes.text(
-            0.5,
-            0.5,
-            f"no cross-validation: {reason}",
-            ha="center",
-            va="center",
-            wrap=True,
-            transform=axes.transAxes,
+            0.5, 0.5, data.note, ha="center", va="center", wrap=True, transform=axes.transAxes
         )
         axes.set_axis_off()
         return figure
-    rms = np.asarray(cv_rms_hz, dtype=float)
-    picked = np.asarray(chosen, dtype=bool)
-    scale, unit = frequency_error_unit(rms)
-    axes.plot(
-        count,
-        rms / scale,
-        "o",
-        color=method_color("wideband", 0),
-        zorder=DATA_ZORDER,
-        label="candidate (P, J)",
-    )
-    axes.plot(
-        count[picked],
-        rms[picked] / scale,
-        "o",
-        markersize=CHOSEN_MARKER_SIZE,
-        markerfacecolor="none",
-        markeredgecolor="black",
-        zorder=REFERENCE_ZORDER,
-        label="chosen",
-    )
-    for x, y, (phase_order, map_order) in zip(count, rms / scale, orders, strict=True):
-        axes.annotate(
-            f"({phase_order}, {map_order})",
-            (x, y),
-            textcoords="offset points",
-            xytext=(5, 4),
-            fontsize="small",
-        )
-    if rms.max() > 10 * rms.min():
+    every_y = np.concatenate([np.asarray(series.y, dtype=float) for series in data.series])
+    y_scale, y_unit = _display_scale(every_y, data.y_unit)
+    for index, series in enumerate(data.series):
+        x = np.asarray(series.x, dtype=float)
+        if data.x_unit == "Hz":
+            x = (x - data.x_origin) / 1e9
+        y = np.asarray(series.y, dtype=float) / y_scale
+        color = method_color(series.label, index)
+        if series.style == "level":
+            axes.axhline(
+                y[0],
+                color="black",
+                linestyle="--",
+                linewidth=0.9,
+                zorder=REFERENCE_ZORDER,
+                label=series.label,
+            )
+            continue
+        marker = "o" if series.style == "points" else "o-"
+        axes.plot(x, y, marker, color=color, zorder=DATA_ZORDER, label=series.label)
+        if series.emphasis is not None and np.any(series.emphasis):
+            axes.plot(
+                x[series.emphasis],
+                y[series.emphasis],
+                "o",
+                markersize=CHOSEN_MARKER_SIZE,
+                markerfacecolor="none",
+                markeredgecolor="black",
+                zorder=REFERENCE_ZORDER,
+                label="chosen",
+            )
+        for at_x, at_y, text in zip(x, y, series.point_labels, strict=False):
+            axes.annotate(
+                text, (at_x, at_y), textcoords="offset points", xytext=(5, 4), fontsize="small"
+            )
+    if data.y_unit == "Hz" and every_y.min() > 0 and every_y.max() > 10 * every_y.min():
         axes.set_yscale("log")
-    axes.set_xlabel("fitted parameters (count)")
-    axes.set_ylabel(f"held-out RMS frequency error ({unit})")
-    legend_outside(axes)
-    return figure
-
-
-def plot_residual_phase(window_center_hz, mean_rad, rms_rad, center_hz: float, noise_std_rad=None):
-    """Retrieved minus model phase across the band, per FSR window: RMS and mean.
-
-    Parameters
-    ----------
-    window_center_hz : array_like, shape (K,)
-        Mean sweep frequency of each window (Hz).
-    mean_rad, rms_rad : array_like, shape (K,)
-        Mean and RMS residual phase of the window's readings (rad).
-    center_hz : float
-        Origin of the frequency axis (Hz).
-    noise_std_rad : None or float
-        Phase standard deviation the detector noise alone gives (rad), drawn as a line:
-        an RMS near it is noise, one above it is structure the model leaves.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    offset = (np.asarray(window_center_hz, dtype=float) - center_hz) / 1e9
-    mean = np.asarray(mean_rad, dtype=float)
-    rms = np.asarray(rms_rad, dtype=float)
-    peak = max(float(np.max(np.abs(np.r_[mean, rms]))), float(noise_std_rad or 0.0))
-    scale, unit = (1e-3, "mrad") if peak < MRAD_BELOW_RAD else (1.0, "rad")
-    figure, (axes,) = new_figure()
-    axes.plot(
-        offset, rms / scale, "o-", color="tab:blue", zorder=FIT_ZORDER, label="RMS per FSR window"
-    )
-    axes.plot(
-        offset,
-        mean / scale,
-        "s-",
-        color="tab:orange",
-        zorder=FIT_ZORDER,
-        label="mean per FSR window",
-    )
-    if noise_std_rad is not None:
-        axes.axhline(
-            noise_std_rad / scale,
-            color="black",
-            linestyle="--",
-            linewidth=0.9,
-            zorder=REFERENCE_ZORDER,
-            label="CRLB phase σ (RMS)",
-        )
-    axes.axhline(0.0, color="black", linewidth=0.6, zorder=1)
-    axes.set_xlabel(offset_label(center_hz))
-    axes.set_ylabel(f"residual phase ({unit})")
-    axes.set_title("Residual phase across the band (retrieved minus model)")
+    if data.x_unit == "Hz":
+        axes.set_xlabel(offset_label(data.x_origin))
+    else:
+        axes.set_xlabel(f"{data.x_label} ({data.x_unit or 'count'})")
+    axes.set_ylabel(f"{data.y_label} ({y_unit})" if y_unit else data.y_label)
+    if data.y_unit == "rad":
+        axes.axhline(0.0, color="black", linewidth=0.6, zorder=1)
     legend_outside(axes)
     return figure

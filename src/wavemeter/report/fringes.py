@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
+from ..calibration.contract.figures import FringePanel
 from .formatting import port_label, power_unit, scientific
 from .plotting import (
     DATA_ZORDER,
@@ -34,7 +34,7 @@ from .plotting import (
     thin,
 )
 
-__all__ = ["FringePanel", "plot_fringes", "plot_window_fringes", "NOISE_BAND_LABEL"]
+__all__ = ["plot_fringes", "plot_panels", "plot_window_fringes", "NOISE_BAND_LABEL"]
 
 #: panels' height ratio: fringes over residuals
 HEIGHT_RATIOS = (3.0, 1.6)
@@ -43,40 +43,6 @@ GRID_ROW_HEIGHT_IN = 3.2
 NOISE_BAND_LABEL = "noise estimate ±1σ"
 #: readings drawn per port over the fitted fringes, few enough for the lines to show
 FRINGE_MARKERS = 250
-
-
-@dataclass(frozen=True)
-class FringePanel:
-    """What one fringe panel shows; arrays in SI units.
-
-    Attributes
-    ----------
-    center_hz : float
-        Origin of the frequency axis (Hz).
-    frequency_hz : ndarray, shape (N,)
-        Frequency of each reading (Hz).
-    powers_w : ndarray, shape (N, n)
-        Port readings (W).
-    fitted_w : ndarray, shape (N, n)
-        The fitted model at each reading (W); the residual is ``powers_w - fitted_w``.
-    model_frequency_hz : ndarray, shape (M,)
-        Frequencies of the model curve (Hz), increasing.
-    model_powers_w : ndarray, shape (M, n)
-        The model curve (W).
-    noise_std_w : float or None
-        Detector noise estimate (W), drawn as a +-1 sigma band on the residuals.
-    title : str
-        Panel title (a set: the window).
-    """
-
-    center_hz: float
-    frequency_hz: np.ndarray
-    powers_w: np.ndarray
-    fitted_w: np.ndarray
-    model_frequency_hz: np.ndarray
-    model_powers_w: np.ndarray
-    noise_std_w: float | None = None
-    title: str = ""
 
 
 def _legend_entries(port_names: Sequence[str], model_label: str, noise: bool):
@@ -234,3 +200,15 @@ def plot_window_fringes(
     figure_legend_outside(figure, *_legend_entries(port_names, model_label, noise))
     figure.suptitle(f"Port fringes, fitted model and residual of each of the {count} windows")
     return figure
+
+
+def plot_panels(
+    panels: Sequence[FringePanel], port_names: Sequence[str], model_label: str = "learned"
+):
+    """The fringe panels a calibration declares: one as :func:`plot_fringes`, several as
+    small multiples (:func:`plot_window_fringes`). A panel that names its own ports (a
+    cascade's stage) is drawn with those."""
+    names = panels[0].port_names or tuple(port_names)
+    if len(panels) == 1:
+        return plot_fringes(panels[0], names, model_label)
+    return plot_window_fringes(panels, names, model_label)

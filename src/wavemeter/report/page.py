@@ -4,11 +4,9 @@ The page is self-contained (figures embedded as base64 PNG, no scripts, no exter
 links) and escapes every text it shows. Numbers of errors, ratios and noise carry three
 significant digits; frequencies of the calibration itself carry the digits it resolves.
 
-A cascade calibration gets a section of its stages (FSR, ports, orders, standard deviation
-and error on the sweep), its hand-overs (FSR ratio and the largest the noise allows, margin
-in standard deviations, predicted wrong-order rate, wrong orders on the sweep), the
-coarsest stage's edge margin and the wrong orders of the evaluation readings against those
-predicted (``diagnostics_["cascade"]``).
+What is specific to a method comes from the calibration's description (``summary()``:
+its values with labels, its notes and tables, its parts) and from the checks it makes on
+the evaluation readings; the page renders them without knowing the method.
 """
 
 from __future__ import annotations
@@ -18,16 +16,12 @@ import html
 from collections.abc import Mapping
 from datetime import UTC, datetime
 
-from ..calibration.contract.base import BaseCalibrator
+import numpy as np
+
+from ..calibration.contract.base import COMMON_DIAGNOSTICS, BaseCalibrator
+from ..calibration.contract.summary import Table, value_text
 from ..units import SPEED_OF_LIGHT_M_S
-from .formatting import (
-    PHASE_COEFFICIENT_NAMES,
-    port_label,
-    scientific,
-    scientific_with_error,
-    significant,
-    with_error,
-)
+from .formatting import port_label, scientific, significant
 
 __all__ = [
     "render_page",
@@ -36,9 +30,6 @@ __all__ = [
     "PAPER_CITATION",
     "FIGURE_CAPTIONS",
     "THERMAL_FIGURES",
-    "WIDEBAND_FIGURES",
-    "wideband_record",
-    "cascade_record",
     "RETRIEVAL_NAMES",
 ]
 
@@ -65,17 +56,9 @@ FIGURE_CAPTIONS = {
     "temperature": "Frequency error against the chip temperature of each reading, the "
     "calibrated temperatures shaded; bottom: the thermal calibration alone with its "
     "Cramer-Rao ±1σ (RMS over the readings).",
-    "cross_validation": "How the wide-band orders were chosen: the RMS frequency error on "
-    "held-out FSR windows of each phase order P and map order J scored, against the "
-    "number of fitted parameters; the chosen pair ringed.",
-    "residual_phase": "Retrieved minus model phase of the calibration sweep across the "
-    "band, RMS and mean per FSR window; the dashed line is the phase standard deviation "
-    "the Cramer-Rao bound gives for the detector noise alone.",
 }
 #: figures only a calibration that needs the chip temperature has
 THERMAL_FIGURES = ("temperature",)
-#: figures only a wide-band calibration has (from its ``diagnostics_["wideband"]``)
-WIDEBAND_FIGURES = ("cross_validation", "residual_phase")
 #: phase retrieval of a calibration, by its ``retrieval`` setting (None: no such setting)
 RETRIEVAL_NAMES = {
     "pinv": "pinv: x = A⁺ p, t = atan2(x₂, x₁) ([1], Eq. 24-25)",
@@ -98,29 +81,15 @@ footer, .note { font-size: 0.85em; color: #555; }
 """
 
 
-def wideband_record(calibration: BaseCalibrator | None) -> Mapping | None:
-    """``diagnostics_["wideband"]`` of a wide-band calibration, else None."""
-    record = (getattr(calibration, "diagnostics_", None) or {}).get("wideband")
-    return record if isinstance(record, Mapping) else None
-
-
-def cascade_record(calibration: BaseCalibrator | None) -> Mapping | None:
-    """``diagnostics_["cascade"]`` of a cascade calibration, else None."""
-    record = (getattr(calibration, "diagnostics_", None) or {}).get("cascade")
-    return record if isinstance(record, Mapping) else None
-
-
 def figure_names(calibration: BaseCalibrator | None = None) -> list[str]:
     """The figures of a calibration's report, in page order (default: those of every
     calibration; a calibration that needs the chip temperature adds ``THERMAL_FIGURES``,
-    a wide-band one ``WIDEBAND_FIGURES``)."""
+    and every calibration the figures it declares, ``report_figures``)."""
     thermal = calibration is not None and "temperature_k" in calibration.requires
-    wideband = wideband_record(calibration) is not None
-    return [
-        name
-        for name in FIGURE_CAPTIONS
-        if (thermal or name not in THERMAL_FIGURES) and (wideband or name not in WIDEBAND_FIGURES)
-    ]
+    names = [name for name in FIGURE_CAPTIONS if thermal or name not in THERMAL_FIGURES]
+    if calibration is not None:
+        names += [data.name for data in calibration.report_figures()]
+    return names
 
 
 def html_table(header: list[str] | None, rows: list[list[str]]) -> str:
@@ -139,7 +108,9 @@ def _mhz(value_hz: float) -> str:
 
 
 def _retrieval(calibration: BaseCalibrator) -> str:
-    single = calibration.windows_[0] if hasattr(calibration, "windows_") else calibration
+    """The phase retrieval of a calibration, or of its first part (a set's windows)."""
+    parts = calibration.parts()
+    single = parts[0].calibration if parts else calibration
     setting = single.get_params().get("retrieval")
     return RETRIEVAL_NAMES.get(setting, str(setting))
 
@@ -157,22 +128,29 @@ def _input_rows(input_files: Mapping[str, object]) -> list[list[str]]:
     return rows
 
 
-def _calibration_rows(calibration: BaseCalibrator, summary: dict) -> list[list[str]]:
+#: values of a description shown in the calibration's first rows, not among the others
+_HEADER_VALUES = ("fsr_hz", "design_fsr_hz", "center_hz", "calibration_rms_hz", "noise_std_w")
+
+
+def _calibration_rows(calibration: BaseCalibrator, report, summary: dict) -> list[list[str]]:
+    """The calibration's table: what every calibration has, then the values, notes and
+    part count of its description (``summary()``)."""
     low, high = calibration.span_hz_
     center = calibration.center_hz_
     design = calibration.get_params()["fsr_hz"]
-    cascade = cascade_record(calibration) is not None
+    several = np.ndim(design) == 1
+    parts = calibration.parts()
     rows = [
         ["method", calibration.method_label],
         ["phase retrieval", _retrieval(calibration)],
         [
-            "design FSRs, coarsest first (GHz)" if cascade else "design FSR (GHz)",
-            ", ".join(f"{value / 1e9:.6g}" for value in design)
-            if cascade
-            else f"{design / 1e9:.6g}",
+            "design FSRs, coarsest first (GHz)" if several else "design FSR (GHz)",
+            ", ".join(f"{value / 1e9:.6g}" for value in np.atleast_1d(design)),
         ],
         [
-            "fitted FSR of the finest stage (GHz)" if cascade else "fitted FSR (GHz)",
+            f"fitted FSR of the finest {parts[-1].kind} (GHz)"
+            if several and parts
+            else "fitted FSR (GHz)",
             f"{calibration.fsr_hz_ / 1e9:.9g}",
         ],
         ["centre (THz)", f"{center / 1e12:.9g}"],
@@ -185,194 +163,47 @@ def _calibration_rows(calibration: BaseCalibrator, summary: dict) -> list[list[s
     noise = summary.get("noise_std_w")
     if noise is not None:
         source = f"{summary['noise_from']} fit residual"
-        if cascade:
-            source = "the finest stage's fit residual"
-        elif summary["noise_from"] != calibration.method_label:
+        if summary["noise_from"] != calibration.method_label:
             source += " on the same sweep"
         rows.append(["detector noise estimate (W)", f"{scientific(noise)} ({source})"])
-    if hasattr(calibration, "windows_"):
-        rows.append(["windows (one FSR each)", str(len(calibration.windows_))])
-    return rows + _thermal_rows(calibration) + _wideband_rows(calibration)
-
-
-def _thermal_rows(calibration: BaseCalibrator) -> list[list[str]]:
-    """The thermal rates with their standard errors, the reference temperature, the
-    calibrated temperatures and the bias rates they resolve (``diagnostics_["thermal"]``);
-    none for a calibration without that record."""
-    thermal = (getattr(calibration, "diagnostics_", None) or {}).get("thermal")
-    if not isinstance(thermal, Mapping):
-        return []
-    low, high = thermal["temperature_range_k"]
-    clusters = ", ".join(f"{value:.6g}" for value in thermal.get("temperatures_k") or [])
-    unambiguous = thermal.get("unambiguous_phase_rate_rad_per_k")
-    return [
-        [
-            "bias phase rate (rad/K)",
-            with_error(thermal["thermal_phase_rad_per_k"], thermal["thermal_phase_std_rad_per_k"]),
-        ],
-        [
-            "fringe shift (GHz/K, to lower frequency on heating)",
-            with_error(thermal["fringe_shift_hz_per_k"], thermal["fringe_shift_std_hz_per_k"], 1e9),
-        ],
-        [
-            "delay rate (1/K)",
-            f"{scientific(thermal['thermal_delay_per_k'])} ± "
-            f"{scientific(thermal['thermal_delay_std_per_k'])}",
-        ],
-        ["reference temperature (K)", f"{thermal['reference_temperature_k']:.6g}"],
-        [
-            "calibrated temperatures (K)",
-            f"{low:.6g} to {high:.6g}" + (f" (clusters at {clusters})" if clusters else ""),
-        ],
-        [
-            "bias rate unambiguous within (rad/K)",
-            "any rate (the temperature changed continuously)"
-            if unambiguous is None
-            else f"±{significant(unambiguous)}",
-        ],
-    ]
-
-
-def _wideband_rows(calibration: BaseCalibrator) -> list[list[str]]:
-    """The orders, parameter count and phase coefficients (with standard errors) of a
-    wide-band calibration (``diagnostics_["wideband"]``); none for other calibrations."""
-    record = wideband_record(calibration)
-    if record is None:
-        return []
-    rows = [
-        ["phase order P", str(record["phase_order"])],
-        ["map order J", str(record["map_order"])],
-        ["fitted parameters", str(record["n_parameters"])],
-    ]
-    errors = record.get("phase_coefficients_std_s") or [None] * len(record["phase_coefficients_s"])
-    for order, (value, error) in enumerate(
-        zip(record["phase_coefficients_s"], errors, strict=True), start=1
-    ):
-        unit = "s" if order == 1 else f"s^{order}"
-        name = PHASE_COEFFICIENT_NAMES.get(order, f"order {order}")
-        rows.append([f"phase c{order}, {name} ({unit})", scientific_with_error(value, error)])
+    if parts:
+        rows.append([f"{parts[0].kind}s", str(len(parts))])
+    for name, value in report.values.items():
+        if name not in _HEADER_VALUES:
+            rows.append([value.label or name.replace("_", " "), value_text(value)])
+    rows += [["note", note] for note in report.notes]
     return rows
 
 
-def _wideband_html(calibration: BaseCalibrator) -> str:
-    """The wide-band section: the candidates the orders were chosen from (the
-    cross-validation curve as a table) and the residual phase across the band."""
-    record = wideband_record(calibration)
-    if record is None:
-        return ""
-    orders = record["orders"]
-    candidates = orders["candidates"]
-    if candidates:
-        header = ["phase order P", "map order J", "parameters", "held-out RMS (MHz)", "chosen"]
-        rows = [
-            [
-                str(candidate["phase_order"]),
-                str(candidate["map_order"]),
-                str(candidate["parameters"]),
-                _mhz(candidate["cv_rms_hz"]),
-                "chosen" if candidate["chosen"] else "",
-            ]
-            for candidate in candidates
-        ]
-        choice = f"<p>{html.escape(str(orders['reason']))}.</p>" + html_table(header, rows)
-    else:
-        choice = f"<p>No cross-validation: {html.escape(str(orders['reason']))}.</p>"
-    residual = record["residual_phase"]
-    worst = max(residual, key=lambda row: row["rms_rad"])
-    lowest = min(row["rms_rad"] for row in residual)
-    text = (
-        f"Residual phase RMS per FSR window: {significant(lowest * 1e3)} to "
-        f"{significant(worst['rms_rad'] * 1e3)} mrad over {len(residual)} windows; the "
-        f"largest in the window at {worst['center_hz'] / 1e12:.6f} THz (mean "
-        f"{significant(worst['mean_rad'] * 1e3)} mrad, {worst['readings']} readings)."
-    )
-    return "<h2>Wide band: orders and residual phase</h2>" + choice + f"<p>{html.escape(text)}</p>"
+def _table_html(table: Table | dict, level: str = "h3") -> str:
+    """A table of a description or a check, with its title and text."""
+    if isinstance(table, Table):
+        table = table.as_dict()
+    rows = [[_cell(cell) for cell in row] for row in table["rows"]]
+    text = f"<p>{html.escape(table['text'])}</p>" if table.get("text") else ""
+    heading = f"<{level}>{html.escape(table['title'])}</{level}>"
+    return heading + html_table(list(table["columns"]), rows) + text
 
 
-def _cascade_html(calibration: BaseCalibrator, summary: dict) -> str:
-    """The cascade section: its stages, its hand-overs on the sweep, the coarsest stage's
-    edge margin and the wrong orders of the evaluation readings; empty for other
-    calibrations."""
-    record = cascade_record(calibration)
-    if record is None:
+def _cell(cell) -> str:
+    return significant(cell) if isinstance(cell, float) else str(cell)
+
+
+def _description_html(report) -> str:
+    """The tables a calibration adds to its description (stages, hand-overs, orders)."""
+    if not report.tables:
         return ""
-    design = calibration.get_params()["fsr_hz"]
-    stage_header = [
-        "stage",
-        "ports",
-        "design FSR (GHz)",
-        "fitted FSR (GHz)",
-        "phase order P",
-        "map order J",
-        "median std (MHz)",
-        "RMS error on the sweep (MHz)",
-        "z-score spread",
-    ]
-    stage_rows = [
-        [
-            str(stage["stage"]),
-            ", ".join(port_label(name) for name in stage["ports"]),
-            f"{design[index] / 1e9:.6g}",
-            f"{stage['fsr_hz'] / 1e9:.9g}",
-            str(stage["phase_order"]),
-            str(stage["map_order"]),
-            _mhz(stage["median_std_hz"]),
-            _mhz(stage["rms_hz"]),
-            significant(stage["z_std"]),
-        ]
-        for index, stage in enumerate(record["stages"])
-    ]
-    handover_header = [
-        "hand-over",
-        "FSR ratio",
-        "largest usable ratio",
-        "margin (std, median)",
-        "worst margin (std)",
-        "predicted wrong-order rate",
-        "expected wrong on the sweep",
-        "wrong on the sweep",
-    ]
-    handover_rows = [
-        [
-            f"stage {handover['from_stage']} to {handover['to_stage']}",
-            significant(handover["ratio"]),
-            significant(handover["largest_usable_ratio"]),
-            significant(handover["margin_std"]),
-            significant(handover["worst_margin_std"]),
-            scientific(handover["predicted_rate"]),
-            scientific(handover["expected_wrong"]),
-            str(handover["wrong_on_sweep"]),
-        ]
-        for handover in record["handovers"]
-    ]
-    text = (
-        "Each stage picks the fringe order of the next; a hand-over's margin is half the "
-        "finer stage's FSR over the standard deviation of the two stages' difference, and "
-        "the largest usable ratio the FSR ratio at which the sweep's noise would make the "
-        f"wrong-order rate {calibration.get_params()['max_order_error']:g} (max_order_error, "
-        "above which a reading is flagged ORDER_AMBIGUOUS). The coarsest stage's phase is "
-        f"unique {significant(record['edge_margin_std'])} of its standard deviations beyond "
-        "the band's ends (edge margin)."
-    )
-    orders = summary.get("order_errors")
-    if orders is not None:
-        text += (
-            f" On the {summary['evaluated_on']}: {orders['wrong_orders']} of "
-            f"{orders['readings']} readings off by half the finest stage's FSR or more, "
-            f"{scientific(orders['expected_wrong_orders'])} expected from their "
-            f"order_error_probability; {orders['flagged_order_ambiguous']} flagged "
-            f"ORDER_AMBIGUOUS ({orders['wrong_orders_flagged']} of the wrong ones)."
-        )
-    text += (
-        " A cascade is shown alone: no other method reads absolute frequency from the "
-        "readings of its stages."
-    )
-    return (
-        "<h2>Cascade: stages and hand-overs</h2>"
-        + html_table(stage_header, stage_rows)
-        + html_table(handover_header, handover_rows)
-        + f"<p>{html.escape(text)}</p>"
-    )
+    return "<h2>Model</h2>" + "".join(_table_html(table) for table in report.tables)
+
+
+def _checks_html(summary: dict) -> str:
+    """The checks the calibration made of itself on the evaluation readings."""
+    parts = []
+    for check in summary.get("checks") or []:
+        text = f"<p>{html.escape(check['text'])}</p>" if check["text"] else ""
+        table = "" if check["table"] is None else _table_html(check["table"], "h3")
+        parts.append(f"<h2>{html.escape(check['title'])}</h2>{text}{table}")
+    return "".join(parts)
 
 
 #: SI suffix of a diagnostics key -> (unit shown, SI value per unit, exponent notation)
@@ -385,8 +216,6 @@ _KEY_UNITS = {
 }
 #: digits of a temperature in K (mK resolution near room temperature)
 TEMPERATURE_DIGITS = 6
-#: diagnostics shown in a table of their own rather than among the diagnostics
-_SHOWN_ELSEWHERE = {"thermal", "wideband", "cascade"}
 
 
 def _key_unit(key: str):
@@ -441,15 +270,13 @@ def _warning_row(note) -> list[str]:
 def _diagnostics_html(calibration: BaseCalibrator) -> str:
     """The calibration's ``diagnostics_`` when it has any: scalar items as rows, lists of
     records (ports) as tables, warnings with their cause, message and remedy (the thermal
-    and wide-band records are in the calibration's table and a section of their own)."""
-    diagnostics = getattr(calibration, "diagnostics_", None)
+    method's own records are shown by its description)."""
+    diagnostics = calibration.diagnostics_
     if not diagnostics:
         return ""
-    if not isinstance(diagnostics, Mapping):
-        diagnostics = {"diagnostics": diagnostics}
     rows, tables = [], []
     for key, value in diagnostics.items():
-        if key in _SHOWN_ELSEWHERE:
+        if key not in COMMON_DIAGNOSTICS:
             continue
         is_records = (
             isinstance(value, list) and value and all(isinstance(v, Mapping) for v in value)
@@ -463,21 +290,27 @@ def _diagnostics_html(calibration: BaseCalibrator) -> str:
     return "<h2>Diagnostics of the calibration</h2>" + html_table(None, rows) + "".join(tables)
 
 
-def _window_rows(calibration: BaseCalibrator) -> list[list[str]]:
+def _parts_html(calibration: BaseCalibrator) -> str:
+    """One row per part of a composite (a set's windows, a cascade's stages)."""
+    parts = calibration.parts()
+    if not parts:
+        return ""
+    header = ["part", "centre (THz)", "FSR (GHz)", "samples", "RMS (MHz)", "noise (W)"]
     rows = []
-    for index, window in enumerate(calibration.windows_):
-        noise = getattr(window, "noise_std_w_", None)
+    for part in parts:
+        single = part.calibration
+        noise = single.summary().values.get("noise_std_w")
         rows.append(
             [
-                str(index),
-                f"{window.center_hz_ / 1e12:.6f}",
-                f"{window.fsr_hz_ / 1e9:.6f}",
-                str(window.n_samples_),
-                _mhz(window.calibration_rms_hz_),
-                "" if noise is None else scientific(noise),
+                part.label,
+                f"{single.center_hz_ / 1e12:.6f}",
+                f"{single.fsr_hz_ / 1e9:.6f}",
+                str(single.n_samples_),
+                _mhz(single.calibration_rms_hz_),
+                "" if noise is None else scientific(noise.value),
             ]
         )
-    return rows
+    return f"<h2>The {parts[0].kind}s</h2>" + html_table(header, rows)
 
 
 def _error_rows(summary: dict) -> list[list[str]]:
@@ -497,34 +330,18 @@ def _error_rows(summary: dict) -> list[list[str]]:
     return rows
 
 
-def _adjacent_html(adjacent: dict | str) -> str:
-    if isinstance(adjacent, str):
-        return f"<p>Adjacent-window evaluation not available: {html.escape(adjacent)}</p>"
-    header = [
-        "window",
-        "centre (THz)",
-        "own RMS (MHz)",
-        "own max (MHz)",
-        "adjacent RMS (MHz)",
-        "adjacent max (MHz)",
-        "conventional adjacent max (MHz)",
-    ]
-    rows = [
-        [
-            str(entry["window"]),
-            f"{entry['center_hz'] / 1e12:.6f}",
-            _mhz(entry["own"]["rms_hz"]),
-            _mhz(entry["own"]["max_hz"]),
-            _mhz(entry["adjacent"]["rms_hz"]),
-            _mhz(entry["adjacent"]["max_hz"]),
-            _mhz(entry["conventional_adjacent"]["max_hz"]),
-        ]
-        for entry in adjacent["windows"]
+def _unread_note(summary: dict) -> str:
+    """How many evaluation readings a method could not read, by flag (none: nothing)."""
+    unread = summary.get("unread") or {}
+    if not unread:
+        return ""
+    parts = [
+        f"{name}: {', '.join(f'{count} {flag}' for flag, count in counts.items())}"
+        for name, counts in unread.items()
     ]
     return (
-        "<h2>Maps applied to the neighbouring FSRs ([1], Fig. 9)</h2>"
-        f"<p>Adjacent over own RMS: {significant(adjacent['degradation_rms'])}.</p>"
-        + html_table(header, rows)
+        '<p class="note">Readings a method could not read have no error and are left out '
+        f"of these numbers ({html.escape('; '.join(parts))}).</p>"
     )
 
 
@@ -574,7 +391,9 @@ def render_page(
     summary : dict
         Numbers from :func:`wavemeter.report.content.report_content`.
     images : mapping of str to bytes
-        PNG data of each figure, by the keys of ``FIGURE_CAPTIONS``, in page order.
+        PNG data of each figure, by the keys of ``FIGURE_CAPTIONS`` and of the
+        calibration's own figures (their captions in ``summary["captions"]``), in page
+        order.
     input_files : mapping of str to str or Path
         Files the report was made from, by role: ``calibration``, ``sweep``, ``test``.
 
@@ -583,12 +402,9 @@ def render_page(
     str
     """
     created = datetime.now(UTC).isoformat(timespec="seconds")
-    windows = ""
-    if hasattr(calibration, "windows_"):
-        header = ["window", "centre (THz)", "FSR (GHz)", "samples", "RMS (MHz)", "noise (W)"]
-        windows = "<h2>Windows of the set</h2>" + html_table(header, _window_rows(calibration))
+    report = calibration.summary()
     errors_header = ["method", "RMS (MHz)", "max (MHz)", "p95 (MHz)", "p99 (MHz)", "RMS / CRLB"]
-    adjacent = _adjacent_html(summary["adjacent"]) if "adjacent" in summary else ""
+    captions = {**FIGURE_CAPTIONS, **summary.get("captions", {})}
     return (
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">'
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
@@ -596,20 +412,20 @@ def render_page(
         "<h1>wavemeter calibration report</h1>"
         f'<div class="header"><div><h2>Inputs</h2>{html_table(None, _input_rows(input_files))}'
         "</div>"
-        f"<div><h2>Calibration</h2>{html_table(None, _calibration_rows(calibration, summary))}"
-        "</div></div>"
+        "<div><h2>Calibration</h2>"
+        f"{html_table(None, _calibration_rows(calibration, report, summary))}</div></div>"
         + _diagnostics_html(calibration)
-        + _wideband_html(calibration)
-        + _cascade_html(calibration, summary)
-        + windows
+        + _description_html(report)
+        + _parts_html(calibration)
         + f"<h2>Frequency error on the {html.escape(summary['evaluated_on'])} "
         f"({summary['samples']} readings)</h2>"
         + html_table(errors_header, _error_rows(summary))
         + '<p class="note">RMS / CRLB near 1.00: limited by detector noise. The bound uses the '
         "noise estimated from the calibration residual and the learned map as the true one.</p>"
+        + _unread_note(summary)
         + _comparison_note(summary)
-        + adjacent
-        + figures_html(images, FIGURE_CAPTIONS)
+        + _checks_html(summary)
+        + figures_html(images, captions)
         + "<h2>Reference</h2>"
         f"<p>[1] {html.escape(PAPER_CITATION)}. {html.escape(PAPER_NOTE)}</p>"
         f"<footer>Report created {created}.</footer>"

@@ -24,15 +24,17 @@ from ...exceptions import InputError, WavemeterError
 from ...validation import check_fitted, check_positive
 from ..files.document import save_calibration, state_array
 from ..files.registry import register
+from .figures import FigureData, FringePanel
 from .params import ParamsMixin
 from .reading import ReadingMixin
 from .records import READING_INPUTS
 from .streaming import StreamMixin
-from .summary import FitReport, FitValue
+from .summary import Check, FitReport, FitValue
 
 __all__ = [
     "BaseCalibrator",
     "CAPABILITIES",
+    "COMMON_DIAGNOSTICS",
     "MAX_MAP_CONDITION",
     "Part",
 ]
@@ -49,6 +51,20 @@ CAPABILITIES = (
 )
 
 
+#: entries of ``diagnostics_`` that mean the same for every calibrator (the checks every fit
+#: makes, its warnings, a re-anchoring); a method's own records are presented by its
+#: ``summary()``
+COMMON_DIAGNOSTICS = (
+    "fsr_estimate_hz",
+    "ports",
+    "fit",
+    "temperature_range_k",
+    "diagnostic_samples",
+    "reanchor",
+    "warnings",
+)
+
+
 @dataclass(frozen=True)
 class Part:
     """One labelled sub-calibration of a composite (a set's window, a cascade's stage).
@@ -61,11 +77,14 @@ class Part:
         What the composite is made of.
     calibration : BaseCalibrator
         The fitted sub-calibration.
+    range_hz : (float, float)
+        The frequencies it reads (Hz): a window's edges, a stage's band.
     """
 
     label: str
     kind: str
     calibration: BaseCalibrator
+    range_hz: tuple
 
 
 class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
@@ -83,6 +102,9 @@ class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
     absolute_frequency: ClassVar[bool] = False
     #: ports with a fringe the method needs among those it reads (the cone model: 3)
     fringe_ports_needed: ClassVar[int] = 3
+    #: the comparison method is expected to misfit this method's sweeps (sweeps at several
+    #: temperatures, over many FSRs): its warnings belong to the report, not to the user
+    comparison_misfits_expected: ClassVar[bool] = False
     #: learned attributes common to every calibrator, saved by every calibration file
     common_attributes: ClassVar[tuple[str, ...]] = (
         "fsr_hz_",
@@ -155,6 +177,44 @@ class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
         """
         self._require_capability("reanchor", "cannot be re-anchored")
         raise NotImplementedError
+
+    # ------------------------------------------------------------------ what a report shows
+    def comparison(self, port_phases_rad=None) -> BaseCalibrator:
+        """An unfitted calibrator of the method this one is compared with in its report
+        (fitted on the same sweep); ``port_phases_rad`` for a conventional comparison.
+
+        Raises
+        ------
+        InputError
+            When no other method can be compared with this one (the message says why).
+        """
+        raise InputError(
+            f"a {self.method_label} calibration names no other method to compare it with "
+            "on its sweep: evaluate it alone, or beside another calibration file",
+            parameter="comparison",
+        )
+
+    def fringe_panels(
+        self, frequency_hz, powers_w, monitor_w=None, temperature_k=None
+    ) -> tuple[FringePanel, ...]:
+        """The sweep's readings with the fitted model's fringes, one panel per part
+        (paper Fig. 4b, 7a); none for a method without a model of the fringes."""
+        return ()
+
+    def object_samples(self, powers_w, frequency_hz, temperature_k=None) -> np.ndarray | None:
+        """Object-space samples ``r [cos t, sin t]`` (N', 2) of readings of known frequency
+        under the fitted map, at unit source power (paper Fig. 4a); None for a method
+        without a map."""
+        return None
+
+    def report_figures(self, noise_std_hz: float | None = None) -> tuple[FigureData, ...]:
+        """Figures of the fit the method adds to its report (``noise_std_hz``: the bound's
+        RMS on the evaluation readings, as the noise level to judge them by)."""
+        return ()
+
+    def evaluation_checks(self, powers_w, frequency_hz) -> tuple[Check, ...]:
+        """Checks of its own on readings of known frequency (Hz), beyond their error."""
+        return ()
 
     # ------------------------------------------------------------------ description
     def parts(self) -> tuple[Part, ...]:

@@ -13,7 +13,15 @@ import numpy as np
 
 from ...exceptions import InputError
 
-__all__ = ["ParamsMixin"]
+__all__ = ["ParamsMixin", "clone"]
+
+
+def clone(estimator, **settings):
+    """A new unfitted estimator of the same class and settings, with those of ``settings``
+    that are settings of the class changed (scikit-learn's ``clone``)."""
+    params = estimator.get_params()
+    params.update({key: value for key, value in settings.items() if key in params})
+    return type(estimator)(**params)
 
 
 class ParamsMixin:

@@ -319,19 +319,26 @@ class ReadingMixin:
         """
         prepared = self._prepared(powers, coarse_hz, temperature_k, errors)
         samples = prepared.readable.size
-        frequency = np.full(samples, np.nan)
-        std = np.full(samples, np.nan)
+        frequency, std, phase = (np.full(samples, np.nan) for _ in range(3))
         extras = {name: np.full(samples, np.nan) for name in self.reading_outputs}
         flags = prepared.flags.copy()
         rows = prepared.readable
+        state = {}
         if rows.any():
             found = self._readout(prepared.corrected[rows], prepared.inputs.rows(rows))
             frequency[rows], std[rows] = found.frequency_hz, found.frequency_std_hz
+            phase[rows] = found.phase_rad
             # a dim reading is read, but its flags say only that it is no reading to trust
             flags[rows] |= np.where(flags[rows] & ReadingFlag.INVALID, 0, found.flags)
             for name, values in extras.items():
                 values[rows] = found.extras[name]
-        return Readout(frequency, std, flags, extras)
+            state = found.state
+        return Readout(frequency, std, flags, extras, phase, state)
+
+    def readout_notes(self, states) -> list:
+        """Warnings about the readings as a whole, from the ``state`` of every
+        :class:`Readout` of them (the blocks of a file); none for most calibrations."""
+        return []
 
     def score(self, powers, frequency_hz, *, coarse_hz=None, temperature_k=None) -> float:
         """Negative RMS frequency error (Hz) on readings of known frequency (higher is better).
@@ -405,13 +412,14 @@ class ReadingMixin:
 
     def _readout(self, readings: np.ndarray, inputs: ReadingInputs) -> Readout:
         """:meth:`readout` of readable, offset-corrected readings: frequency, its standard
-        deviation (NaN where not a capability) and the model's flag bits."""
+        deviation (NaN where not a capability), the model's flag bits and the phase."""
         frequency = self._frequency_hz(readings, inputs)
         if "frequency_std" in self.capabilities:
             std = self._frequency_std(readings, inputs, True)
         else:
             std = np.full(frequency.shape, np.nan)
-        return Readout(frequency, std, self._model_flags(readings, inputs), {})
+        flags = self._model_flags(readings, inputs)
+        return Readout(frequency, std, flags, {}, self._phase_rad(readings, inputs))
 
     # ------------------------------------------------------------------ the span rule
     def _partial_span(self) -> bool:

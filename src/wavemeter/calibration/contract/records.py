@@ -77,12 +77,20 @@ class Readout:
         Quality bits (:class:`~wavemeter.calibration.contract.flags.ReadingFlag`).
     extras : dict of str to ndarray, shape (N,)
         The calibration's extra outputs (its ``reading_outputs``), by name.
+    phase_rad : ndarray, shape (N,)
+        The phase (rad) ``phase`` gives; NaN for readings the calibration cannot read.
+    state : mapping
+        What the calibration found of the block as a whole, for
+        :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.readout_notes` (a
+        cascade: how much noisier than its sweep the readings are); empty for most.
     """
 
     frequency_hz: np.ndarray
     frequency_std_hz: np.ndarray
     flags: np.ndarray
     extras: dict = field(default_factory=dict)
+    phase_rad: np.ndarray | None = None
+    state: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)

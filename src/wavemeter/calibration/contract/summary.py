@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from ...units import SPEED_OF_LIGHT_M_S
 from ..models.delay_search import frequency_text
 
-__all__ = ["FitReport", "FitValue", "LABEL_WIDTH"]
+__all__ = ["Check", "FitReport", "FitValue", "LABEL_WIDTH", "Table", "value_text"]
 
 #: width of the label column of the text report
 LABEL_WIDTH = 17
@@ -30,51 +30,138 @@ class FitValue:
     stderr : float or None
     unit : str
         SI unit of ``value`` and ``stderr`` (empty for pure numbers).
+    label : str
+        How people read its name (``"group-delay dispersion"``); empty: the key's words.
     """
 
     value: float
     stderr: float | None = None
     unit: str = ""
+    label: str = ""
 
     def to_dict(self) -> dict:
-        return {"value": self.value, "stderr": self.stderr, "unit": self.unit}
+        return {"value": self.value, "stderr": self.stderr, "unit": self.unit, "label": self.label}
+
+
+@dataclass(frozen=True)
+class Table:
+    """A table a calibration adds to its description or evaluation (stages, hand-overs,
+    candidate orders, windows), ready to render.
+
+    Attributes
+    ----------
+    name : str
+        Its key (``"handovers"``).
+    title : str
+        Its heading.
+    columns : tuple of str
+        Column headings, the display unit in brackets.
+    rows : tuple of tuple
+        Cells: text, integers, or floats in the column's display unit.
+    text : str
+        What the table means, in a sentence or two.
+    """
+
+    name: str
+    title: str
+    columns: tuple
+    rows: tuple
+    text: str = ""
+
+    def as_dict(self) -> dict:
+        return {
+            "name": self.name,
+            "title": self.title,
+            "columns": list(self.columns),
+            "rows": [list(row) for row in self.rows],
+            "text": self.text,
+        }
+
+    def cell_text(self, cell) -> str:
+        """A cell as shown: floats with four significant digits."""
+        if isinstance(cell, float):
+            return f"{cell:.4g}"
+        return str(cell)
+
+    def text_lines(self) -> list[str]:
+        """The table as aligned text: its title, the column headings, one line per row,
+        then its text."""
+        cells = [list(self.columns)]
+        cells += [[self.cell_text(cell) for cell in row] for row in self.rows]
+        widths = [max(len(row[k]) for row in cells) for k in range(len(self.columns))]
+        lines = [f"{self.title}:"]
+        lines += [
+            "  " + "  ".join(cell.rjust(width) for cell, width in zip(row, widths, strict=True))
+            for row in cells
+        ]
+        if self.text:
+            lines.append(f"  {self.text}")
+        return lines
+
+    def text_lines(self) -> list[str]:
+        """The table as aligned text: its title, the column headings, one line per row,
+        then its text."""
+        cells = [list(self.columns)] + [[self.cell_text(cell) for cell in row] for row in self.rows]
+        widths = [max(len(row[k]) for row in cells) for k in range(len(self.columns))]
+        lines = [f"{self.title}:"]
+        lines += [
+            "  " + "  ".join(c.rjust(w) for c, w in zip(row, widths, strict=True)) for row in cells
+        ]
+        if self.text:
+            lines.append(f"  {self.text}")
+        return lines
+
+
+@dataclass(frozen=True)
+class Check:
+    """A check a calibration makes of itself on readings of known frequency, beyond the
+    frequency error every evaluation reports (a set's maps on the neighbouring FSRs, a
+    cascade's wrong fringe orders).
+
+    Attributes
+    ----------
+    name : str
+        Its key in JSON output (``"adjacent"``, ``"order_errors"``).
+    title : str
+        Its heading.
+    record : dict
+        The numbers, JSON-ready.
+    text : str
+        What they say, in a sentence or two.
+    table : Table or None
+        The numbers in rows, where there are many.
+    """
+
+    name: str
+    title: str
+    record: dict
+    text: str = ""
+    table: Table | None = None
+
+
+def value_text(value: FitValue) -> str:
+    """A value with its standard error in its unit: frequencies (``Hz``, ``Hz/K``) in the
+    unit that suits them, delays in ps, other numbers with six significant digits."""
+    unit = value.unit
+    if unit.startswith("Hz"):
+        rest = unit[2:]
+        text = f"{frequency_text(value.value)}{rest}"
+        if value.stderr is not None:
+            text += f" +- {frequency_text(value.stderr, 3)}{rest}"
+        return text
+    if unit == "s" and abs(value.value) < 1e-6:
+        text = f"{value.value * 1e12:.6f} ps"
+        if value.stderr is not None:
+            text += f" +- {value.stderr * 1e12:.3g} ps"
+        return text
+    text = f"{value.value:.6g}"
+    if value.stderr is not None:
+        text += f" +- {value.stderr:.3g}"
+    return f"{text} {unit}".rstrip()
 
 
 def _line(label: str, text: str) -> str:
     return f"{label:<{LABEL_WIDTH - 1}} {text}"
-
-
-def _thermal_lines(values: dict, diagnostics: dict) -> list[str]:
-    """The thermal rates, the reference temperature and the calibrated range (popped from
-    ``values``); none for a calibration that does not follow temperature."""
-    rate = values.pop("thermal_phase_rad_per_k", None)
-    if rate is None:
-        return []
-    shift = values.pop("fringe_shift_hz_per_k")
-    delay_rate = values.pop("thermal_delay_per_k")
-    reference = values.pop("reference_temperature_k")
-    thermal = diagnostics.get("thermal", {})
-    low, high = thermal.get("temperature_range_k", (reference.value, reference.value))
-    clusters = ", ".join(f"{value:.4g}" for value in thermal.get("temperatures_k", ()))
-    unambiguous = thermal.get("unambiguous_phase_rate_rad_per_k")
-    resolved = (
-        "continuous temperatures: no alias"
-        if unambiguous is None
-        else f"bias rate unambiguous within +-{unambiguous:.3g} rad/K"
-    )
-    return [
-        _line(
-            "bias rate",
-            f"{rate.value:.6g} +- {rate.stderr:.3g} rad/K (fringes move "
-            f"{frequency_text(shift.value)}/K +- {frequency_text(shift.stderr, 3)}/K)",
-        ),
-        _line("delay rate", f"{delay_rate.value:.4g} +- {delay_rate.stderr:.3g} 1/K"),
-        _line(
-            "temperature",
-            f"reference {reference.value:.6g} K, calibrated {low:.6g} to {high:.6g} K "
-            f"(clusters at {clusters} K; {resolved})",
-        ),
-    ]
 
 
 def _samples_text(samples: int, diagnostics: dict) -> str:
@@ -200,11 +287,16 @@ class FitReport:
     diagnostics : dict
         The calibrator's ``diagnostics_`` (sweep FSR estimate, port health, warnings).
     windows : tuple of FitReport
-        One report per window of a calibration set (per stage of a cascade); empty
-        otherwise.
+        One report per part of a composite (a set's windows, a cascade's stages);
+        empty otherwise.
     windows_are : {"windows", "stages"}
         What ``windows`` holds: a set's windows (numbered from 0) or a cascade's stages
         (numbered from 1, coarsest first).
+    tables : tuple of Table
+        What the method adds in tables (a cascade's stages and hand-overs, the candidate
+        orders of a wide band).
+    notes : tuple of str
+        What the method adds in words (the calibrated temperatures and what they resolve).
     """
 
     method: str
@@ -217,6 +309,8 @@ class FitReport:
     diagnostics: dict = field(default_factory=dict)
     windows: tuple = ()
     windows_are: str = "windows"
+    tables: tuple = ()
+    notes: tuple = ()
 
     def __getitem__(self, name: str) -> FitValue:
         return self.values[name]
@@ -234,6 +328,8 @@ class FitReport:
             "diagnostics": self.diagnostics,
             "windows": [window.as_dict() for window in self.windows],
             "windows_are": self.windows_are,
+            "tables": [table.as_dict() for table in self.tables],
+            "notes": list(self.notes),
         }
 
     @property
@@ -267,10 +363,9 @@ class FitReport:
         if delay is not None:
             error = "" if delay.stderr is None else f" +- {delay.stderr * 1e12:.3g} ps"
             lines.append(_line("delay", f"{delay.value * 1e12:.6f} ps{error}"))
-        lines += _thermal_lines(values, self.diagnostics or {})
         for name, value in values.items():
-            error = "" if value.stderr is None else f" +- {value.stderr:.3g}"
-            lines.append(_line(name, f"{value.value:.6g}{error} {value.unit}".rstrip()))
+            lines.append(_line(value.label or name.replace("_", " "), value_text(value)))
+        lines += [_line("", note) for note in self.notes]
         if self.windows:
             lines.append(_line(self.windows_are, "centre THz      FSR GHz   samples   RMS MHz"))
             first = 1 if self.windows_are == "stages" else 0
@@ -280,6 +375,8 @@ class FitReport:
                     f"{window['fsr_hz'].value / 1e9:>12.6f} {window.samples:>9} "
                     f"{window['calibration_rms_hz'].value / 1e6:>9.4f}"
                 )
+        for table in self.tables:
+            lines += table.text_lines()
         lines += _diagnostics_lines(self.diagnostics)
         if not self.diagnostics:
             lines.append(_line("diagnostics", "none recorded (a file of wavemeter 0.1)"))

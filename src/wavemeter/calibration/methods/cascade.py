@@ -58,6 +58,7 @@ from ...validation import (
 from ..contract.base import BaseCalibrator, Part
 from ..contract.flags import SPAN_MARGIN_STD, ReadingFlag, off_model_threshold, power_flags
 from ..contract.records import ReadingInputs, Readout, StreamReading
+from ..contract.summary import FitValue
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
 from ..models.delay_search import frequency_text
 from .cascade_reading import (
@@ -68,12 +69,15 @@ from .cascade_reading import (
     distance_in_noise,
     noise_scale,
 )
+from .cascade_report import cascade_tables, order_error_check
 from .learned import RETRIEVALS
 from .wideband import WidebandCalibrator
 from .wideband_reading import band_cone_distance
 
-__all__ = ["CascadeCalibrator", "HANDOVER_CAUSE"]
+__all__ = ["CascadeCalibrator", "HANDOVER_CAUSE", "READING_NOISE_CAUSE"]
 
+#: the cause of a warning that the readings are noisier than the calibration sweep
+READING_NOISE_CAUSE = "reading_noise"
 #: the cause of a warning that the sweep saw more wrong orders than the rates predict
 HANDOVER_CAUSE = "order_handover"
 HANDOVER_REMEDY = (
@@ -749,15 +753,45 @@ class CascadeCalibrator(BaseCalibrator):
         return self._chain_flags(self._read(readings))
 
     def _readout(self, readings, inputs: ReadingInputs) -> Readout:
-        """One pass through the stages: the finest stage's frequency and uncertainty, the
-        flags and the probability of a wrong order."""
+        """One pass through the stages: the finest stage's frequency, uncertainty and phase,
+        the flags and the probability of a wrong order; as the block's state, each stage's
+        noise in these readings over the calibrated one (:meth:`readout_notes`)."""
         chain = self._read(readings)
         return Readout(
             chain.frequency_hz[-1],
             chain.std_hz[-1],
             self._chain_flags(chain),
             {"order_error_probability": chain.order_error_probability},
+            chain.phase_rad[-1],
+            {"noise_scale": chain.noise_scale},
         )
+
+    def readout_notes(self, states) -> list:
+        """The warning that the readings are noisier than the calibration sweep, from the
+        largest noise scale of each stage over the blocks; none when none is."""
+        scales = [state["noise_scale"] for state in states if "noise_scale" in state]
+        if not scales:
+            return []
+        noise_scale = np.max(scales, axis=0)
+        noisier = np.flatnonzero(noise_scale > 1.0)
+        if noisier.size == 0:
+            return []
+        stages = ", ".join(
+            f"{noise_scale[index]:.3g}x in stage {index + 1} "
+            f"({frequency_text(self.stage_fsrs_hz_[index])})"
+            for index in noisier
+        )
+        return [
+            CalibrationWarning(
+                f"the readings are noisier than the calibration sweep: their detector noise is "
+                f"{stages} the calibrated one (estimated from the readings' distances to each "
+                "stage's model); frequency_std_hz and order_error_probability follow the "
+                "readings' noise, and wrong orders grow more likely with it",
+                cause=READING_NOISE_CAUSE,
+                remedy="lower the readings' noise (more power, averaging) or recalibrate in "
+                "the conditions of use",
+            )
+        ]
 
     def order_error_probability(self, powers) -> np.ndarray:
         """Probability that some stage picked a wrong fringe order, per reading.
@@ -822,25 +856,74 @@ class CascadeCalibrator(BaseCalibrator):
         return self._design_fsrs_hz()[-1]
 
     def _summary_values(self) -> dict:
-        from ..contract.summary import FitValue
-
         values = {
-            f"stage_{index + 1}_fsr_hz": FitValue(float(stage.fsr_hz_), stage._fsr_std_hz(), "Hz")
+            f"stage_{index + 1}_fsr_hz": FitValue(
+                float(stage.fsr_hz_), stage._fsr_std_hz(), "Hz", f"stage {index + 1} FSR"
+            )
             for index, stage in enumerate(self.stages_)
         }
         for record in self.handovers_:
-            values[f"handover_{record['from_stage']}_{record['to_stage']}_margin_std"] = FitValue(
-                record["margin_std"], None, ""
+            stages = f"{record['from_stage']}_{record['to_stage']}"
+            values[f"handover_{stages}_margin_std"] = FitValue(
+                record["margin_std"],
+                None,
+                "",
+                f"hand-over {record['from_stage']} to {record['to_stage']} margin (std)",
             )
-        values["edge_margin_std"] = FitValue(self.edge_margin_std_, None, "")
+        values["edge_margin_std"] = FitValue(self.edge_margin_std_, None, "", "edge margin (std)")
+        values["noise_std_w"] = FitValue(
+            float(self.stages_[-1].noise_std_w_), None, "W", "noise estimate (finest stage)"
+        )
         return values
+
+    def summary(self):
+        """The fit report, with the tables of the stages and the hand-overs."""
+        report = super().summary()
+        record = (self.diagnostics_ or {}).get("cascade")
+        if not record:
+            return report
+        tables = cascade_tables(record, self._design_fsrs_hz(), self.max_order_error)
+        return dataclasses.replace(report, tables=(*report.tables, *tables))
+
+    def comparison(self, port_phases_rad=None):
+        raise InputError(
+            "a cascade calibration has no other method to fit on its sweep for comparison: "
+            "no other method reads absolute frequency from the readings of its stages; "
+            "evaluate it alone, or beside another calibration file",
+            parameter="comparison",
+        )
+
+    def _finest(self, powers_w) -> tuple:
+        """The finest stage and the readings of its columns."""
+        columns = list(self.stage_ports_[-1])
+        return self.stages_[-1], np.asarray(powers_w, dtype=float)[:, columns]
+
+    def fringe_panels(self, frequency_hz, powers_w, monitor_w=None, temperature_k=None):
+        """The finest stage's fringes (the stage the answer comes from), on its columns."""
+        stage, readings = self._finest(powers_w)
+        label = f"stage {len(self.stages_)}"
+        return tuple(
+            dataclasses.replace(
+                panel, title=f"{label}: {panel.title}", port_names=tuple(stage.port_names_)
+            )
+            for panel in stage.fringe_panels(frequency_hz, readings, monitor_w, temperature_k)
+        )
+
+    def object_samples(self, powers_w, frequency_hz, temperature_k=None):
+        """The finest stage's samples, each reading under its map at the truth."""
+        stage, readings = self._finest(powers_w)
+        return stage.object_samples(readings, frequency_hz)
+
+    def evaluation_checks(self, powers_w, frequency_hz):
+        """The wrong fringe orders of the readings, seen against predicted and flagged."""
+        return (order_error_check(self, powers_w, frequency_hz),)
 
     def parts(self) -> tuple[Part, ...]:
         """One part per stage, coarsest first."""
         check_fitted(self)
         design = self._design_fsrs_hz()
         return tuple(
-            Part(_stage_label(index, design[index]), "stage", stage)
+            Part(_stage_label(index, design[index]), "stage", stage, tuple(stage.span_hz_))
             for index, stage in enumerate(self.stages_)
         )
 

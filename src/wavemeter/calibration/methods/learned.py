@@ -55,6 +55,7 @@ from ..models.moments import BLOCK_ROWS, FringeMoments, largest_search_delay_s
 from ..models.reanchor import check_reference_readings, fit_reanchor, reanchored_copy
 from ..models.subsample import DIAGNOSTIC_SAMPLES, CheckedChunks, SweepSample
 from .learned_reading import LearnedReadingMixin
+from .learned_report import LearnedReportMixin
 
 __all__ = ["Calibrator", "LearnedContext"]
 
@@ -69,7 +70,7 @@ class LearnedContext(FitContext):
     gram: tuple | None = None
 
 
-class Calibrator(LearnedReadingMixin, SweepFitMixin, BaseCalibrator):
+class Calibrator(LearnedReadingMixin, LearnedReportMixin, SweepFitMixin, BaseCalibrator):
     """Learned linear-map calibration of an n-port interferometric wavelength meter.
 
     Parameters

@@ -108,6 +108,10 @@ class LearnedReadingMixin:
             return fused_ml_phase_rad(readings, self.map_, noise_std_w=self.port_noise_std_w_)
         return fused_pinv_phase_rad(readings, self.map_pinv_)
 
+    def _phase_shown_rad(self, phase_rad, temperature_k=None):
+        """The phase :meth:`phase` gives of readings whose map phase is ``phase_rad``."""
+        return phase_rad
+
     def _object_phase_rad(self, phase_rad, temperature_k=None):
         """The map's phase (rad) of a phase as :meth:`phase` returns it (the same here)."""
         return phase_rad
@@ -237,7 +241,7 @@ class LearnedReadingMixin:
             flags |= self._span_flags(frequency, std)
         flags[self._screened_off_model(readings, phase)] |= ReadingFlag.OFF_MODEL
         flags |= self._temperature_flags(temperature)
-        return Readout(frequency, std, flags, {})
+        return Readout(frequency, std, flags, {}, self._phase_shown_rad(phase, temperature))
 
     def _stream_reader(self) -> Callable[[np.ndarray, dict], StreamReading]:
         """One pass over a reading for :meth:`stream`: what stays the same from reading to

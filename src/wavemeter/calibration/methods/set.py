@@ -22,6 +22,7 @@ window's readings modulo the FSR it picks the alias nearest the coarse value.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import warnings
 
 import numpy as np
@@ -39,28 +40,20 @@ from ...validation import (
     check_powers,
 )
 from ..contract.base import BaseCalibrator, Part
+from ..contract.params import clone
 from ..contract.records import ReadingInputs
+from ..contract.summary import FitValue
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
 from ..files.registry import calibrator_class
 from ..models.reanchor import ReanchorFit, check_reference_readings, reanchored_copy
 from .learned import Calibrator
+from .set_checks import adjacent_check, adjacent_evaluation, window_label
 
-__all__ = ["CalibrationSet", "WINDOW_FSR_TOLERANCE", "clone", "window_label"]
+__all__ = ["CalibrationSet", "WINDOW_FSR_TOLERANCE"]
 
 #: half width of each window's delay bracket about the global FSR: room for the local FSR of
 #: a dispersive band (8 % at the ends of 10 FSRs with a group-delay dispersion of 1e-24 s^2)
 WINDOW_FSR_TOLERANCE = 0.15
-
-
-def clone(calibrator: BaseCalibrator, **settings) -> BaseCalibrator:
-    """A new unfitted calibrator of the same class and settings, with ``settings`` changed."""
-    params = calibrator.get_params()
-    params.update({key: value for key, value in settings.items() if key in params})
-    return type(calibrator)(**params)
-
-
-def window_label(edges_hz: np.ndarray, index: int) -> str:
-    return f"window {index} ({edges_hz[index] / 1e12:.6f} to {edges_hz[index + 1] / 1e12:.6f} THz)"
 
 
 class CalibrationSet(BaseCalibrator):
@@ -347,7 +340,12 @@ class CalibrationSet(BaseCalibrator):
         check_fitted(self)
         edges = self.window_edges_hz_
         return tuple(
-            Part(window_label(edges, index), "window", window)
+            Part(
+                window_label(edges, index),
+                "window",
+                window,
+                (float(edges[index]), float(edges[index + 1])),
+            )
             for index, window in enumerate(self.windows_)
         )
 
@@ -520,6 +518,57 @@ class CalibrationSet(BaseCalibrator):
     def _fsr_std_hz(self) -> float | None:
         """Standard error of the global FSR (Hz), from the whole-sweep fit."""
         return None if self.delay_std_s_ is None else self.fsr_hz_**2 * self.delay_std_s_
+
+    def _summary_values(self) -> dict:
+        noise = [window.summary().values.get("noise_std_w") for window in self.windows_]
+        if any(value is None for value in noise):
+            return {}
+        mean = float(np.mean([value.value for value in noise]))
+        return {"noise_std_w": FitValue(mean, None, "W", "noise estimate (window mean)")}
+
+    def comparison(self, port_phases_rad=None):
+        """A set of the window method's comparison, with this set's settings."""
+        window = self._window_template().comparison(port_phases_rad=port_phases_rad)
+        return CalibrationSet(self.fsr_hz, self.fsr_tolerance, window=window)
+
+    def _window_rows(self, frequency_hz) -> list:
+        """``(index, rows)`` of each window with readings, by their (true) frequency."""
+        index = self.window_index(frequency_hz)
+        return [(number, index == number) for number in np.unique(index)]
+
+    def fringe_panels(self, frequency_hz, powers_w, monitor_w=None, temperature_k=None):
+        """Each window's fringes over its own readings (small multiples)."""
+        frequency = np.asarray(frequency_hz, dtype=float)
+        powers = np.asarray(powers_w, dtype=float)
+        panels = []
+        for number, rows in self._window_rows(frequency):
+            window = self.windows_[number]
+            monitor = None if monitor_w is None else np.asarray(monitor_w)[rows]
+            (panel,) = window.fringe_panels(frequency[rows], powers[rows], monitor)
+            title = f"window {number}: {window.center_hz_ / 1e12:.4f} THz"
+            panels.append(dataclasses.replace(panel, title=title))
+        return tuple(panels)
+
+    def object_samples(self, powers_w, frequency_hz, temperature_k=None):
+        """Each window's samples of the readings whose frequency falls in it."""
+        frequency = np.asarray(frequency_hz, dtype=float)
+        readings = self._corrected(powers_w)
+        parts = [
+            self.windows_[number].object_samples(readings[rows], frequency[rows])
+            for number, rows in self._window_rows(frequency)
+        ]
+        if any(part is None for part in parts):
+            return None
+        return np.concatenate(parts)
+
+    def evaluation_checks(self, powers_w, frequency_hz):
+        """Each window's map on its neighbours' readings (:func:`adjacent_evaluation`)."""
+        return (adjacent_check(self, powers_w, frequency_hz),)
+
+    def adjacent_evaluation(self, powers_w, frequency_hz, baseline=None) -> dict:
+        """Each window's map on its own FSR and on the neighbouring FSRs (paper Fig. 9);
+        see :func:`~wavemeter.calibration.methods.set_checks.adjacent_evaluation`."""
+        return adjacent_evaluation(self, powers_w, frequency_hz, baseline)
 
     # ------------------------------------------------------------------ persistence
     def _state(self) -> dict:

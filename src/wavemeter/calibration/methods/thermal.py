@@ -115,6 +115,7 @@ class ThermalCalibrator(Calibrator):
 
     method = "thermal"
     requires = frozenset({"temperature_k"})
+    comparison_misfits_expected = True
     #: every reading of the sweep is fitted at once, with its temperature: no fit in chunks
     capabilities = frozenset({"frequency_std", "crlb", "power_monitor", "reanchor"})
     nonlinear_parameters: ClassVar[int] = 3
@@ -210,6 +211,30 @@ class ThermalCalibrator(Calibrator):
         self.offset_w_ = fit.map_[:, 3].copy() if ctx.affine else np.zeros(ports)
         self._set_covariance(ctx)
         self.delay_std_s_ = float(np.sqrt(self.parameter_covariance_[-3, -3]))
+
+    # ------------------------------------------------------------------ report
+    def comparison(self, port_phases_rad=None):
+        """The plain learned calibration with the same settings, fitted without the
+        temperature: what following the temperature buys."""
+        return Calibrator(
+            fsr_hz=self.fsr_hz, fsr_tolerance=self.fsr_tolerance, retrieval=self.retrieval
+        )
+
+    def _drawn_frequency_hz(self, frequency_hz, temperature_k):
+        """Each reading at the frequency whose phase at the reference temperature is its
+        model phase at its own."""
+        phase = thermal_phase_rad(
+            frequency_hz,
+            temperature_k,
+            self.center_hz_,
+            self.reference_temperature_k_,
+            *self._theta(),
+        )
+        title = (
+            "readings at the frequency with their model phase at the reference temperature "
+            f"{self.reference_temperature_k_:.6g} K"
+        )
+        return self.center_hz_ + phase / (2.0 * np.pi * self.delay_s_), title
 
     def _check_rate_precision(self, ctx: ThermalContext) -> None:
         """Refuse a bias rate too uncertain: ``RATE_BUDGET_K`` from ``T0`` its error may
@@ -405,6 +430,9 @@ class ThermalCalibrator(Calibrator):
     def _phase_rad(self, readings, inputs: ReadingInputs):
         return self._corrected_phase_rad(self._phase(readings), inputs.temperature_k)
 
+    def _phase_shown_rad(self, phase_rad, temperature_k=None):
+        return self._corrected_phase_rad(phase_rad, temperature_k)
+
     def _corrected_phase_rad(self, phase_rad, temperature_k):
         """``s = wrap(t - alpha dT)``: a retrieved phase corrected for the temperature."""
         offset = self._temperature_offset_k(temperature_k)
@@ -512,13 +540,37 @@ class ThermalCalibrator(Calibrator):
     # ------------------------------------------------------------------ reporting and files
     def _summary_values(self) -> dict:
         std = np.sqrt(np.diag(self.parameter_covariance_)[-3:])
+        shift = self._fringe_shift()
         return {
             **super()._summary_values(),
-            "thermal_phase_rad_per_k": FitValue(self.thermal_phase_rad_per_k_, std[1], "rad/K"),
-            "fringe_shift_hz_per_k": self._fringe_shift(),
-            "thermal_delay_per_k": FitValue(self.thermal_delay_per_k_, std[2], "1/K"),
-            "reference_temperature_k": FitValue(self.reference_temperature_k_, None, "K"),
+            "thermal_phase_rad_per_k": FitValue(
+                self.thermal_phase_rad_per_k_, std[1], "rad/K", "bias phase rate"
+            ),
+            "fringe_shift_hz_per_k": FitValue(
+                shift.value, shift.stderr, shift.unit, "fringe shift (to lower frequency)"
+            ),
+            "thermal_delay_per_k": FitValue(self.thermal_delay_per_k_, std[2], "1/K", "delay rate"),
+            "reference_temperature_k": FitValue(
+                self.reference_temperature_k_, None, "K", "reference temperature"
+            ),
         }
+
+    def summary(self):
+        """The fit report (:meth:`BaseCalibrator.summary`), with the calibrated
+        temperatures and the bias rates they resolve."""
+        report = super().summary()
+        thermal = (self.diagnostics_ or {}).get("thermal", {})
+        low, high = self.temperature_range_k_
+        clusters = ", ".join(f"{value:.4g}" for value in thermal.get("temperatures_k") or ())
+        unambiguous = thermal.get("unambiguous_phase_rate_rad_per_k")
+        resolved = (
+            "continuous temperatures: no alias"
+            if unambiguous is None
+            else f"bias rate unambiguous within +-{unambiguous:.3g} rad/K"
+        )
+        where = f" (clusters at {clusters} K; {resolved})" if clusters else f" ({resolved})"
+        note = f"calibrated temperatures {low:.6g} to {high:.6g} K{where}"
+        return dataclasses.replace(report, notes=(*report.notes, note))
 
     def _state(self) -> dict:
         return {

@@ -42,6 +42,7 @@ from ..contract.flags import SPAN_MARGIN_STD, ReadingFlag
 from ..contract.records import ReadingInputs, Readout
 from ..contract.summary import FitValue
 from ..files.document import state_array, state_float
+from ..files.registry import calibrator_class
 from ..fitting.steps import (
     SweepFitMixin,
     check_ports,
@@ -72,12 +73,26 @@ from ..models.wideband_orders import (
     select_orders,
     window_count,
 )
+from .figures import (
+    FRINGE_HALF_WIDTH_FSR,
+    band_fringe_panel,
+    near,
+    pseudo_inverse,
+    unit_power_samples,
+)
 from .wideband_reading import (
     band_crlb_hz,
     band_frequency_variance_hz2,
     band_off_model,
     band_phase_rad,
     residual_phase_by_window,
+)
+from .wideband_report import (
+    PHASE_COEFFICIENT_NAMES,
+    band_figures,
+    band_tables,
+    orders_text,
+    residual_phase_text,
 )
 
 __all__ = ["ORDER_MARGIN_FSR", "WidebandCalibrator"]
@@ -169,6 +184,7 @@ class WidebandCalibrator(SweepFitMixin, BaseCalibrator):
 
     method = "wideband"
     requires = frozenset({"coarse_hz"})
+    comparison_misfits_expected = True
     capabilities = frozenset({"frequency_std", "crlb", "power_monitor"})
 
     def __init__(
@@ -577,7 +593,7 @@ class WidebandCalibrator(SweepFitMixin, BaseCalibrator):
         )
         off_model = band_off_model(readings, maps, self.port_noise_std_w_, self.noise_dof_)
         flags[off_model] |= ReadingFlag.OFF_MODEL
-        return Readout(frequency, std, flags, {})
+        return Readout(frequency, std, flags, {}, phase)
 
     # ------------------------------------------------------------------ reporting
     def _fsr_std_hz(self) -> float | None:
@@ -592,17 +608,74 @@ class WidebandCalibrator(SweepFitMixin, BaseCalibrator):
         )
         values = {
             "delay_s": FitValue(self.delay_s_, float(std[0]), "s"),
-            "phase_order": FitValue(float(self.phase_order_), None, ""),
-            "map_order": FitValue(float(self.map_order_), None, ""),
-            "n_parameters": FitValue(float(self.n_parameters_), None, ""),
+            "phase_order": FitValue(float(self.phase_order_), None, "", "phase order P"),
+            "map_order": FitValue(float(self.map_order_), None, "", "map order J"),
+            "n_parameters": FitValue(float(self.n_parameters_), None, "", "fitted parameters"),
             "noise_std_w": FitValue(self.noise_std_w_, None, "W"),
-            "cost_w2": FitValue(self.cost_, None, "W^2"),
+            "cost_w2": FitValue(self.cost_, None, "W^2", "cost J"),
         }
         for order in range(2, self.phase_order_ + 1):
             values[f"phase_coefficient_{order}_s{order}"] = FitValue(
-                float(self.phase_coefficients_[order - 1]), float(std[order - 1]), f"s^{order}"
+                float(self.phase_coefficients_[order - 1]),
+                float(std[order - 1]),
+                f"s^{order}",
+                PHASE_COEFFICIENT_NAMES.get(order, f"phase coefficient c{order}"),
             )
         return values
+
+    def summary(self):
+        """The fit report, with the candidate orders scored and the residual phase."""
+        report = super().summary()
+        record = (self.diagnostics_ or {}).get("wideband")
+        if not record:
+            return report
+        notes = [text for text in (orders_text(record), residual_phase_text(record)) if text]
+        return dataclasses.replace(
+            report,
+            tables=(*report.tables, *band_tables(record)),
+            notes=(*report.notes, *notes),
+        )
+
+    def comparison(self, port_phases_rad=None):
+        """The learned calibration set per FSR with the same settings: the other way to
+        cover a band (what one model of the band buys)."""
+        window = calibrator_class("learned")(
+            fsr_hz=self.fsr_hz, fsr_tolerance=self.fsr_tolerance, retrieval=self.retrieval
+        )
+        return calibrator_class("calibration_set")(self.fsr_hz, self.fsr_tolerance, window=window)
+
+    def fringe_panels(self, frequency_hz, powers_w, monitor_w=None, temperature_k=None):
+        """The sweep within ``FRINGE_HALF_WIDTH_FSR`` of the reading nearest the middle of
+        the band (the sweep may have a gap there) under the band model."""
+        frequency = np.asarray(frequency_hz, dtype=float)
+        anchor = frequency[np.argmin(np.abs(frequency - self.center_hz_))]
+        panel = band_fringe_panel(
+            self.band_model_,
+            frequency,
+            np.asarray(powers_w, dtype=float),
+            monitor_w=None if monitor_w is None else np.asarray(monitor_w, dtype=float),
+            rows=near(frequency, anchor, self.fsr_hz_),
+            noise_std_w=self.noise_std_w_,
+            title=f"readings within {FRINGE_HALF_WIDTH_FSR:g} FSR of the one nearest the "
+            "middle of the band",
+        )
+        return (panel,)
+
+    def object_samples(self, powers_w, frequency_hz, temperature_k=None):
+        """Each reading under the map at the frequency it is read at (the truth as its
+        coarse frequency)."""
+        truth = np.asarray(frequency_hz, dtype=float)
+        powers = np.asarray(powers_w, dtype=float)
+        frequency = self.predict(powers, coarse_hz=truth)
+        inverses = pseudo_inverse(self.band_model_.maps_at(frequency))
+        return unit_power_samples(inverses, powers, self.phase(powers, coarse_hz=truth))
+
+    def report_figures(self, noise_std_hz=None):
+        record = (self.diagnostics_ or {}).get("wideband")
+        if not record:
+            return ()
+        noise_rad = None if noise_std_hz is None else 2.0 * np.pi * noise_std_hz / self.fsr_hz_
+        return band_figures(record, self.center_hz_, noise_rad)
 
     # ------------------------------------------------------------------ files
     def _state(self) -> dict:

@@ -23,6 +23,7 @@ from ...contract.summary import FitValue
 from ...files.document import state_float
 from ...fitting.steps import SweepFitMixin
 from ...models.delay_search import DEFAULT_FSR_TOLERANCE, EdgeMinimumError, search_delay
+from ._compared import ComparedWithLearnedMixin
 
 __all__ = [
     "LabelLockedCalibrator",
@@ -127,7 +128,7 @@ def lock_phase(
     )
 
 
-class LabelLockedCalibrator(SweepFitMixin, BaseCalibrator):
+class LabelLockedCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibrator):
     """A calibrator whose model yields a raw phase right up to origin, direction and FSR.
 
     Subclasses fit their model in ``_fit``, then call :meth:`_lock_to_labels`; they

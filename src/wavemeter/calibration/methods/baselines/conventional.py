@@ -13,12 +13,13 @@ import numpy as np
 from ....exceptions import InputError
 from ....model.couplers import equally_spaced_phases_rad, orthonormal_map
 from ...files.document import state_array
+from ..figures import MapSamplesMixin
 from ._labels import LabelLockedCalibrator, phase_locking
 
 __all__ = ["ConventionalCalibrator", "phase_locking"]
 
 
-class ConventionalCalibrator(LabelLockedCalibrator):
+class ConventionalCalibrator(MapSamplesMixin, LabelLockedCalibrator):
     """Conventional (Todd et al.) phase retrieval with the ideal orthonormal map.
 
     Parameters

@@ -26,12 +26,13 @@ from ...contract.summary import FitValue
 from ...files.document import state_array, state_float
 from ...fitting.steps import SweepFitMixin
 from ...models.delay_search import DEFAULT_FSR_TOLERANCE
-from ..learned import fit_learned_map
+from ...models.learned_fit import fit_learned_map
+from ._compared import ComparedWithLearnedMixin
 
 __all__ = ["ExtendedConventionalCalibrator"]
 
 
-class ExtendedConventionalCalibrator(SweepFitMixin, BaseCalibrator):
+class ExtendedConventionalCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibrator):
     """Todd's extended (non-ideal coupler) method with fringe parameters from the sweep.
 
     Parameters

@@ -48,6 +48,7 @@ from ...contract.base import BaseCalibrator
 from ...contract.summary import FitValue
 from ...files.document import state_array, state_float
 from ...fitting.steps import SweepFitMixin
+from ._compared import ComparedWithLearnedMixin
 
 __all__ = [
     "ConvergenceShare",
@@ -146,7 +147,7 @@ class _Model:
         return jac.reshape(samples * n, 3 * n + 1)
 
 
-class NonlinearFitCalibrator(SweepFitMixin, BaseCalibrator):
+class NonlinearFitCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibrator):
     """Kleijn's nonlinear least-squares calibration of the physical MZI model.
 
     Parameters

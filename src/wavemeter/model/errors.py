@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import InputError
-from ..model.cone import wrap_to_period
 from ..validation import check_positive
+from .cone import wrap_to_period
 
 __all__ = ["frequency_error_hz", "error_summary_hz"]
 
