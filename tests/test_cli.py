@@ -159,7 +159,7 @@ def test_per_fsr_set_needs_a_coarse_frequency_and_reproduces_fig9(tmp_path, caps
     ok(capsys, f"simulate -o {sweep} --span-fsr 3 --samples 3000 --test 3000 --quiet")
     assert "learned per FSR" in ok(capsys, f"calibrate {sweep} -o {cal} --per-fsr")
     code, _, err = run(capsys, f"measure {cal} {test} -o {out}")
-    assert code == 2 and "per-FSR calibration set" in err and "--coarse" in err
+    assert code == 2 and "learned per FSR calibration (3 windows" in err and "--coarse" in err
     assert not out.exists()
     truth = "true_frequency_hz"
     ok(capsys, f"measure {cal} {test} -o {out} --coarse {truth} --keep {truth}")

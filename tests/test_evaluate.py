@@ -236,8 +236,7 @@ def test_crlb_per_reading_is_the_true_devices_bound(device, calibration, calibra
     )
     assert crlb_per_reading_hz(conventional, powers, frequency) is None
     beyond = frequency[-1:] + device.true_fsr_hz  # 3.4 FSRs out, the set covers 2.5
-    with pytest.raises(InputError, match="outside the calibrated span"):
-        crlb_per_reading_hz(calibration_set, powers[-1:], beyond)
+    assert np.isnan(crlb_per_reading_hz(calibration_set, powers[-1:], beyond)).all()
 
 
 def test_evaluating_nothing_or_mismatched_truth_is_refused(calibration, one_fsr_test):

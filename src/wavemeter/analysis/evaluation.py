@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..calibration.contract.flags import flag_counts
 from ..exceptions import InputError
 from ..model.errors import error_summary_hz, frequency_error_hz
 from ..validation import check_frequency, check_per_reading, check_powers
@@ -31,21 +32,15 @@ def _reading_inputs(calibration, coarse_hz, temperature_k=None) -> dict:
     return inputs
 
 
-def _is_set(calibration) -> bool:
-    """Whether ``calibration`` is a set of per-window calibrations (it has ``windows_``)."""
-    return hasattr(calibration, "windows_")
-
-
-def _single_maps(calibration) -> list:
-    """The calibrations a calibration retrieves with: a set's windows, or itself."""
-    return calibration.windows_ if _is_set(calibration) else [calibration]
-
-
 def _calibrated_range_hz(calibration) -> tuple[float, float]:
     """Lowest and highest frequency (Hz) the calibration was fitted for: the sweep span of
-    a single calibration (one FSR, or a wide band), the range a set's windows cover."""
-    if _is_set(calibration):
-        return calibration.covered_hz()
+    a single calibration (one FSR, or a wide band), the range its parts cover (a set's
+    windows)."""
+    parts = calibration.parts()
+    if parts:
+        ranges = np.array([part.range_hz for part in parts])
+        low, high = calibration.span_hz_
+        return min(float(ranges.min()), low), max(float(ranges.max()), high)
     low, high = calibration.span_hz_
     return float(low), float(high)
 
@@ -77,40 +72,54 @@ def crlb_per_reading_hz(
     Returns
     -------
     ndarray, shape (N,), Hz, or None
+        NaN for readings the calibration cannot read (a true frequency outside the range a
+        set's windows cover, more than half an FSR outside a wide band).
 
     Raises
     ------
     InputError
-        When the readings or frequencies are malformed, or a true frequency lies outside
-        the range a set's windows cover (more than half an FSR outside a wide band).
+        When the readings or frequencies are malformed.
     """
     if "crlb" not in calibration.capabilities:
         return None
     readings = check_powers(powers_w)
     truth = check_frequency(frequency_hz, readings.shape[0])
     inputs = _reading_inputs(calibration, truth, temperature_k)
-    return calibration.crlb_hz(readings, frequency_hz=truth, errors="raise", **inputs)
+    return calibration.crlb_hz(readings, frequency_hz=truth, **inputs)
 
 
-def _noise_std_w(calibration) -> float:
-    """Detector noise (W) a calibration estimated from its residual (a set: window mean)."""
-    return float(np.mean([single.noise_std_w_ for single in _single_maps(calibration)]))
+def _noise_std_w(calibration) -> float | None:
+    """Detector noise (W) a calibration states (a set: the mean over its windows)."""
+    noise = calibration.summary().values.get("noise_std_w")
+    return None if noise is None else float(noise.value)
 
 
 def _method_figures(calibration, readings, truth, coarse, temperature_k) -> dict:
-    """Absolute and modulo-FSR error figures of one calibration (see evaluate_calibrations)."""
+    """Absolute and modulo-FSR error figures of one calibration over the readings it can
+    read, and the others counted by flag (see evaluate_calibrations)."""
     inputs = _reading_inputs(calibration, coarse, temperature_k)
-    predicted = calibration.predict(readings, **inputs)
-    error = predicted - truth
+    found = calibration.readout(readings, **inputs)
+    read = np.isfinite(found.frequency_hz)
+    if not read.any():
+        raise InputError(
+            f"a {calibration.method_label} calibration cannot read any of the {truth.size} "
+            "readings (outside the range it has maps for): give readings inside it",
+            parameter="powers",
+        )
+    predicted, truth_read = found.frequency_hz[read], truth[read]
+    error = predicted - truth_read
     absolute = error_summary_hz(error)
     low, high = _calibrated_range_hz(calibration)
     fsr = calibration.fsr_hz_
+    mod_fsr = frequency_error_hz(predicted, truth_read, fsr)
     return {
+        "readings": int(np.count_nonzero(read)),
+        "unread": flag_counts(found.flags[~read]),
         "rms_abs_hz": absolute["rms_hz"],
         "max_abs_hz": absolute["max_hz"],
         "p95_abs_hz": absolute["p95_hz"],
         "p99_abs_hz": absolute["p99_hz"],
-        "rms_mod_fsr_hz": error_summary_hz(frequency_error_hz(predicted, truth, fsr))["rms_hz"],
+        "rms_mod_fsr_hz": error_summary_hz(mod_fsr)["rms_hz"],
         "fsr_hz": float(fsr),
         "span_hz": [low, high],
         "outside_span_fraction": float(np.mean((truth < low) | (truth > high))),
@@ -156,20 +165,22 @@ def evaluate_calibrations(
         modulo the calibration's FSR, Hz), ``fsr_hz``, ``span_hz`` (calibrated span, a
         set: the range its windows cover), ``outside_span_fraction`` (share of readings
         whose truth lies outside it; a wide band: its sweep span),
-        ``gross_error_fraction`` (share with an absolute
-        error over half an FSR) and, when a bound is known, ``rms_abs_over_crlb`` and
-        ``rms_mod_fsr_over_crlb``. At the top level: ``samples``; ``coarse_from``
-        (``"coarse_hz"``, ``"truth"``, or None when no calibration needs one);
-        ``crlb_rms_hz`` (RMS of :func:`crlb_per_reading_hz` under the first calibration
-        with the ``"frequency_std"`` capability), ``crlb_method`` (its label) and
-        ``noise_std_w`` (its noise estimate, W), all None when none has it.
+        ``gross_error_fraction`` (share of the readings it reads with an absolute error
+        over half an FSR), ``readings`` (how many it reads) and ``unread`` (those it cannot
+        read, by flag: a coarse value outside the range its maps cover is
+        ``OUTSIDE_SPAN``) and, when a bound is known, ``rms_abs_over_crlb`` and
+        ``rms_mod_fsr_over_crlb``; the error figures are over the readings it reads. At the
+        top level: ``samples``; ``coarse_from`` (``"coarse_hz"``, ``"truth"``, or None when
+        no calibration needs one); ``crlb_rms_hz`` (RMS of :func:`crlb_per_reading_hz` under
+        the first calibration with the ``"crlb"`` capability, over the readings it reads),
+        ``crlb_method`` (its label) and ``noise_std_w`` (its noise estimate, W), all None
+        when none has it.
 
     Raises
     ------
     InputError
         When no calibration is given, the readings or frequencies are malformed, or a
-        calibration cannot retrieve them (wrong port count; for a set, a coarse value
-        outside the range its windows cover).
+        calibration cannot retrieve them (wrong port count) or reads none of them.
     """
     if not calibrations:
         raise InputError("no calibration to evaluate; give at least one", parameter="calibrations")
@@ -197,14 +208,12 @@ def evaluate_calibrations(
         "methods": methods,
     }
     bounded = [
-        label
-        for label, calibration in calibrations.items()
-        if "frequency_std" in calibration.capabilities
+        label for label, calibration in calibrations.items() if "crlb" in calibration.capabilities
     ]
     if bounded:
         label = bounded[0]
         bound = crlb_per_reading_hz(calibrations[label], readings, truth, temperature)
-        crlb_rms = float(np.sqrt(np.mean(bound**2)))
+        crlb_rms = float(np.sqrt(np.nanmean(bound**2)))
         summary.update(
             crlb_rms_hz=crlb_rms,
             crlb_method=label,

@@ -17,11 +17,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..analysis.evaluation import crlb_per_reading_hz
+from ..analysis.evaluation import crlb_per_reading_hz, evaluate_calibrations
 from ..calibration.contract.base import BaseCalibrator
 from ..calibration.contract.flags import flag_counts
 from ..exceptions import InputError, recorded_calibration_warnings
-from ..model.errors import error_summary_hz, frequency_error_hz
+from ..model.errors import frequency_error_hz
 from ..validation import check_fitted, check_frequency, check_per_reading, check_powers
 
 __all__ = [
@@ -178,10 +178,11 @@ def report_content(
         ``residual``, ``histogram``; ``temperature`` for a calibration that needs the
         chip temperature; the calibration's own ``report_figures``.
     summary : dict
-        JSON-ready numbers shown in the page: ``methods`` (error summaries, Hz, over the
-        readings each could read), ``unread`` (per method, the readings it could not read,
-        by flag), ``crlb_rms_hz``, ``noise_std_w`` and ``noise_from`` (the method whose
-        bound and residual gave them), ``evaluated_on``, ``samples``, ``comparison`` (its
+        JSON-ready numbers shown in the page: ``methods``, ``crlb_rms_hz``,
+        ``noise_std_w`` and ``noise_from`` as :func:`~wavemeter.analysis.evaluate_calibrations`
+        gives them for these methods and readings (the numbers ``wavemeter evaluate``
+        prints), ``unread`` (per method, the readings it could not read, by flag),
+        ``evaluated_on``, ``samples``, ``comparison`` (its
         label, None when there is none) and ``comparison_error`` (why not, else None),
         ``comparison_warnings`` (``[cause] message`` of each warning the comparison's fit
         gave), ``captions`` (of the calibration's own figures), ``checks`` (each check
@@ -280,15 +281,15 @@ def report_content(
     for data in calibration.report_figures(crlb_rms):
         figures[data.name] = plotting.plot_figure_data(data)
         captions[data.name] = data.caption
-    noise = reference.summary().values.get("noise_std_w")
+    numbers = evaluate_calibrations(methods, powers, truth, temperature_k=evaluation.temperature_k)
     summary = {
         "evaluated_on": "calibration sweep" if test is None else "test readings",
-        "samples": int(kept.frequency_hz.size),
+        "samples": int(truth.size),
         "unread": {name: counts for name, counts in unread.items() if counts},
-        "crlb_rms_hz": crlb_rms,
-        "noise_std_w": None if noise is None else float(noise.value),
-        "noise_from": reference_name,
-        "methods": {name: error_summary_hz(error) for name, error in errors.items()},
+        "crlb_rms_hz": numbers["crlb_rms_hz"],
+        "noise_std_w": numbers["noise_std_w"],
+        "noise_from": numbers["crlb_method"],
+        "methods": numbers["methods"],
         "comparison": None if other is None else other.method_label,
         "comparison_error": comparison_error,
         "comparison_warnings": [f"[{warning.cause}] {warning}" for warning in comparison_warnings],

@@ -314,19 +314,25 @@ def _parts_html(calibration: BaseCalibrator) -> str:
 
 
 def _error_rows(summary: dict) -> list[list[str]]:
+    """Each method's absolute error (as ``wavemeter evaluate`` prints it), its error
+    modulo its FSR, the share of gross errors, and the bound."""
     crlb = summary["crlb_rms_hz"]
     rows = [
         [
             name,
-            _mhz(stats["rms_hz"]),
-            _mhz(stats["max_hz"]),
-            _mhz(stats["p95_hz"]),
-            _mhz(stats["p99_hz"]),
-            significant(stats["rms_hz"] / crlb),
+            _mhz(stats["rms_abs_hz"]),
+            _mhz(stats["max_abs_hz"]),
+            _mhz(stats["p95_abs_hz"]),
+            _mhz(stats["p99_abs_hz"]),
+            "" if crlb is None else significant(stats["rms_abs_hz"] / crlb),
+            _mhz(stats["rms_mod_fsr_hz"]),
+            "" if crlb is None else significant(stats["rms_mod_fsr_hz"] / crlb),
+            f"{100 * stats['gross_error_fraction']:.3g} %",
         ]
         for name, stats in summary["methods"].items()
     ]
-    rows.append(["CRLB", _mhz(crlb), "", "", "", significant(1.0)])
+    if crlb is not None:
+        rows.append(["CRLB", _mhz(crlb), "", "", "", significant(1.0), "", "", ""])
     return rows
 
 
@@ -403,7 +409,17 @@ def render_page(
     """
     created = datetime.now(UTC).isoformat(timespec="seconds")
     report = calibration.summary()
-    errors_header = ["method", "RMS (MHz)", "max (MHz)", "p95 (MHz)", "p99 (MHz)", "RMS / CRLB"]
+    errors_header = [
+        "method",
+        "RMS (MHz)",
+        "max (MHz)",
+        "p95 (MHz)",
+        "p99 (MHz)",
+        "RMS / CRLB",
+        "RMS mod FSR (MHz)",
+        "RMS mod FSR / CRLB",
+        "off by half an FSR or more",
+    ]
     captions = {**FIGURE_CAPTIONS, **summary.get("captions", {})}
     return (
         '<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">'

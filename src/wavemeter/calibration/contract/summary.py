@@ -98,19 +98,6 @@ class Table:
             lines.append(f"  {self.text}")
         return lines
 
-    def text_lines(self) -> list[str]:
-        """The table as aligned text: its title, the column headings, one line per row,
-        then its text."""
-        cells = [list(self.columns)] + [[self.cell_text(cell) for cell in row] for row in self.rows]
-        widths = [max(len(row[k]) for row in cells) for k in range(len(self.columns))]
-        lines = [f"{self.title}:"]
-        lines += [
-            "  " + "  ".join(c.rjust(w) for c, w in zip(row, widths, strict=True)) for row in cells
-        ]
-        if self.text:
-            lines.append(f"  {self.text}")
-        return lines
-
 
 @dataclass(frozen=True)
 class Check:
