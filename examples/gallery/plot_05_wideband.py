@@ -52,9 +52,8 @@ test = dev.powers(test_hz, power_w=1e-3, noise_w=5e-7, rng=rng)
 found_hz = band.predict(test, coarse_hz=test_hz + 0.2 * dev.true_fsr_hz)
 error_hz = found_hz - test_hz
 std_hz = band.frequency_std_hz(test, coarse_hz=test_hz)
-print(
-    f"RMS error {np.sqrt(np.mean(error_hz**2)) / 1e6:.2f} MHz, z std {np.std(error_hz / std_hz):.3f}"
-)
+rms_mhz = np.sqrt(np.mean(error_hz**2)) / 1e6
+print(f"RMS error {rms_mhz:.2f} MHz, z std {np.std(error_hz / std_hz):.3f}")
 
 # %%
 # The figure: the mean residual phase per FSR window. For the plain calibration: its

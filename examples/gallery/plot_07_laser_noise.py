@@ -35,20 +35,14 @@ readings_hz = np.unwrap(cal.predict(powers), period=cal.fsr_hz_)
 result = frequency_noise(
     readings_hz, RATE_HZ, meter_std_hz=cal.frequency_std_hz(powers), fsr_hz=cal.fsr_hz_
 )
-print(f"meter floor     {result.meter_floor_hz2_per_hz:.4g} Hz^2/Hz")
-print(
-    f"Lorentzian      {result.lorentzian_linewidth_hz / 1e3:.2f} +- "
-    f"{result.lorentzian_linewidth_std_hz / 1e3:.2f} kHz (true {np.pi * LASER['white_fm_hz2_per_hz'] / 1e3:.0f} kHz)"
-)
-print(
-    f"flicker FM      {result.flicker_fm_hz2:.3g} +- {result.flicker_fm_std_hz2:.2g} Hz^2 (true 4e8)"
-)
-print(
-    f"drift           {result.drift_hz_per_s:.4g} +- {result.drift_std_hz_per_s:.2g} Hz/s (true 1e8)"
-)
-print(
-    f"beta linewidth  {result.beta_linewidth_hz / 1e3:.1f} +- {result.beta_linewidth_std_hz / 1e3:.1f} kHz"
-)
+r = result
+true_lorentzian_hz = np.pi * LASER["white_fm_hz2_per_hz"]
+print(f"meter floor     {r.meter_floor_hz2_per_hz:.4g} Hz^2/Hz")
+print(f"Lorentzian      {r.lorentzian_linewidth_hz:.4g} +- {r.lorentzian_linewidth_std_hz:.2g} Hz")
+print(f"  (true         {true_lorentzian_hz:.4g} Hz)")
+print(f"flicker FM      {r.flicker_fm_hz2:.3g} +- {r.flicker_fm_std_hz2:.2g} Hz^2 (true 4e8)")
+print(f"drift           {r.drift_hz_per_s:.4g} +- {r.drift_std_hz_per_s:.2g} Hz/s (true 1e8)")
+print(f"beta linewidth  {r.beta_linewidth_hz:.4g} +- {r.beta_linewidth_std_hz:.2g} Hz")
 print("warnings:", result.warnings or "none")
 
 # %%
