@@ -55,6 +55,8 @@ source_suffix = {".rst": "restructuredtext"}
 root_doc = "index"
 default_role = "code"
 nitpicky = False
+# "--force" stays two hyphens, quotes stay straight: options and code in prose are typed
+smartquotes = False
 
 # -- offline equations: MathJax 3 from _static, SVG output (no web fonts) ----------------
 mathjax_path = "mathjax/tex-svg-full.js"

@@ -16,6 +16,8 @@ cascade is calibrated at that noise, then read at 1 to 10 times it. The wrong or
 study with 1e6 readings per level.
 """
 
+import warnings
+
 import matplotlib.pyplot as plt
 import numpy as np
 
@@ -32,7 +34,11 @@ fsrs_hz = tuple(design.fsrs_hz)
 dev = wm.CascadeInterferometer.table1(fsrs_hz, ports=3, seed=2, center_hz=sum(BAND_HZ) / 2)
 sweep_hz = np.linspace(*BAND_HZ, 8000)
 sweep = dev.powers(sweep_hz, 1e-3, NOISE_W, rng=1)
-cal = wm.CascadeCalibrator(fsr_hz=fsrs_hz, max_order_error=1e-2).fit(sweep, sweep_hz)
+with warnings.catch_warnings(record=True) as caught:  # what the fit says, cause by cause
+    warnings.simplefilter("always")
+    cal = wm.CascadeCalibrator(fsr_hz=fsrs_hz, max_order_error=1e-2).fit(sweep, sweep_hz)
+for note in caught:
+    print(f"warning [{note.message.cause}]: {str(note.message)[:120]}...")
 for handover in cal.handovers_:
     print({key: handover[key] for key in ("from_stage", "to_stage", "ratio", "margin_std")})
 
