@@ -50,6 +50,7 @@ exclude_patterns = [
     "gallery/*.ipynb",
     "gallery/*.py",
     "gallery/*.zip",
+    "sg_execution_times.rst",
 ]
 source_suffix = {".rst": "restructuredtext"}
 root_doc = "index"
@@ -90,8 +91,10 @@ sphinx_gallery_conf = {
     "show_memory": False,
     "show_signature": False,
     "capture_repr": ("_repr_html_", "__repr__"),
-    "min_reported_time": 1,
+    "min_reported_time": 0,
     "within_subsection_order": "FileNameSortKey",
+    # the execution-times pages load DataTables from a CDN: left out (offline site)
+    "write_computation_times": False,
 }
 
 # -- HTML ---------------------------------------------------------------------------------
@@ -110,6 +113,8 @@ html_theme_options = {
     "footer_start": ["copyright"],
     "footer_end": ["sphinx-version"],
 }
+# the theme's light/dark switch starts from "auto" (an empty mode logs a console error)
+html_context = {"default_mode": "auto"}
 html_sidebars = {"index": [], "getting-started": [], "results": []}
 
 
@@ -126,7 +131,7 @@ def _escape_plain(text: str) -> str:
     return _TRAILING_UNDERSCORE.sub(r"\1\\_", text)
 
 
-def _escape_click_lines(ctx, lines):
+def _escape_click_lines(app, ctx, lines):
     """Click's help is plain text; sphinx-click reads it as rST. Keep its line blocks."""
     for index, line in enumerate(lines):
         if re.match(r"^\s*(\.\. |:\w[\w -]*:)", line):  # sphinx-click's own directives
@@ -162,4 +167,4 @@ def setup(app):
     app.connect("autodoc-process-docstring", _escape_docstring_substitutions)
     app.connect("autodoc-skip-member", _skip_foreign_members)
     for event in ("description", "options", "arguments", "epilog"):
-        app.connect(f"sphinx-click-process-{event}", lambda app, ctx, lines: _escape_click_lines(ctx, lines))
+        app.connect(f"sphinx-click-process-{event}", _escape_click_lines)
