@@ -44,7 +44,6 @@ extensions = [
 templates_path = ["_templates"]
 exclude_patterns = [
     "_build",
-    "figures/README.md",
     "theory-map.md",  # the lead's map from modules to theory pages: not part of the site
     "_static/mathjax/README.md",
     "gallery/*.ipynb",
