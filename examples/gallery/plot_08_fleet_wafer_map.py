@@ -2,7 +2,7 @@
 Many chips: a wafer map from a fleet calibration
 ================================================
 
-A wafer of 6 x 6 dies, each a Table 1 3x3 device with its own impairments, each swept
+A wafer of 5 x 5 dies, each a Table 1 3x3 device with its own impairments, each swept
 once into a CSV file named by its die position (``die_x03_y12.csv``).
 :func:`wavemeter.fleet.calibrate_fleet` calibrates every file (here in this process,
 ``workers=0``; by default on a ``distributed.LocalCluster`` of one worker per core, or on a
@@ -24,10 +24,10 @@ from wavemeter.io import write_table
 wafer = Path(tempfile.mkdtemp()) / "wafer7"
 wafer.mkdir()
 rng = np.random.default_rng(11)
-for x in range(6):
-    for y in range(6):
+for x in range(5):
+    for y in range(5):
         dev = wm.Interferometer.table1(ports=3, seed=100 * x + y)
-        f_hz = dev.sweep_hz(1000)
+        f_hz = dev.sweep_hz(800)
         powers = dev.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=rng)
         if (x, y) == (1, 4):
             powers[:, 2] = 5e-7 * rng.standard_normal(f_hz.size) + 2e-6  # a dead detector
@@ -69,9 +69,9 @@ ax.scatter(x[~ok], y[~ok], marker="x", s=300, color="C3", label="failed")
 fig.colorbar(shown, label="calibration RMS / CRLB")
 ax.set_xlabel("die x")
 ax.set_ylabel("die y")
-ax.set_xlim(-0.7, 5.7)
-ax.set_ylim(-0.7, 5.7)
+ax.set_xlim(-0.7, 4.7)
+ax.set_ylim(-0.7, 4.7)
 ax.set_aspect("equal")
 ax.legend(loc="upper right")
-ax.set_title("wafer7: 36 dies")
+ax.set_title("wafer7: 25 dies")
 fig.tight_layout()
