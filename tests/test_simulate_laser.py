@@ -7,7 +7,7 @@ and the drift within 3 of their stated standard deviations (z-scores). On the de
 laser below, 159 of the 160 z-scores were within 3 (one at -3.02: the flicker level, 0, of
 the random-walk laser); these tests use the default seed, 1. Flicker and random walk
 together (not tested here) gave drift z-scores of 6.3 and -5.0 in 30 seeds: the analysis's
-drift uncertainty is then too small. The README's noise commands run in order on the files
+drift uncertainty is then too small. The noise page's commands run in order on the files
 the ones before them made.
 """
 
@@ -23,7 +23,9 @@ import pytest
 
 from wavemeter.cli import main
 
-README = (Path(__file__).parent.parent / "README.md").read_text(encoding="utf-8")
+PAGE = (Path(__file__).parent.parent / "docs" / "user-guide" / "noise.rst").read_text(
+    encoding="utf-8"
+)
 #: readings of each laser record (6.6 ms at 10 MHz)
 READINGS = 1 << 16
 #: simulated levels: white FM (Hz^2/Hz), flicker FM (Hz^2), random-walk FM (Hz^2/s), drift
@@ -78,19 +80,19 @@ def test_noise_finds_the_levels_simulate_laser_gave(tmp_path, capsys, laser):
 
 
 def _noise_section_commands() -> list[str]:
-    """The shell lines of the README's noise section, continuation lines joined, comments
-    dropped."""
-    start = README.index("### Frequency noise, linewidth and Allan deviation")
-    section = README[start : README.index("```python", start)]
+    """The shell lines of the noise page's command-line section, continuation lines
+    joined, comments dropped."""
+    start = PAGE.index("On the command line")
+    section = PAGE[start : PAGE.index("``simulate --laser N``", start)]
     text = re.sub(r"\\\n\s*", "", section)
     return [
-        line.split("#")[0].strip()
+        line.split("#")[0].strip().removeprefix("$ ")
         for line in text.splitlines()
-        if line.startswith("    wavemeter ")
+        if line.strip().startswith("$ wavemeter ")
     ]
 
 
-def test_the_readme_noise_commands_run_in_order_and_print_what_it_says(
+def test_the_noise_page_commands_run_in_order_and_print_what_it_says(
     tmp_path, monkeypatch, capsys
 ):
     monkeypatch.chdir(tmp_path)
@@ -108,11 +110,11 @@ def test_the_readme_noise_commands_run_in_order_and_print_what_it_says(
             Path(target.strip()).write_text(printed)
     result = json.loads(Path("noise.json").read_text())
     assert Path("noise.html").is_file()
-    # the numbers the README states are those of this run, to the digits it shows
-    prose = " ".join(README.split())
+    # the numbers the page states are those of this run, to the digits it shows
+    prose = " ".join(PAGE.split())
     stated = re.search(
-        r"white FM level of (\S+) \+- (\S+) Hz\^2/Hz \(Lorentzian linewidth (\S+) \+- (\S+) MHz\) "
-        r"and a drift of (\S+) \+- (\S+) Hz/s",
+        r"white FM level of (\S+) ± (\S+) Hz²/Hz \(Lorentzian linewidth (\S+) ± (\S+) MHz\) "
+        r"and a drift of (\S+) ± (\S+) Hz/s",
         prose,
     )
     white, white_std, width, width_std, drift, drift_std = stated.groups()
