@@ -20,12 +20,11 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.checks.fsr_guard import median_step_hz
 from wavemeter.calibration.methods import learned
 from wavemeter.calibration.models.learned_fit import gram_objects as _gram_objects
 from wavemeter.calibration.models.linear_map import object_delay_derivative, object_vectors
 from wavemeter.calibration.models.moments import FringeMoments
-from wavemeter.calibration.models.subsample import SweepSample, diagnostic_stride
+from wavemeter.calibration.models.subsample import SweepSample, diagnostic_stride, median_step_hz
 from wavemeter.cli import calibrate as calibrate_command
 from wavemeter.io import read_table, write_table
 from wavemeter.model.uncertainty import fit_parameter_covariance

@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.checks.fsr_guard import estimate_fsr, median_step_hz
+from wavemeter.calibration.checks.fsr_guard import estimate_fsr
 from wavemeter.calibration.models.delay_search import MAX_GRID_POINTS, search_delay
+from wavemeter.calibration.models.subsample import median_step_hz
 
 from .conftest import NOISE_W, POWER_W
 

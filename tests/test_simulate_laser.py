@@ -92,9 +92,7 @@ def _noise_section_commands() -> list[str]:
     ]
 
 
-def test_the_noise_page_commands_run_in_order_and_print_what_it_says(
-    tmp_path, monkeypatch, capsys
-):
+def test_the_noise_page_commands_run_in_order_and_print_what_it_says(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     commands = _noise_section_commands()
     assert [command.split()[1] for command in commands] == [

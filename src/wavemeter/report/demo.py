@@ -8,8 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import atomic_path, check_output
-from ..calibration.methods.baselines import ConventionalCalibrator
-from ..calibration.methods.learned import Calibrator
+from ..calibration.files.registry import calibrator_class
 from ..exceptions import InputError
 from ..io import write_table
 from ..model.cone import delay_phase_rad
@@ -93,8 +92,8 @@ def run_demo(out_dir, seed: int = 1) -> dict:
     test_hz = device.center_hz + rng.uniform(-half, half, setup["test_samples"])
     test_w = device.powers(test_hz, setup["power_w"], setup["noise_w"], rng)
 
-    learned = Calibrator(fsr_hz=setup["design_fsr_hz"]).fit(sweep_w, sweep_hz)
-    conventional = ConventionalCalibrator(
+    learned = calibrator_class("learned")(fsr_hz=setup["design_fsr_hz"]).fit(sweep_w, sweep_hz)
+    conventional = calibrator_class("conventional")(
         fsr_hz=setup["design_fsr_hz"], port_phases_rad=device.design_port_phases_rad
     ).fit(sweep_w, sweep_hz)
     true_phase = delay_phase_rad(test_hz, device.center_hz, device.delay_s)

@@ -39,6 +39,7 @@ from ...exceptions import InputError
 from ..models.delay_search import MIN_EXPLAINED_FRACTION, frequency_text
 from ..models.linear_map import map_cost, object_vectors, unfitted_cost
 from ..models.moments import FringeMoments, binning_pays
+from ..models.subsample import median_step_hz
 
 __all__ = [
     "AGREEMENT_MARGIN",
@@ -47,7 +48,6 @@ __all__ = [
     "MIN_SPAN_FSR",
     "check_design_fsr",
     "estimate_fsr",
-    "median_step_hz",
 ]
 
 #: the sweep must cover at least this fraction of the design FSR
@@ -80,22 +80,6 @@ class FsrEstimate:
     fsr_hz: float
     delay_s: float
     explained: float
-
-
-def median_step_hz(frequency_hz: np.ndarray) -> float:
-    """Median spacing (Hz) of the distinct sweep frequencies (0 when all are equal).
-
-    A sweep in frequency order (rising or falling: a swept laser) is not sorted: its steps
-    are those of the sorted frequencies, up to their order, which the median ignores.
-    """
-    frequency = np.asarray(frequency_hz, dtype=float)
-    steps = np.diff(frequency)
-    if np.all(steps <= 0.0):
-        steps = -steps
-    elif not np.all(steps >= 0.0):
-        steps = np.diff(np.sort(frequency))
-    steps = steps[steps > 0]
-    return float(np.median(steps)) if steps.size else 0.0
 
 
 def _periodogram_delays(powers: np.ndarray, frequency_hz: np.ndarray, span_hz: float):

@@ -48,12 +48,33 @@ import numpy as np
 
 from ...exceptions import InputError
 from ...validation import check_dark, check_frequency, check_monitor, check_powers
-from ..checks.fsr_guard import median_step_hz
 
-__all__ = ["CheckedChunks", "DIAGNOSTIC_SAMPLES", "SweepSample", "diagnostic_stride"]
+__all__ = [
+    "CheckedChunks",
+    "DIAGNOSTIC_SAMPLES",
+    "SweepSample",
+    "diagnostic_stride",
+    "median_step_hz",
+]
 
 #: most readings the checks and diagnostics of a learned calibration see (module text)
 DIAGNOSTIC_SAMPLES = 1 << 17
+
+
+def median_step_hz(frequency_hz: np.ndarray) -> float:
+    """Median spacing (Hz) of the distinct sweep frequencies (0 when all are equal).
+
+    A sweep in frequency order (rising or falling: a swept laser) is not sorted: its steps
+    are those of the sorted frequencies, up to their order, which the median ignores.
+    """
+    frequency = np.asarray(frequency_hz, dtype=float)
+    steps = np.diff(frequency)
+    if np.all(steps <= 0.0):
+        steps = -steps
+    elif not np.all(steps >= 0.0):
+        steps = np.diff(np.sort(frequency))
+    steps = steps[steps > 0]
+    return float(np.median(steps)) if steps.size else 0.0
 
 
 def diagnostic_stride(samples: int, limit: int = DIAGNOSTIC_SAMPLES) -> int:
