@@ -1,13 +1,21 @@
-"""Calibrators: the learned map, calibration sets, baselines, and their files.
+"""Calibrators: the learned map and its forms, the baselines, their files and registry.
 
-Importing this package registers every calibrator class under its file tag
-(:mod:`wavemeter.calibration.files.registry`).
+Importing this package registers every built-in calibrator under its file tag; other
+packages add theirs through the ``wavemeter.calibrators`` entry-point group
+(:mod:`wavemeter.calibration.files.registry`). A calibrator of your own subclasses
+:class:`BaseCalibrator` (with :class:`SweepFitMixin` for the checked fit of a sweep): see
+the user guide's page on writing a calibrator.
 """
 
-from .contract.base import BaseCalibrator
+from .contract.base import BaseCalibrator, Part
+from .contract.figures import FigureData, FringePanel, Series
 from .contract.flags import ReadingFlag
+from .contract.records import ReadingInputs, Readout, StreamReading
+from .contract.summary import Check, FitReport, FitValue, Table
 from .files.document import load_calibration, save_calibration
-from .files.registry import registered
+from .files.registry import calibrator_class, registered
+from .fitting.steps import SweepFitMixin
+from .fitting.sweep import FitContext, Sweep
 from .methods.baselines import (
     ConventionalCalibrator,
     EllipseCalibrator,
@@ -27,17 +35,32 @@ __all__ = [
     "Calibrator",
     "CalibrationSet",
     "CascadeCalibrator",
+    "Check",
     "ConventionalCalibrator",
     "EllipseCalibrator",
     "ExtendedConventionalCalibrator",
+    "FigureData",
+    "FitContext",
+    "FitReport",
+    "FitValue",
+    "FringePanel",
     "NonlinearFitCalibrator",
+    "Part",
     "PlaneEllipseCalibrator",
     "ReadingFlag",
+    "ReadingInputs",
+    "Readout",
+    "Series",
+    "StreamReading",
+    "Sweep",
+    "SweepFitMixin",
+    "Table",
+    "ThermalCalibrator",
+    "WidebandCalibrator",
+    "calibrator_class",
     "load_calibration",
     "predict_frequency_hz",
     "registered",
     "retrieve_phase_rad",
     "save_calibration",
-    "ThermalCalibrator",
-    "WidebandCalibrator",
 ]

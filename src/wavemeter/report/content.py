@@ -204,14 +204,11 @@ def report_content(
     methods = {calibration.method_label: calibration}
     if other is not None:
         methods[other.method_label] = other
+    # the bound, the noise and the fringes are those of the first method with a bound
     reference_name = next(
-        (name for name, cal in methods.items() if "crlb" in cal.capabilities), None
+        (name for name, cal in methods.items() if "crlb" in cal.capabilities),
+        calibration.method_label,
     )
-    if reference_name is None:
-        raise InputError(
-            f"neither {' nor '.join(methods)} gives a Cramer-Rao bound to report against",
-            parameter="comparison",
-        )
     reference = methods[reference_name]
     truth, powers = evaluation.frequency_hz, evaluation.powers_w
     retrieved = {
@@ -240,7 +237,7 @@ def report_content(
     retrieved = {name: values[read] for name, values in retrieved.items()}
     errors = {name: values - kept.frequency_hz for name, values in retrieved.items()}
     bound = crlb_per_reading_hz(reference, kept.powers_w, kept.frequency_hz, kept.temperature_k)
-    crlb_rms = float(np.sqrt(np.mean(bound**2)))
+    crlb_rms = None if bound is None else float(np.sqrt(np.nanmean(bound**2)))
     center = calibration.center_hz_
     samples = {}
     for name, cal in methods.items():

@@ -24,7 +24,7 @@ from typing import Protocol
 import numpy as np
 
 from ...atomic import atomic_path
-from ...exceptions import FileFormatError, InputError
+from ...exceptions import FileFormatError, InputError, WavemeterError
 from ...validation import MIN_SAMPLES, check_fitted
 from .registry import calibrator_class, registered
 
@@ -269,7 +269,10 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
     if not isinstance(document, dict):
         raise _fail(path, f"calibration fields must be an object, got {type(document).__name__}")
     method = document.get("method")
-    cls = calibrator_class(method)
+    try:
+        cls = calibrator_class(method)
+    except WavemeterError as exc:  # a plug-in that names the tag but cannot be loaded
+        raise _fail(path, str(exc)) from exc
     if cls is None:
         raise _fail(
             path, f"unknown calibration method {method!r:.80}; known: {sorted(registered())}"
