@@ -35,12 +35,7 @@ from ..fitting.steps import (
 )
 from ..fitting.sweep import FitContext, Sweep
 from ..models.delay_search import SEARCH_METHODS
-from ..models.learned_fit import (
-    RETRIEVALS,
-    LearnedFit,
-    fit_learned_map,
-    port_noise_std_w,
-)
+from ..models.learned_fit import RETRIEVALS, LearnedFit, fit_learned_map, port_noise_std_w
 from ..models.linear_map import object_delay_derivative, object_vectors
 from ..models.reanchor import check_reference_readings, fit_reanchor, reanchored_copy
 from ..models.subsample import DIAGNOSTIC_SAMPLES

@@ -6,7 +6,7 @@
 allowed: the paper's delay on the central FSRs, the fit grown to the band, the orders by
 cross-validation, the ports and the residual judged on the band model. It reads absolute
 frequency from a reading and a coarse frequency within half an FSR
-(:mod:`~wavemeter.calibration.methods.wideband_readout`). Theory: the docs' wide-band page.
+(:mod:`~wavemeter.calibration.methods.wideband_reading`). Theory: the docs' wide-band page.
 """
 
 from __future__ import annotations
@@ -18,10 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...exceptions import InputError
-from ...validation import (
-    check_choice,
-    check_positive,
-)
+from ...validation import check_choice, check_positive
 from ..contract.base import BaseCalibrator
 from ..contract.summary import FitValue
 from ..files.document import state_array, state_float
@@ -34,14 +31,10 @@ from ..fitting.steps import (
     rms,
 )
 from ..fitting.sweep import FitContext, Sweep
+from ..models.band_reading import band_phase_rad
 from ..models.delay_search import frequency_text
 from ..models.learned_fit import RETRIEVALS, fit_learned_map, port_noise_std_w
-from ..models.wideband_fit import (
-    BandModel,
-    check_monotonic,
-    fit_band,
-    map_coefficients,
-)
+from ..models.wideband_fit import BandModel, check_monotonic, fit_band, map_coefficients
 from ..models.wideband_orders import (
     MAX_MAP_ORDER,
     MAX_PHASE_ORDER,
@@ -53,14 +46,8 @@ from ..models.wideband_orders import (
     window_count,
 )
 from .wideband_checks import BandChecksMixin
-from .wideband_reading import (
-    band_phase_rad,
-)
-from .wideband_readout import ORDER_MARGIN_FSR, BandReadingMixin
-from .wideband_report import (
-    PHASE_COEFFICIENT_NAMES,
-    BandReportMixin,
-)
+from .wideband_reading import ORDER_MARGIN_FSR, BandReadingMixin
+from .wideband_report import PHASE_COEFFICIENT_NAMES, BandReportMixin
 
 __all__ = ["ORDER_MARGIN_FSR", "WidebandCalibrator"]
 

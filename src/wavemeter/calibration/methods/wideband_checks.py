@@ -18,8 +18,8 @@ from ...exceptions import CalibrationWarning
 from ...model.cone import wrap_phase_rad
 from ...model.uncertainty import fit_parameter_covariance
 from ..checks.misfit import misfit_report
+from ..models.band_reading import residual_phase_by_window
 from ..models.wideband_fit import band_object_derivatives, band_objects
-from .wideband_reading import residual_phase_by_window
 
 __all__ = ["BandChecksMixin"]
 
