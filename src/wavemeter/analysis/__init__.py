@@ -3,7 +3,9 @@ frequency-noise metrology of a laser from a meter's readings."""
 
 from .evaluation import adjacent_evaluation, crlb_per_reading_hz, evaluate_calibrations
 from .metrics import error_summary_hz, frequency_error_hz
-from .noise import FrequencyNoise, beta_separation_line_hz2_per_hz, frequency_noise
+from .noise import frequency_noise
+from .noise_fit import beta_separation_line_hz2_per_hz
+from .noise_result import FrequencyNoise
 from .power_law import power_law_deviations, power_law_psd_hz2_per_hz
 
 __all__ = [
