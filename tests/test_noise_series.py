@@ -18,13 +18,9 @@ import pytest
 import wavemeter as wm
 from wavemeter.calibration.contract.flags import ReadingFlag
 from wavemeter.exceptions import CalibrationWarning, InputError
-from wavemeter.jobs.noise import (
-    AMBIGUOUS_STEP_CAUSE,
-    EXCLUDED_FLAGS,
-    measure_series,
-    reads_modulo_fsr,
-    time_unit_s,
-)
+from wavemeter.jobs.noise import EXCLUDED_FLAGS, measure_series, reads_modulo_fsr
+from wavemeter.jobs.noise_clock import time_unit_s
+from wavemeter.jobs.noise_unwrap import AMBIGUOUS_STEP_CAUSE
 
 from .conftest import NOISE_W, POWER_W
 
