@@ -11,12 +11,16 @@ files, and the note is printed as ``note: ...``.
 
 from __future__ import annotations
 
+import io
+import json
 import re
+import sys
 import warnings
 
 import numpy as np
 import pytest
 
+import wavemeter as wm
 from wavemeter.exceptions import FileFormatError, InputError, InputNote
 from wavemeter.io import ColumnRequest, iter_readings, read_table, write_table
 from wavemeter.io.text_layout import LineCells
@@ -151,8 +155,12 @@ def test_a_decimal_point_in_a_file_read_with_decimal_commas_is_no_number(tmp_pat
 def test_mixed_decimal_marks_are_not_taken_for_decimal_commas(tmp_path):
     path = tmp_path / "s.csv"
     path.write_text("freq_THz;p1;p2;p3\n193,4;1;2;3\n193.5;1;2;3\n")
-    table_error = pytest.raises(FileFormatError, read_table, path)
-    assert "'193,4' is not a number (a decimal comma?" in str(table_error.value)
+    with pytest.raises(FileFormatError) as error:
+        read_table(path)
+    assert str(error.value) == (
+        f"{path}: line 2, column 'freq_THz': '193,4' is not a number (a decimal comma? write "
+        "decimal points, or give the decimal mark ',')"
+    )
 
 
 def test_semicolons_with_decimal_points_are_read_without_a_note(usual, tmp_path):
@@ -163,10 +171,12 @@ def test_semicolons_with_decimal_points_are_read_without_a_note(usual, tmp_path)
     assert notes == []
 
 
-def test_a_note_names_standard_input(usual, monkeypatch):
-    import io
-    import sys
+def test_the_note_is_a_public_warning_class():
+    assert wm.InputNote is InputNote and issubclass(InputNote, UserWarning)
+    assert not issubclass(InputNote, wm.CalibrationWarning)
 
+
+def test_a_note_names_standard_input(usual, monkeypatch):
     content = european(usual.read_text()).encode()
     monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(content)))
     table, notes = read_noted("-")
@@ -201,8 +211,8 @@ def test_a_sep_line_with_decimal_commas_is_noted(usual, tmp_path):
 def test_the_delimiter_asked_for_wins_over_the_sep_line(usual, tmp_path):
     path = tmp_path / "excel.csv"
     path.write_text("sep=;\n" + usual.read_text())
-    assert same_bits(read_table(path, ColumnRequest(delimiter=",")).powers_w,
-                     read_table(usual).powers_w)  # fmt: skip
+    found = read_table(path, ColumnRequest(delimiter=","))
+    assert same_bits(found.powers_w, read_table(usual).powers_w)
     with pytest.raises(FileFormatError) as error:
         read_table(path)  # split at ';' as the file says: one column
     assert str(error.value) == (
@@ -376,9 +386,7 @@ def test_stream_reads_semicolons_with_decimal_commas_as_the_usual_lines(tmp_path
 
 
 def stream_file(capsys, cal, path):
-    import io
-    import sys
-
+    """``wavemeter stream CAL < path``: exit code, stdout, stderr."""
     stdin = sys.stdin
     sys.stdin = io.TextIOWrapper(io.BytesIO(path.read_bytes()))
     try:
@@ -416,8 +424,6 @@ def test_calibrate_notes_decimal_commas_and_writes_the_usual_calibration(tmp_pat
     code, _, err = run(capsys, f"calibrate {semi} -o {out}")
     assert code == 0, err
     assert err.splitlines() == [f"note: {semi}: read as ';'-separated with decimal commas"]
-    import json
-
     found, expected = json.loads(out.read_text()), json.loads(files["cal"].read_text())
     for record in (found, expected):
         record.pop("created_utc")
