@@ -23,7 +23,6 @@ import re
 import sys
 import warnings
 from collections.abc import Callable, Iterator
-from operator import methodcaller
 
 import numpy as np
 
@@ -43,9 +42,6 @@ __all__ = ["read_text"]
 #: bytes of a text file parsed by pyarrow at a time in a chunked read (its default block
 #: size): larger blocks are not faster
 _BLOCK_BYTES = 1 << 20
-#: what a line with decimal commas becomes for numpy: points for commas, and commas (no
-#: number then) for points, which such a file must not hold
-_POINTS_FOR_COMMAS = str.maketrans({",": ".", ".": ","})
 
 
 def read_text(raw: RawInput, max_bytes: int, delimiter=None, decimal=None) -> Source:
@@ -344,8 +340,8 @@ def _parse_with_numpy(lines, layout: TextLayout, columns: list[int]):
     """Columns (m, k) of data lines parsed by numpy's C reader; None when any line does not
     parse, has another number of fields than the header, or there are none (the exact
     parser then says what is wrong)."""
-    if layout.decimal == ",":
-        lines = map(methodcaller("translate", _POINTS_FOR_COMMAS), lines)
+    if layout.decimal == ",":  # points for commas; a point (no number then) for an "x"
+        lines = (line.replace(".", "x").replace(",", ".") for line in lines)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
