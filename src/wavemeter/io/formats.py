@@ -61,6 +61,8 @@ class FileFormat:
     chunk_writer : callable or None
         ``chunk_writer(path)`` returns a writer with ``write(columns)`` appending rows and
         ``close()`` finishing the file, ``abort()`` releasing it after a failure.
+    label : str
+        The format as users know it (``"CSV"``, ``"HDF5"``), for messages.
     text : bool
         A delimited text format: its cells have a delimiter and a decimal mark.
     """
@@ -70,6 +72,7 @@ class FileFormat:
     read: Callable[..., Source]
     write: Callable[[Path, dict[str, np.ndarray]], None] | None
     chunk_writer: Callable[[Path], object] | None = None
+    label: str = ""
     text: bool = False
 
 
@@ -81,6 +84,7 @@ FILE_FORMATS = (
         read_text,
         write_csv,
         functools.partial(DelimitedChunkWriter, delimiter=","),
+        label="CSV",
         text=True,
     ),
     FileFormat(
@@ -89,15 +93,24 @@ FILE_FORMATS = (
         read_text,
         write_tsv,
         functools.partial(DelimitedChunkWriter, delimiter="\t"),
+        label="TSV",
         text=True,
     ),
-    FileFormat("parquet", (".parquet", ".pq"), read_parquet, write_parquet, ParquetChunkWriter),
-    FileFormat("hdf5", (".h5", ".hdf5", ".hdf"), read_hdf5, write_hdf5, HDF5ChunkWriter),
-    FileFormat("npz", (".npz",), read_npz, write_npz, NPZChunkWriter),
-    FileFormat("mat", (".mat",), read_mat, None),
+    FileFormat(
+        "parquet",
+        (".parquet", ".pq"),
+        read_parquet,
+        write_parquet,
+        ParquetChunkWriter,
+        label="Parquet",
+    ),
+    FileFormat(
+        "hdf5", (".h5", ".hdf5", ".hdf"), read_hdf5, write_hdf5, HDF5ChunkWriter, label="HDF5"
+    ),
+    FileFormat("npz", (".npz",), read_npz, write_npz, NPZChunkWriter, label="NPZ"),
+    FileFormat("mat", (".mat",), read_mat, None, label="MATLAB"),
 )
 _BY_NAME = {file_format.name: file_format for file_format in FILE_FORMATS}
-_KIND = {"parquet": "Parquet", "hdf5": "HDF5", "npz": "NPZ", "mat": "MATLAB"}
 #: output formats of :func:`write_table`
 FORMATS = tuple(file_format.name for file_format in FILE_FORMATS if file_format.write)
 
@@ -155,7 +168,7 @@ def open_source(path, max_bytes: int, delimiter=None, decimal=None) -> Source:
     for parameter, value in (("delimiter", delimiter), ("decimal", decimal)):
         if value is not None:
             raise InputError(
-                f"is a {_KIND[file_format.name]} file, not a text table: it has no {parameter} "
+                f"is a {file_format.label} file, not a text table: it has no {parameter} "
                 f"(given {value!r}); leave the {parameter} out",
                 parameter=parameter,
             )
