@@ -33,7 +33,6 @@ __all__ = [
     "column_names",
     "parse_number",
     "refuse_text_chunk",
-    "decimal_comma_note",
     "LineCells",
     "is_number",
     "check_not_truncated",
@@ -197,7 +196,7 @@ def is_number(cell: str, decimal: str = ".") -> bool:
     return True
 
 
-def decimal_comma_note(delimiter: str | None) -> str:
+def _decimal_comma_note(delimiter: str | None) -> str:
     """The note of a table read with decimal commas it did not ask for."""
     return f"read as {delimiter!r}-separated with decimal commas"
 
@@ -289,7 +288,7 @@ def sniff_layout(raw: RawInput, delimiter: str | None = None, decimal: str | Non
         rows = itertools.islice((line for line in lines[header_line + 1 :] if line.strip()), 200)
         commas = found == ";" and _has_decimal_commas(rows, found)
         decimal = "," if commas else "."
-        note = decimal_comma_note(found) if commas else None
+        note = _decimal_comma_note(found) if commas else None
     else:
         note = None
     ends = [end.end() for end in itertools.islice(_LINE_END_BYTES.finditer(head), header_line + 1)]
@@ -375,7 +374,7 @@ class LineCells:
             if _COMMA_NUMBER.fullmatch(cell):
                 self.decimal = ","
                 warnings.warn(
-                    InputNote(f"{self._source}: {decimal_comma_note(self.delimiter)}"),
+                    InputNote(f"{self._source}: {_decimal_comma_note(self.delimiter)}"),
                     stacklevel=2,
                 )
             elif "." in cell:
