@@ -27,7 +27,7 @@ from wavemeter.calibration.methods.cascade_reading import (
     noise_scale,
 )
 from wavemeter.io import read_table
-from wavemeter.io.reading import convert_rows
+from wavemeter.io.convert import convert_rows
 from wavemeter.jobs import stream, stream_lines
 
 from .conftest import NOISE_W, POWER_W, thermal_sweep

@@ -52,6 +52,7 @@ _WHERE = {
     "NotFittedError": "exceptions",
     "EdgeMinimumError": "exceptions",
     "CalibrationWarning": "exceptions",
+    "InputNote": "exceptions",
 }
 
 #: subpackages reachable as attributes (``wm.model.cone``), loaded on first use

@@ -115,7 +115,12 @@ def _dark_w(options: dict, request, sweep_table) -> np.ndarray | None:
         return np.array(values)
     if path is None:
         return None
-    ports_only = ColumnRequest(ports=request.ports, power_unit=request.power_unit)
+    ports_only = ColumnRequest(
+        ports=request.ports,
+        power_unit=request.power_unit,
+        delimiter=request.delimiter,
+        decimal=request.decimal,
+    )
     dark = read(
         path,
         ports_only,
