@@ -17,6 +17,7 @@ import warnings
 import numpy as np
 
 from ...exceptions import CalibrationWarning, InputError, recorded_calibration_warnings
+from ...units import frequency_text
 from ...validation import (
     MIN_SAMPLES,
     check_choice,
@@ -31,7 +32,6 @@ from ..contract.base import BaseCalibrator, Part
 from ..contract.summary import FitValue
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
 from ..models.band_reading import band_cone_distance
-from ..models.delay_search import frequency_text
 from .cascade_chain import ChainReadingMixin
 from .cascade_handover import HandoverChecksMixin, stage_label
 from .cascade_report import cascade_tables, order_error_check

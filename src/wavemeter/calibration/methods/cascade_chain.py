@@ -19,11 +19,11 @@ from scipy import special
 
 from ...exceptions import CalibrationWarning
 from ...model.orders import handover_error_probability, wrap_error_probability
+from ...units import frequency_text
 from ...validation import check_fitted
 from ..contract.flags import SPAN_MARGIN_STD, ReadingFlag, off_model_threshold, power_flags
 from ..contract.records import ReadingInputs, Readout, StreamReading
 from ..models.band_reading import band_cone_distance
-from ..models.delay_search import frequency_text
 from .cascade_reading import (
     CascadeReading,
     StageReader,

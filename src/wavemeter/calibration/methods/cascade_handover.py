@@ -18,7 +18,7 @@ from scipy import special, stats
 
 from ...exceptions import CalibrationWarning, InputError
 from ...model.orders import handover_error_rate
-from ..models.delay_search import frequency_text
+from ...units import frequency_text
 from .cascade_reading import NOISE_P_VALUE, CascadeReading
 
 __all__ = ["HANDOVER_CAUSE", "HandoverChecksMixin", "stage_label"]

@@ -30,6 +30,7 @@ from typing import ClassVar
 import numpy as np
 
 from ...exceptions import CalibrationWarning, InputError
+from ...units import frequency_text
 from ...validation import check_choice, check_positive
 from ..checks.misfit import detector_noise_w, phase_noise_variance_w2
 from ..contract.base import BaseCalibrator
@@ -37,7 +38,6 @@ from ..contract.summary import FitValue
 from ..files.document import state_array, state_float
 from ..fitting.steps import check_ports, fits_offsets, guard_design_fsr
 from ..fitting.sweep import Sweep
-from ..models.delay_search import frequency_text
 from ..models.learned_fit import RETRIEVALS, port_noise_std_w
 from ..models.thermal_fit import (
     PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K,

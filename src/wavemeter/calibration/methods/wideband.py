@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...exceptions import InputError
+from ...units import frequency_text
 from ...validation import check_choice, check_positive
 from ..contract.base import BaseCalibrator
 from ..contract.summary import FitValue
@@ -32,7 +33,6 @@ from ..fitting.steps import (
 )
 from ..fitting.sweep import FitContext, Sweep
 from ..models.band_reading import band_phase_rad
-from ..models.delay_search import frequency_text
 from ..models.learned_fit import RETRIEVALS, fit_learned_map, port_noise_std_w
 from ..models.wideband_fit import BandModel, check_monotonic, fit_band, map_coefficients
 from ..models.wideband_orders import (

@@ -21,7 +21,8 @@ from ...model.cone import phase_to_frequency_hz
 from ...validation import MIN_SAMPLES
 from .delay_search import DelaySearchResult
 from .linear_map import map_cost, object_vectors
-from .moments import FringeMoments, largest_search_delay_s, search_moment_delay
+from .moment_search import search_moment_delay
+from .moments import FringeMoments, largest_search_delay_s
 
 __all__ = [
     "AFFINE_MIN_POWER_SPREAD",
