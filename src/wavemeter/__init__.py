@@ -73,4 +73,6 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_WHERE) | set(_SUBPACKAGES))
+    """The public names and subpackages, and the module's dunder attributes."""
+    dunders = {name for name in globals() if name.startswith("__") and name.endswith("__")}
+    return sorted(dunders | set(__all__) | set(_SUBPACKAGES))
