@@ -22,7 +22,7 @@ would make) and the RMS Cramer-Rao bound on the sweep (``crlb_rms_hz``), so that
 :func:`saved_result` rebuilds the same result from the saved file alone.
 
 :func:`fit_sweep_chunks` fits a learned calibration on a sweep file read in chunks
-(:meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks`), in memory bounded by the
+(:meth:`~wavemeter.calibration.Calibrator.fit_chunks`), in memory bounded by the
 chunk whatever the file's length: what ``wavemeter calibrate`` does for the learned method.
 The other methods, and :func:`calibrate_file`, read the whole sweep.
 """
@@ -450,7 +450,7 @@ def fit_sweep_chunks(
 ) -> SweepRead:
     """Fit a learned calibrator on a sweep read in chunks, in memory bounded by the chunk.
 
-    Each chunk's valid rows go to :meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks`
+    Each chunk's valid rows go to :meth:`~wavemeter.calibration.Calibrator.fit_chunks`
     (its moments and its diagnostic sample) and are dropped: the calibration is the one
     ``fit`` gives on the valid rows read whole (bit for bit up to ``diagnostic_samples``
     readings, to rounding beyond).
