@@ -48,6 +48,8 @@ from .measure import about_file, check_stream
 __all__ = [
     "stream_lines",
     "follow_lines",
+    "read_header",
+    "LineReader",
     "StreamHeader",
     "StreamSummary",
     "STREAM_COLUMNS",
@@ -185,7 +187,7 @@ def stream_lines(
     thermal = "temperature_k" in calibration.requires
     try:
         with about_file(source):
-            header = _read_header(numbered, source, request, thermal and temperature_k is None)
+            header = read_header(numbered, source, request, thermal and temperature_k is None)
             if check is not None:
                 check(header)
             check_stream(calibration, header, coarse_hz, temperature_k)
@@ -195,8 +197,29 @@ def stream_lines(
     return summary
 
 
-def _read_header(numbered, source: Path, request, find_temperature: bool) -> StreamHeader:
-    """The first line that is not blank or a comment, its columns found as in files."""
+def read_header(numbered, source: Path, request, find_temperature: bool) -> StreamHeader:
+    """The first line that is not blank or a comment, its columns found as in files.
+
+    Parameters
+    ----------
+    numbered : iterator of (int, str)
+        Line numbers (1-based) and lines; consumed up to the header line.
+    source : Path
+        What the input is called in messages.
+    request : ColumnRequest or None
+        Columns chosen by the user.
+    find_temperature : bool
+        Look for a temperature column by name.
+
+    Returns
+    -------
+    StreamHeader
+
+    Raises
+    ------
+    InputError
+        When the lines end before a header, or its columns cannot be found as in files.
+    """
     for number, text in numbered:
         line = text.lstrip("\ufeff").strip()
         if not line or line.startswith("#"):
@@ -254,8 +277,7 @@ class _Stream:
         self.header = header
         self.out = out
         plan = header.plan
-        self.width = len(header.names)
-        self.fields = [(name, header.names.index(name)) for name in plan.fields]
+        self.cells = LineReader(header)
         self.checks = ColumnChecks()
         self.plain = PlainRowConverter.of(plan)
         self.powers = _Latest()
@@ -322,21 +344,9 @@ class _Stream:
 
     def _read(self, line: str, number: int) -> tuple[tuple, str | None]:
         """The output values of a data line (the flags last), or why it is no valid reading."""
-        try:
-            cells = split_cells(line, self.header.delimiter)
-        except csv.Error as exc:
-            return (), f"cannot be split into cells ({exc})"
-        if len(cells) == self.width + 1 and not cells[-1].strip():
-            cells.pop()  # a trailing delimiter
-        if len(cells) != self.width:
-            return (), f"{len(cells)} cells, the header has {self.width}"
-        data = {}
-        for name, column in self.fields:
-            cell = cells[column].strip()
-            try:
-                data[name] = float(cell) if cell else math.nan
-            except ValueError:
-                return (), f"column {name!r}: {cell[:40]!r} is not a number"
+        data, reason = self.cells.values(line)
+        if reason is not None:
+            return (), reason
         plain = None if self.plain is None else self.plain.convert(data)
         if plain is not None:
             self.powers.value, temperature_k = plain
@@ -357,6 +367,44 @@ class _Stream:
         values = (frequency, SPEED_OF_LIGHT_M_S / frequency * 1e9, record.frequency_std_hz)
         values += tuple(record.extras[name] for name in self.extras)
         return (*values, record.flags), None
+
+
+class LineReader:
+    """The numbers a data line holds, by the header's rules.
+
+    A line must have as many cells as the header (a trailing delimiter aside); every field
+    the plan reads is a number, an empty cell NaN. What the numbers mean (units, invalid
+    values) is :func:`~wavemeter.io.reading.convert_rows`' business.
+
+    Parameters
+    ----------
+    header : StreamHeader
+        The stream's header.
+    """
+
+    def __init__(self, header: StreamHeader):
+        self.delimiter = header.delimiter
+        self.width = len(header.names)
+        self.fields = [(name, header.names.index(name)) for name in header.plan.fields]
+
+    def values(self, line: str) -> tuple[dict[str, float] | None, str | None]:
+        """The plan's fields of a data line (no newline) by name, or None and why not."""
+        try:
+            cells = split_cells(line, self.delimiter)
+        except csv.Error as exc:
+            return None, f"cannot be split into cells ({exc})"
+        if len(cells) == self.width + 1 and not cells[-1].strip():
+            cells.pop()  # a trailing delimiter
+        if len(cells) != self.width:
+            return None, f"{len(cells)} cells, the header has {self.width}"
+        data = {}
+        for name, column in self.fields:
+            cell = cells[column].strip()
+            try:
+                data[name] = float(cell) if cell else math.nan
+            except ValueError:
+                return None, f"column {name!r}: {cell[:40]!r} is not a number"
+        return data, None
 
 
 def _line_label(row: int) -> str:
