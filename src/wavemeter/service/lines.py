@@ -1,0 +1,237 @@
+"""Lines of port readings to blocks of rows, by the column rules of ``wavemeter stream``.
+
+A :class:`LineParser` belongs to one line source (standard input, a followed file, one TCP
+connection). Its first line that is not blank or a comment is the header, read by
+:func:`wavemeter.jobs.read_header` as ``stream`` reads it; every data line after it is one
+reading, its numbers read by :class:`wavemeter.jobs.LineReader` and converted to SI by
+:func:`wavemeter.io.reading.convert_rows` (or, for a lone row,
+:class:`~wavemeter.io.reading.PlainRowConverter`). A line that holds no valid reading
+becomes an invalid row with its reason; its channel is the next one of the switch schedule,
+or, with a channel column, the one its cell names (a line without a readable channel is
+counted as unroutable and dropped).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..exceptions import InputError
+from ..io import ColumnRequest
+from ..io.reading import ColumnChecks, PlainRowConverter, convert_rows
+from ..jobs import LineReader, check_stream, read_header
+from .blocks import RowBlock
+
+__all__ = ["LineParser", "MAX_CHANNELS", "LineCounts"]
+
+#: channel numbers a channel column may name: 0 .. MAX_CHANNELS - 1
+MAX_CHANNELS = 256
+
+
+@dataclass
+class LineCounts:
+    """What a line source has seen.
+
+    Attributes
+    ----------
+    lines : int
+        Data lines (blank and comment lines aside).
+    invalid : int
+        Data lines that held no valid reading (published as INVALID readings).
+    unroutable : int
+        Data lines whose channel could not be read (not published).
+    reasons : dict of str to int
+        Invalid lines by reason (the first 20 reasons).
+    """
+
+    lines: int = 0
+    invalid: int = 0
+    unroutable: int = 0
+    reasons: dict[str, int] = field(default_factory=dict)
+
+    def note(self, reason: str) -> None:
+        if reason in self.reasons or len(self.reasons) < 20:
+            self.reasons[reason] = self.reasons.get(reason, 0) + 1
+
+
+class LineParser:
+    """One line source's text lines to :class:`RowBlock` s.
+
+    Parameters
+    ----------
+    name : str
+        What the source is called in messages.
+    request : ColumnRequest, optional
+        Columns chosen by the user.
+    channels : int
+        Switch inputs the source cycles through (line ``k`` is channel ``k % channels``);
+        ignored with a ``channel_column``.
+    channel_column : str, optional
+        A column naming each reading's channel (an integer 0 .. MAX_CHANNELS - 1).
+    coarse_hz, temperature_k : float, optional
+        One coarse frequency (Hz) or chip temperature (K) for every reading, for a
+        calibration that needs them, when the lines have no such column.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        request: ColumnRequest | None = None,
+        *,
+        channels: int = 1,
+        channel_column: str | None = None,
+        coarse_hz: float | None = None,
+        temperature_k: float | None = None,
+    ):
+        request = request or ColumnRequest()
+        if channel_column is not None:
+            request = ColumnRequest(**{**vars(request), "keep": (*request.keep, channel_column)})
+        self.name = name
+        self.request = request
+        self.channels = channels
+        self.channel_column = channel_column
+        self.coarse_hz = coarse_hz
+        self.temperature_k = temperature_k
+        self.header = None
+        self.counts = LineCounts()
+        self._number = 0
+        self._switch = 0
+
+    def start(self, lines: list[str], calibration) -> list[str]:
+        """Read the header from the first of ``lines`` that is not blank or a comment, check
+        it against the calibration, and return the lines after it (all of them when none is
+        a header yet: nothing is consumed).
+
+        Raises
+        ------
+        InputError
+            For a header whose columns cannot be found, or that the calibration cannot read.
+        """
+        for index, text in enumerate(lines):
+            line = text.lstrip("\ufeff").strip()
+            if not line or line.startswith("#"):
+                continue
+            number = self._number + index + 1
+            header = read_header(
+                iter([(number, line)]),
+                Path(self.name),
+                self.request,
+                "temperature_k" in calibration.requires and self.temperature_k is None,
+            )
+            self.check(calibration, header)
+            self.header = header
+            self._reader = LineReader(header)
+            self._plain = PlainRowConverter.of(header.plan)
+            self._checks = ColumnChecks()
+            self._number = number
+            return lines[index + 1 :]
+        self._number += len(lines)
+        return []
+
+    def check(self, calibration, header=None) -> None:
+        """Raise InputError when ``calibration`` cannot read this source's lines."""
+        header = header or self.header
+        try:
+            check_stream(calibration, header, self.coarse_hz, self.temperature_k)
+        except InputError as exc:
+            raise InputError(f"{self.name}: {exc}", parameter=exc.parameter) from None
+
+    def rows(self, lines: list[str], arrival_ns: int) -> RowBlock | None:
+        """The readings of data lines (after :meth:`start`), None when they hold none.
+
+        Parameters
+        ----------
+        lines : list of str
+            Data lines, with or without their newlines.
+        arrival_ns : int
+            When they arrived (ns since the epoch): their source time.
+        """
+        channels, data, reasons = [], [], []
+        for text in lines:
+            line = text.rstrip("\r\n")
+            if not line.strip() or line.lstrip().startswith("#"):
+                continue
+            self._number += 1
+            self.counts.lines += 1
+            values, reason = self._reader.values(line)
+            channel = self._channel(values)
+            if channel is None:
+                self.counts.unroutable += 1
+                self.counts.note(reason or f"column {self.channel_column!r}: no channel")
+                continue
+            channels.append(channel)
+            data.append(values)
+            reasons.append(reason)
+        if not channels:
+            return None
+        powers, temperature, coarse, reasons = self._convert(data, reasons)
+        invalid = np.array([reason is not None for reason in reasons])
+        for reason in reasons:
+            if reason is not None:
+                self.counts.invalid += 1
+                self.counts.note(reason)
+        n = len(channels)
+        return RowBlock(
+            channel=np.array(channels, dtype=np.int64),
+            powers_w=powers,
+            invalid=invalid,
+            source_time_ns=np.full(n, arrival_ns, dtype=np.int64),
+            temperature_k=temperature,
+            coarse_hz=coarse,
+        )
+
+    def _channel(self, values) -> int | None:
+        if self.channel_column is None:
+            channel = self._switch % self.channels
+            self._switch += 1
+            return channel
+        if values is None:
+            return None
+        cell = values[self.channel_column]
+        if not (cell == cell and float(cell).is_integer() and 0 <= cell < MAX_CHANNELS):
+            return None
+        return int(cell)
+
+    def _convert(self, data: list, reasons: list):
+        """Powers (n, ports) W, temperature (n,) K or None, coarse (n,) Hz or None, reasons."""
+        plan = self.header.plan
+        n = len(data)
+        ports = len(plan.port_names)
+        temperature = _given(n, self.header.temperature_column, self.temperature_k)
+        coarse = _given(n, self.header.coarse_column, self.coarse_hz)
+        powers = np.full((n, ports), np.nan)
+        rows = [k for k, reason in enumerate(reasons) if reason is None]
+        if not rows:
+            return powers, temperature, coarse, reasons
+        if len(rows) == 1 and self._plain is not None:
+            plain = self._plain.convert(data[rows[0]])
+            if plain is not None:
+                powers[rows[0]] = plain[0]
+                if temperature is not None:
+                    temperature[rows[0]] = plain[1]
+                return powers, temperature, coarse, reasons
+        first = self._number - n  # row index of the block's first line, for messages
+        columns = {name: np.array([data[k][name] for k in rows]) for name in plan.fields}
+        table = convert_rows(plan, columns, first, self._label, self._checks)
+        powers[rows] = table.powers_w
+        if temperature is not None:
+            temperature[rows] = table.temperature_k
+        if coarse is not None:
+            coarse[rows] = table.coarse_hz
+        reasons = list(reasons)
+        for position, k in enumerate(rows):
+            if table.invalid[position]:
+                reasons[k] = table.invalid_reasons[table.invalid_code[position]]
+        return powers, temperature, coarse, reasons
+
+    def _label(self, row: int) -> str:
+        return f"{self.name} line {row + 1}"
+
+
+def _given(n: int, column: str | None, value: float | None) -> np.ndarray | None:
+    """A per-reading input: NaN to fill from a column, the one value given, or None."""
+    if column is not None:
+        return np.full(n, np.nan)
+    return None if value is None else np.full(n, float(value))
