@@ -113,6 +113,13 @@ DEFAULT_HTTP = "127.0.0.1:8560"
     help="A channel without a reading for this long has no signal.",
 )
 @click.option(
+    "--hwm",
+    type=click.IntRange(1, 10_000_000),
+    default=10000,
+    show_default=True,
+    help="Messages queued per subscriber before its messages are dropped (counted).",
+)
+@click.option(
     "--name", "names", multiple=True, metavar="N=NAME", help="Name channel N (repeat for more)."
 )
 @click.option(
@@ -143,6 +150,7 @@ def serve(
     token,
     token_file,
     signal_timeout_s,
+    hwm,
     names,
     seed,
     open_browser,
@@ -196,6 +204,7 @@ def serve(
         log_powers=log_powers,
         token=token,
         signal_timeout_s=signal_timeout_s,
+        hwm=hwm,
         channel_names=names,
         calibration_path=None if simulate else str(calibration_file),
     )

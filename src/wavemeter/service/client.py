@@ -28,10 +28,13 @@ from .encoding import (
 )
 from .records import ReadingBatch
 
-__all__ = ["Client", "AsyncClient", "ServiceError", "SILENCE_S"]
+__all__ = ["Client", "AsyncClient", "ServiceError", "SILENCE_S", "RECEIVE_BUFFER_BYTES"]
 
 #: seconds without any message after which a client subscribes again
 SILENCE_S = 0.75
+#: the kernel's receive buffer of the data socket (bytes), fixed rather than grown up to
+#: tens of MB by the kernel: a client that stalls is then seen by the service in seconds
+RECEIVE_BUFFER_BYTES = 256 * 1024
 
 
 class ServiceError(WavemeterError):
@@ -89,6 +92,9 @@ class Client:
         The service's token, if it has one.
     timeout_s : float
         Seconds a control request waits for its reply.
+    receive_buffer_bytes : int
+        The kernel's receive buffer of the data socket; raise it for a far service (more
+        than the rate times the round trip).
 
     Attributes
     ----------
@@ -105,11 +111,13 @@ class Client:
         token=None,
         *,
         timeout_s: float = 5.0,
+        receive_buffer_bytes: int = RECEIVE_BUFFER_BYTES,
     ):
         self.publish = publish
         self.control = control
         self.token = token
         self.timeout_s = timeout_s
+        self.receive_buffer_bytes = receive_buffer_bytes
         self._context = zmq.Context()
         self._data = None
         self._request_socket = None
@@ -171,6 +179,7 @@ class Client:
         self._data.setsockopt(zmq.LINGER, 0)
         self._data.setsockopt(zmq.IMMEDIATE, 1)
         self._data.setsockopt(zmq.RCVHWM, 100_000)
+        self._data.setsockopt(zmq.RCVBUF, self.receive_buffer_bytes)
         self._data.setsockopt(zmq.RECONNECT_IVL, 100)
         self._data.setsockopt(zmq.RECONNECT_IVL_MAX, 1000)
         self._data.connect(self.publish)
@@ -258,7 +267,7 @@ class AsyncClient:
 
     async def batches(self, channel: int | None = None, timeout_s: float | None = None):
         """Batches of readings as published; see :meth:`Client.batches`."""
-        data = self._socket(zmq.DEALER, self.publish)
+        data = self._socket(zmq.DEALER, self.publish, receive_buffer=True)
         data.setsockopt(zmq.IMMEDIATE, 1)
         tracker = _Tracker(self.token, channel)
         last = time.monotonic()
@@ -304,9 +313,11 @@ class AsyncClient:
     async def latest(self, channel: int) -> dict | None:
         return await self.request("latest", channel=channel)
 
-    def _socket(self, kind, address):
+    def _socket(self, kind, address, receive_buffer=False):
         socket = self._context.socket(kind)
         socket.setsockopt(zmq.LINGER, 0)
+        if receive_buffer:
+            socket.setsockopt(zmq.RCVBUF, RECEIVE_BUFFER_BYTES)
         socket.connect(address)
         self._sockets.append(socket)
         return socket

@@ -32,12 +32,15 @@ from .encoding import (
 )
 from .records import ReadingBatch
 
-__all__ = ["Publisher", "Subscriber", "SUBSCRIBED_TOPIC", "DEFAULT_HWM"]
+__all__ = ["Publisher", "Subscriber", "SUBSCRIBED_TOPIC", "DEFAULT_HWM", "SEND_BUFFER_BYTES"]
 
 #: the topic of the reply to a subscription
 SUBSCRIBED_TOPIC = b"subscribed/"
 #: messages queued per subscriber before its messages are dropped
 DEFAULT_HWM = 10000
+#: the kernel's send buffer per subscriber (bytes): bounds what a stopped subscriber holds
+#: up beside the high-water mark, so that its losses start (and are counted) within seconds
+SEND_BUFFER_BYTES = 256 * 1024
 #: messages above this many bytes are sent without copying
 _COPY_BYTES = 65536
 
@@ -87,6 +90,7 @@ class Publisher:
         self.socket = context.socket(zmq.ROUTER)
         self.socket.setsockopt(zmq.ROUTER_MANDATORY, 1)
         self.socket.setsockopt(zmq.SNDHWM, hwm)
+        self.socket.setsockopt(zmq.SNDBUF, SEND_BUFFER_BYTES)
         self.socket.setsockopt(zmq.LINGER, 0)
         self.socket.bind(endpoint)
         self.address = self.socket.getsockopt_string(zmq.LAST_ENDPOINT)
