@@ -21,7 +21,7 @@ import pytest
 pytest.importorskip("zmq", reason="the serve extra (pyzmq) is not installed")
 
 #: stderr line the service prints once bound
-READY = re.compile(r"publish (?P<publish>\S+), control (?P<control>\S+)")
+READY = re.compile(r"publish (?P<publish>[^\s,]+), control (?P<control>[^\s,]+)")
 EPHEMERAL = [
     "--publish",
     "tcp://127.0.0.1:0",
@@ -170,3 +170,10 @@ def sequences(batches: list[dict]) -> dict[tuple[str, int], list[int]]:
         key = (batch["run"], batch["channel"])
         found.setdefault(key, []).extend(range(batch["first"], batch["first"] + batch["count"]))
     return found
+
+
+def subscribed(client, channel=None, timeout_s: float = 10.0):
+    """``client.readings(channel)`` once the service counts the subscription."""
+    readings = client.readings(channel, timeout_s=timeout_s)
+    assert wait_for(lambda: client.status()["subscribers"], 10), "no subscription"
+    return readings

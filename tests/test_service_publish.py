@@ -10,9 +10,9 @@ import time
 
 import numpy as np
 
-from ._service import EPHEMERAL, SUBSCRIBER, child, free_port, sequences, serving, wait_for
-
 from wavemeter.service import Client  # noqa: E402  (after the skip of _service)
+
+from ._service import EPHEMERAL, SUBSCRIBER, child, free_port, sequences, serving, wait_for
 
 
 def _batches(process) -> tuple[list[dict], dict]:

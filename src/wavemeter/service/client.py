@@ -133,7 +133,8 @@ class Client:
 
     def batches(self, channel: int | None = None, timeout_s: float | None = None):
         """Batches of readings as they are published (:class:`ReadingBatch`, columns of
-        arrays: the fast way at high rates).
+        arrays: the fast way at high rates). The subscription is sent at the call; the
+        iterator yields what is published once the service has it.
 
         Raises
         ------
@@ -142,7 +143,9 @@ class Client:
         ServiceError
             When the service refuses the subscription (a missing or wrong token).
         """
-        tracker = self._subscribe(channel)
+        return self._batches(self._subscribe(channel), timeout_s)
+
+    def _batches(self, tracker: _Tracker, timeout_s: float | None):
         poller = zmq.Poller()
         poller.register(self._data, zmq.POLLIN)
         last = time.monotonic()
@@ -153,7 +156,7 @@ class Client:
                 if batch is not None:
                     last = time.monotonic()
                     yield batch
-                continue
+                    continue
             if timeout_s is not None and time.monotonic() - last >= timeout_s:
                 raise TimeoutError(f"no reading from {self.publish} for {timeout_s} s")
             if time.monotonic() - tracker.heard >= SILENCE_S:
@@ -169,8 +172,9 @@ class Client:
         timeout_s : float, optional
             Raise TimeoutError when no reading came for this long.
         """
-        for batch in self.batches(channel, timeout_s):
-            yield from batch.readings()
+        return (
+            reading for batch in self.batches(channel, timeout_s) for reading in batch.readings()
+        )
 
     def _subscribe(self, channel) -> _Tracker:
         if self._data is not None:
@@ -184,6 +188,7 @@ class Client:
         self._data.setsockopt(zmq.RECONNECT_IVL_MAX, 1000)
         self._data.connect(self.publish)
         self._tracker = _Tracker(self.token, channel)
+        self._data.poll(self.timeout_s * 1000, zmq.POLLOUT)  # connected (or not running)
         self._send_subscription(self._tracker)
         return self._tracker
 
@@ -279,7 +284,7 @@ class AsyncClient:
                 if batch is not None:
                     last = time.monotonic()
                     yield batch
-                continue
+                    continue
             if timeout_s is not None and time.monotonic() - last >= timeout_s:
                 raise TimeoutError(f"no reading from {self.publish} for {timeout_s} s")
             if time.monotonic() - tracker.heard >= SILENCE_S:

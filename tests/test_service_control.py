@@ -1,0 +1,163 @@
+"""The control socket of `wavemeter serve`: status, channels, latest, the calibration,
+reload (a good file swaps in without losing a reading; a bad one keeps the old), names;
+a malformed request changes nothing; tokens and non-local binds."""
+
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+
+import numpy as np
+import pytest
+import zmq
+
+from wavemeter.service import Client, ServiceError  # noqa: E402
+from wavemeter.service.simulated import NOISE_W, POWER_W, simulated_meter  # noqa: E402
+
+from ._service import EPHEMERAL, serving, wait_for
+
+
+@pytest.fixture(scope="module")
+def meter(tmp_path_factory):
+    """The simulated meter, its calibration file, a second good one, and a corrupt one."""
+    folder = tmp_path_factory.mktemp("calibrations")
+    device, calibration = simulated_meter(7)
+    calibration.save(folder / "chip.wmcal.json")
+    _, other = simulated_meter(8)
+    other.save(folder / "other.wmcal.json")
+    text = (folder / "chip.wmcal.json").read_text()
+    (folder / "corrupt.wmcal.json").write_text(text[: len(text) // 2])
+    return device, folder
+
+
+def _lines(device, count: int, rng) -> list[str]:
+    frequencies = device.center_hz + rng.uniform(-5e9, 5e9, count)
+    powers_mw = device.powers(frequencies, power_w=POWER_W, noise_w=NOISE_W, rng=rng) * 1e3
+    return [",".join(repr(float(p)) for p in row) for row in powers_mw]
+
+
+def _feed(port: int, lines: list[str], *, header="P1_mW,P2_mW,P3_mW", pause_s=0.001):
+    """Connect to the TCP source and write a header and lines (keeps the connection open
+    while writing; returns the socket)."""
+    connection = socket.create_connection(("127.0.0.1", port))
+    connection.sendall((header + "\n").encode())
+    for line in lines:
+        connection.sendall((line + "\n").encode())
+        time.sleep(pause_s)
+    return connection
+
+
+def _tcp_service(meter, *extra):
+    device, folder = meter
+    return serving(
+        [str(folder / "chip.wmcal.json"), "--source", "tcp://127.0.0.1:0", *EPHEMERAL, *extra]
+    )
+
+
+def _port(service) -> int:
+    line = next(line for line in service.lines if "source tcp://" in line)
+    return int(line.rsplit(":", 1)[1].strip())
+
+
+def test_requests_and_reload(meter):
+    device, folder = meter
+    rng = np.random.default_rng(1)
+    with _tcp_service(meter) as service, Client(**_addresses(service)) as client:
+        with _feed(_port(service), _lines(device, 200, rng)):
+            assert wait_for(lambda: client.latest(0), 10)
+            status = client.status()
+            assert status["channels"][0]["readings"] >= 1
+            assert client.request("channels") == [
+                {"channel": 0, "name": "ch0", "topic": "ch/0/", "status": "ok"}
+            ]
+            summary = client.request("calibration")
+            assert summary["method"] == "learned" and summary["ports"] == ["p1", "p2", "p3"]
+            assert summary["summary"]["values"]["fsr_hz"]["value"] > 4e10
+            latest = client.latest(0)
+            assert set(latest) >= {"channel", "sequence", "frequency_hz", "flags"}
+            # a bad file: the error comes back, the calibration in force stays
+            with pytest.raises(ServiceError, match="corrupt.wmcal.json"):
+                client.request("reload", path=str(folder / "corrupt.wmcal.json"))
+            with pytest.raises(ServiceError, match="missing.wmcal.json"):
+                client.request("reload", path=str(folder / "missing.wmcal.json"))
+            assert client.status()["calibration"]["path"].endswith("chip.wmcal.json")
+            # a good file swaps in while readings flow
+            done = client.request("reload", path=str(folder / "other.wmcal.json"))
+            assert done["path"].endswith("other.wmcal.json")
+            assert client.status()["calibration"]["path"].endswith("other.wmcal.json")
+            names = client.request("channel_names", names={"0": "Ti:Sa"})
+            assert names == {"0": "Ti:Sa"} and client.request("channels")[0]["name"] == "Ti:Sa"
+        # no reading lost over the swap: the readings are numbered 0 .. 199
+        assert wait_for(lambda: client.status()["channels"][0]["readings"] == 200, 10)
+        assert client.latest(0)["sequence"] == 199
+
+
+def test_a_malformed_request_changes_nothing(meter):
+    with _tcp_service(meter) as service, Client(**_addresses(service)) as client:
+        before = client.status()
+        for name, arguments, problem in [
+            ("bogus", {}, "unknown request 'bogus'"),
+            ("reload", {"file": "x"}, "request 'reload'"),
+            ("latest", {"channel": 5}, "no channel 5"),
+            ("channel_names", {"names": {"999": "x"}}, "channel '999'"),
+            ("channel_names", {"names": {"0": ""}}, "name ''"),
+            ("channel_names", {"names": ["a"]}, "names must be an object"),
+        ]:
+            with pytest.raises(ServiceError, match=problem):
+                client.request(name, **arguments)
+        # bytes that are not JSON, and JSON that is not an object
+        with zmq.Context() as context, context.socket(zmq.REQ) as raw:
+            raw.connect(service.addresses["control"])
+            for body in (b"\xff\x00 not json", b"[1, 2]", b'{"request": 3}'):
+                raw.send(body)
+                assert raw.poll(5000)
+                reply = json.loads(raw.recv())
+                assert reply["ok"] is False and reply["error"]
+        after = client.status()
+        assert after["calibration"] == before["calibration"]
+        assert client.request("channel_names") == {}
+        assert after["control"]["errors"] == before["control"]["errors"] + 9
+
+
+def test_a_token_guards_control_subscriptions_and_http(meter):
+    with _tcp_service(meter, "--token", "s3cret") as service:
+        addresses = _addresses(service)
+        with Client(**addresses) as client:
+            with pytest.raises(ServiceError, match="token"):
+                client.status()
+            with pytest.raises(ServiceError, match="token"):
+                next(client.readings(timeout_s=5))
+        with Client(**addresses, token="wrong") as client, pytest.raises(ServiceError):
+            client.status()
+        with Client(**addresses, token="s3cret") as client:
+            assert client.status()["service"] == "wavemeter"
+        url = service.addresses["http"]
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(url + "metrics", timeout=10)
+        assert refused.value.code == 401
+        with urllib.request.urlopen(url + "metrics?token=s3cret", timeout=10) as answer:
+            assert answer.status == 200
+
+
+@pytest.mark.parametrize(
+    "option", ["--publish tcp://0.0.0.0:0", "--control tcp://192.0.2.1:5561", "--http *:8560"]
+)
+def test_a_non_local_bind_without_a_token_is_refused(option):
+    result = subprocess.run(
+        [sys.executable, "-m", "wavemeter", "serve", "--simulate", *option.split()],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2
+    assert result.stderr.startswith("error: ") and "token" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+
+
+def _addresses(service) -> dict:
+    return {"publish": service.addresses["publish"], "control": service.addresses["control"]}

@@ -1,0 +1,119 @@
+"""Sources of `wavemeter serve`: TCP lines (a stall turns the channel to "no signal" and
+back; malformed lines become INVALID readings, counted), standard input with a channel
+column, a header the calibration cannot read, and ``Server.feed`` from lab code."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+import wavemeter as wm  # noqa: E402
+from wavemeter.service import Client, Server  # noqa: E402
+
+from ._service import EPHEMERAL, serving, subscribed, wait_for
+from .test_service_control import _addresses, _feed, _lines, _port, _tcp_service, meter  # noqa: F401
+
+INVALID = int(wm.ReadingFlag.INVALID)
+
+
+def test_a_stalled_source_has_no_signal_within_the_timeout_and_back(meter):
+    device, _ = meter
+    rng = np.random.default_rng(2)
+    with _tcp_service(meter, "--signal-timeout", "0.3s") as service:
+        with Client(**_addresses(service)) as client:
+
+            def status():
+                return client.status()["channels"][0]["status"]
+
+            with _feed(_port(service), _lines(device, 50, rng)) as connection:
+                assert wait_for(lambda: status() == "ok", 10)
+                stalled = time.monotonic()
+                assert wait_for(lambda: status() == "no signal", 5)
+                # within the timeout (0.3 s) and the watch's period, plus the request's trip
+                assert time.monotonic() - stalled < 1.5
+                connection.sendall(("\n".join(_lines(device, 5, rng)) + "\n").encode())
+                assert wait_for(lambda: status() == "ok", 5)
+
+
+def test_malformed_lines_become_invalid_readings_counted(meter):
+    device, _ = meter
+    rng = np.random.default_rng(3)
+    good = _lines(device, 6, rng)
+    bad = ["1.0,2.0", "0.3,abc,0.2", "nan,0.2,0.3", "0,0,0", "1,2,3,4,5"]
+    lines = [good[0], *bad[:3], good[1], good[2], *bad[3:], *good[3:]]
+    with _tcp_service(meter) as service, Client(**_addresses(service)) as client:
+        readings = subscribed(client)
+        with _feed(_port(service), lines):
+            got = [next(readings) for _ in lines]
+            status = client.status()
+    assert [r.sequence for r in got] == list(range(len(lines)))
+    flags = [r.flags & INVALID for r in got]
+    assert flags == [INVALID if line in bad else 0 for line in lines]
+    assert all(np.isnan(r.frequency_hz) for r in got if r.flags & INVALID)
+    assert status["lines"]["invalid"] == len(bad) and status["lines"]["lines"] == len(lines)
+    assert status["channels"][0]["flag_counts"]["INVALID"] == len(bad)
+
+
+def test_standard_input_with_a_channel_column(meter):
+    device, folder = meter
+    rng = np.random.default_rng(4)
+    rows = _lines(device, 40, rng)
+    text = "P1_mW,P2_mW,P3_mW,laser\n" + "".join(
+        f"{row},{k % 3 if k != 7 else 'x'}\n" for k, row in enumerate(rows)
+    )
+    args = [str(folder / "chip.wmcal.json"), "--channel-column", "laser", *EPHEMERAL]
+    with serving(args, stdin=subprocess.PIPE) as service:
+        with Client(**_addresses(service)) as client:
+            readings = subscribed(client)
+            service.process.stdin.write(text)
+            service.process.stdin.flush()
+            got = [next(readings) for _ in range(39)]
+            status = client.status()
+    by_channel = {c: [r.sequence for r in got if r.channel == c] for c in (0, 1, 2)}
+    assert sorted(by_channel) == [0, 1, 2]
+    for numbers in by_channel.values():
+        assert numbers == list(range(len(numbers)))
+    assert status["lines"]["unroutable"] == 1 and len(got) == 39
+
+
+def test_a_tcp_connection_whose_header_the_calibration_cannot_read_gets_an_error(meter):
+    with _tcp_service(meter) as service:
+        with socket.create_connection(("127.0.0.1", _port(service))) as connection:
+            connection.sendall(b"P1_mW,P2_mW\n0.1,0.2\n")
+            answer = connection.makefile().readline()
+        assert answer.startswith("error: ") and "ports" in answer
+        with Client(**_addresses(service)) as client:  # the service goes on
+            assert client.status()["service"] == "wavemeter"
+
+
+def test_server_feed_publishes_lab_readings():
+    device, calibration = _meter()
+    rng = np.random.default_rng(5)
+    truth = device.center_hz + rng.uniform(-5e9, 5e9, 30)
+    powers = device.powers(truth, power_w=1e-3, noise_w=5e-7, rng=rng)
+    server = Server(
+        calibration, publish="tcp://127.0.0.1:0", control="tcp://127.0.0.1:0", http=None
+    )
+    with server, Client(server.addresses["publish"], server.addresses["control"]) as client:
+        readings = subscribed(client, channel=2)
+        server.feed(powers[:10], channel=2)
+        server.feed(powers[10], time_s=1.7e9, channel=2)
+        server.feed(powers[11:], channel=2)
+        got = [next(readings) for _ in range(30)]
+        with pytest.raises(wm.InputError, match="ports"):
+            server.feed(powers[:, :2])
+    assert [r.sequence for r in got] == list(range(30))
+    assert got[10].source_time_ns == 1_700_000_000_000_000_000
+    error = np.array([r.frequency_hz for r in got]) - truth
+    std = np.array([r.frequency_std_hz for r in got])
+    assert np.all(np.abs(error) < 5 * std)
+
+
+def _meter():
+    from wavemeter.service.simulated import simulated_meter
+
+    return simulated_meter(7)
