@@ -177,3 +177,52 @@ def subscribed(client, channel=None, timeout_s: float = 10.0):
     readings = client.readings(channel, timeout_s=timeout_s)
     assert wait_for(lambda: client.status()["subscribers"], 10), "no subscription"
     return readings
+
+
+def make_meter(tmp_path_factory):
+    """The simulated meter, its calibration file, a second good one, and a corrupt one."""
+    from wavemeter.service.simulated import simulated_meter
+
+    folder = tmp_path_factory.mktemp("calibrations")
+    device, calibration = simulated_meter(7)
+    calibration.save(folder / "chip.wmcal.json")
+    _, other = simulated_meter(8)
+    other.save(folder / "other.wmcal.json")
+    text = (folder / "chip.wmcal.json").read_text()
+    (folder / "corrupt.wmcal.json").write_text(text[: len(text) // 2])
+    return device, folder
+
+
+def lines_of(device, count: int, rng) -> list[str]:
+    from wavemeter.service.simulated import NOISE_W, POWER_W
+
+    frequencies = device.center_hz + rng.uniform(-5e9, 5e9, count)
+    powers_mw = device.powers(frequencies, power_w=POWER_W, noise_w=NOISE_W, rng=rng) * 1e3
+    return [",".join(repr(float(p)) for p in row) for row in powers_mw]
+
+
+def feed_lines(port: int, lines: list[str], *, header="P1_mW,P2_mW,P3_mW", pause_s=0.001):
+    """Connect to the TCP source and write a header and lines (keeps the connection open
+    while writing; returns the socket)."""
+    connection = socket.create_connection(("127.0.0.1", port))
+    connection.sendall((header + "\n").encode())
+    for line in lines:
+        connection.sendall((line + "\n").encode())
+        time.sleep(pause_s)
+    return connection
+
+
+def tcp_service(meter, *extra):
+    device, folder = meter
+    return serving(
+        [str(folder / "chip.wmcal.json"), "--source", "tcp://127.0.0.1:0", *EPHEMERAL, *extra]
+    )
+
+
+def source_port(service) -> int:
+    line = next(line for line in service.lines if "source tcp://" in line)
+    return int(line.rsplit(":", 1)[1].strip())
+
+
+def addresses_of(service) -> dict:
+    return {"publish": service.addresses["publish"], "control": service.addresses["control"]}

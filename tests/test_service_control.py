@@ -5,10 +5,8 @@ a malformed request changes nothing; tokens and non-local binds."""
 from __future__ import annotations
 
 import json
-import socket
 import subprocess
 import sys
-import time
 import urllib.error
 import urllib.request
 
@@ -17,58 +15,28 @@ import pytest
 import zmq
 
 from wavemeter.service import Client, ServiceError  # noqa: E402
-from wavemeter.service.simulated import NOISE_W, POWER_W, simulated_meter  # noqa: E402
 
-from ._service import EPHEMERAL, serving, wait_for
+from ._service import (
+    addresses_of,
+    feed_lines,
+    lines_of,
+    make_meter,
+    source_port,
+    tcp_service,
+    wait_for,
+)
 
 
 @pytest.fixture(scope="module")
 def meter(tmp_path_factory):
-    """The simulated meter, its calibration file, a second good one, and a corrupt one."""
-    folder = tmp_path_factory.mktemp("calibrations")
-    device, calibration = simulated_meter(7)
-    calibration.save(folder / "chip.wmcal.json")
-    _, other = simulated_meter(8)
-    other.save(folder / "other.wmcal.json")
-    text = (folder / "chip.wmcal.json").read_text()
-    (folder / "corrupt.wmcal.json").write_text(text[: len(text) // 2])
-    return device, folder
-
-
-def _lines(device, count: int, rng) -> list[str]:
-    frequencies = device.center_hz + rng.uniform(-5e9, 5e9, count)
-    powers_mw = device.powers(frequencies, power_w=POWER_W, noise_w=NOISE_W, rng=rng) * 1e3
-    return [",".join(repr(float(p)) for p in row) for row in powers_mw]
-
-
-def _feed(port: int, lines: list[str], *, header="P1_mW,P2_mW,P3_mW", pause_s=0.001):
-    """Connect to the TCP source and write a header and lines (keeps the connection open
-    while writing; returns the socket)."""
-    connection = socket.create_connection(("127.0.0.1", port))
-    connection.sendall((header + "\n").encode())
-    for line in lines:
-        connection.sendall((line + "\n").encode())
-        time.sleep(pause_s)
-    return connection
-
-
-def _tcp_service(meter, *extra):
-    device, folder = meter
-    return serving(
-        [str(folder / "chip.wmcal.json"), "--source", "tcp://127.0.0.1:0", *EPHEMERAL, *extra]
-    )
-
-
-def _port(service) -> int:
-    line = next(line for line in service.lines if "source tcp://" in line)
-    return int(line.rsplit(":", 1)[1].strip())
+    return make_meter(tmp_path_factory)
 
 
 def test_requests_and_reload(meter):
     device, folder = meter
     rng = np.random.default_rng(1)
-    with _tcp_service(meter) as service, Client(**_addresses(service)) as client:
-        with _feed(_port(service), _lines(device, 200, rng)):
+    with tcp_service(meter) as service, Client(**addresses_of(service)) as client:
+        with feed_lines(source_port(service), lines_of(device, 200, rng)):
             assert wait_for(lambda: client.latest(0), 10)
             status = client.status()
             assert status["channels"][0]["readings"] >= 1
@@ -98,7 +66,7 @@ def test_requests_and_reload(meter):
 
 
 def test_a_malformed_request_changes_nothing(meter):
-    with _tcp_service(meter) as service, Client(**_addresses(service)) as client:
+    with tcp_service(meter) as service, Client(**addresses_of(service)) as client:
         before = client.status()
         for name, arguments, problem in [
             ("bogus", {}, "unknown request 'bogus'"),
@@ -125,8 +93,8 @@ def test_a_malformed_request_changes_nothing(meter):
 
 
 def test_a_token_guards_control_subscriptions_and_http(meter):
-    with _tcp_service(meter, "--token", "s3cret") as service:
-        addresses = _addresses(service)
+    with tcp_service(meter, "--token", "s3cret") as service:
+        addresses = addresses_of(service)
         with Client(**addresses) as client:
             with pytest.raises(ServiceError, match="token"):
                 client.status()
@@ -157,7 +125,3 @@ def test_a_non_local_bind_without_a_token_is_refused(option):
     assert result.returncode == 2
     assert result.stderr.startswith("error: ") and "token" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
-
-
-def _addresses(service) -> dict:
-    return {"publish": service.addresses["publish"], "control": service.addresses["control"]}

@@ -14,40 +14,55 @@ import pytest
 import wavemeter as wm  # noqa: E402
 from wavemeter.service import Client, Server  # noqa: E402
 
-from ._service import EPHEMERAL, serving, subscribed, wait_for
-from .test_service_control import _addresses, _feed, _lines, _port, _tcp_service, meter  # noqa: F401
+from ._service import (
+    EPHEMERAL,
+    addresses_of,
+    feed_lines,
+    lines_of,
+    make_meter,
+    serving,
+    source_port,
+    subscribed,
+    tcp_service,
+    wait_for,
+)
 
 INVALID = int(wm.ReadingFlag.INVALID)
+
+
+@pytest.fixture(scope="module")
+def meter(tmp_path_factory):
+    return make_meter(tmp_path_factory)
 
 
 def test_a_stalled_source_has_no_signal_within_the_timeout_and_back(meter):
     device, _ = meter
     rng = np.random.default_rng(2)
-    with _tcp_service(meter, "--signal-timeout", "0.3s") as service:
-        with Client(**_addresses(service)) as client:
+    with tcp_service(meter, "--signal-timeout", "0.3s") as service:
+        with Client(**addresses_of(service)) as client:
 
             def status():
                 return client.status()["channels"][0]["status"]
 
-            with _feed(_port(service), _lines(device, 50, rng)) as connection:
+            with feed_lines(source_port(service), lines_of(device, 50, rng)) as connection:
                 assert wait_for(lambda: status() == "ok", 10)
                 stalled = time.monotonic()
                 assert wait_for(lambda: status() == "no signal", 5)
                 # within the timeout (0.3 s) and the watch's period, plus the request's trip
                 assert time.monotonic() - stalled < 1.5
-                connection.sendall(("\n".join(_lines(device, 5, rng)) + "\n").encode())
+                connection.sendall(("\n".join(lines_of(device, 5, rng)) + "\n").encode())
                 assert wait_for(lambda: status() == "ok", 5)
 
 
 def test_malformed_lines_become_invalid_readings_counted(meter):
     device, _ = meter
     rng = np.random.default_rng(3)
-    good = _lines(device, 6, rng)
+    good = lines_of(device, 6, rng)
     bad = ["1.0,2.0", "0.3,abc,0.2", "nan,0.2,0.3", "0,0,0", "1,2,3,4,5"]
     lines = [good[0], *bad[:3], good[1], good[2], *bad[3:], *good[3:]]
-    with _tcp_service(meter) as service, Client(**_addresses(service)) as client:
+    with tcp_service(meter) as service, Client(**addresses_of(service)) as client:
         readings = subscribed(client)
-        with _feed(_port(service), lines):
+        with feed_lines(source_port(service), lines):
             got = [next(readings) for _ in lines]
             status = client.status()
     assert [r.sequence for r in got] == list(range(len(lines)))
@@ -61,13 +76,13 @@ def test_malformed_lines_become_invalid_readings_counted(meter):
 def test_standard_input_with_a_channel_column(meter):
     device, folder = meter
     rng = np.random.default_rng(4)
-    rows = _lines(device, 40, rng)
+    rows = lines_of(device, 40, rng)
     text = "P1_mW,P2_mW,P3_mW,laser\n" + "".join(
         f"{row},{k % 3 if k != 7 else 'x'}\n" for k, row in enumerate(rows)
     )
     args = [str(folder / "chip.wmcal.json"), "--channel-column", "laser", *EPHEMERAL]
     with serving(args, stdin=subprocess.PIPE) as service:
-        with Client(**_addresses(service)) as client:
+        with Client(**addresses_of(service)) as client:
             readings = subscribed(client)
             service.process.stdin.write(text)
             service.process.stdin.flush()
@@ -81,12 +96,12 @@ def test_standard_input_with_a_channel_column(meter):
 
 
 def test_a_tcp_connection_whose_header_the_calibration_cannot_read_gets_an_error(meter):
-    with _tcp_service(meter) as service:
-        with socket.create_connection(("127.0.0.1", _port(service))) as connection:
+    with tcp_service(meter) as service:
+        with socket.create_connection(("127.0.0.1", source_port(service))) as connection:
             connection.sendall(b"P1_mW,P2_mW\n0.1,0.2\n")
             answer = connection.makefile().readline()
         assert answer.startswith("error: ") and "ports" in answer
-        with Client(**_addresses(service)) as client:  # the service goes on
+        with Client(**addresses_of(service)) as client:  # the service goes on
             assert client.status()["service"] == "wavemeter"
 
 
