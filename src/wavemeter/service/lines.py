@@ -148,82 +148,89 @@ class LineParser:
         arrival_ns : int
             When they arrived (ns since the epoch): their source time.
         """
-        channels, data, reasons = [], [], []
+        kept = []
         for text in lines:
             line = text.rstrip("\r\n")
-            if not line.strip() or line.lstrip().startswith("#"):
-                continue
-            self._number += 1
-            self.counts.lines += 1
-            values, reason = self._reader.values(line)
-            channel = self._channel(values)
-            if channel is None:
-                self.counts.unroutable += 1
-                self.counts.note(reason or f"column {self.channel_column!r}: no channel")
-                continue
-            channels.append(channel)
-            data.append(values)
-            reasons.append(reason)
-        if not channels:
+            first = line[:1]
+            if (
+                not first
+                or (first.isspace() or first == "#")
+                and (not line.strip() or line.lstrip().startswith("#"))
+            ):
+                continue  # blank lines and comments, as stream skips them
+            kept.append(line)
+        if not kept:
             return None
-        powers, temperature, coarse, reasons = self._convert(data, reasons)
+        start = self._number
+        self._number += len(kept)
+        self.counts.lines += len(kept)
+        data, reasons = self._reader.block(kept)
+        channels, routed = self._channels(data, reasons)
+        if routed is not None:
+            data = {name: values[routed] for name, values in data.items()}
+            reasons = [reasons[k] for k in np.flatnonzero(routed)]
+            if not len(channels):
+                return None
+        powers, temperature, coarse, reasons = self._convert(data, reasons, start)
         invalid = np.array([reason is not None for reason in reasons])
         for reason in reasons:
             if reason is not None:
                 self.counts.invalid += 1
                 self.counts.note(reason)
-        n = len(channels)
         return RowBlock(
-            channel=np.array(channels, dtype=np.int64),
+            channel=channels,
             powers_w=powers,
             invalid=invalid,
-            source_time_ns=np.full(n, arrival_ns, dtype=np.int64),
+            source_time_ns=np.full(len(channels), arrival_ns, dtype=np.int64),
             temperature_k=temperature,
             coarse_hz=coarse,
         )
 
-    def _channel(self, values) -> int | None:
+    def _channels(self, data, reasons):
+        """Each line's channel, and which lines have one (None: all)."""
+        n = len(reasons)
         if self.channel_column is None:
-            channel = self._switch % self.channels
-            self._switch += 1
-            return channel
-        if values is None:
-            return None
-        cell = values[self.channel_column]
-        if not (cell == cell and float(cell).is_integer() and 0 <= cell < MAX_CHANNELS):
-            return None
-        return int(cell)
+            channels = (self._switch + np.arange(n, dtype=np.int64)) % self.channels
+            self._switch += n
+            return channels, None
+        cells = data[self.channel_column]
+        with np.errstate(invalid="ignore"):
+            routed = (cells >= 0) & (cells < MAX_CHANNELS) & (cells == np.floor(cells))
+        for k in np.flatnonzero(~routed):
+            self.counts.unroutable += 1
+            self.counts.note(reasons[k] or f"column {self.channel_column!r}: no channel")
+        return cells[routed].astype(np.int64), None if routed.all() else routed
 
-    def _convert(self, data: list, reasons: list):
+    def _convert(self, data: dict, reasons: list, start: int):
         """Powers (n, ports) W, temperature (n,) K or None, coarse (n,) Hz or None, reasons."""
         plan = self.header.plan
-        n = len(data)
-        ports = len(plan.port_names)
+        n = len(reasons)
         temperature = _given(n, self.header.temperature_column, self.temperature_k)
         coarse = _given(n, self.header.coarse_column, self.coarse_hz)
-        powers = np.full((n, ports), np.nan)
-        rows = [k for k, reason in enumerate(reasons) if reason is None]
-        if not rows:
+        powers = np.full((n, len(plan.port_names)), np.nan)
+        rows = np.array([k for k, reason in enumerate(reasons) if reason is None], dtype=int)
+        if not len(rows):
             return powers, temperature, coarse, reasons
         if len(rows) == 1 and self._plain is not None:
-            plain = self._plain.convert(data[rows[0]])
+            plain = self._plain.convert({name: float(data[name][rows[0]]) for name in data})
             if plain is not None:
                 powers[rows[0]] = plain[0]
-                if temperature is not None:
+                if temperature is not None and self.header.temperature_column:
                     temperature[rows[0]] = plain[1]
                 return powers, temperature, coarse, reasons
-        first = self._number - n  # row index of the block's first line, for messages
-        columns = {name: np.array([data[k][name] for k in rows]) for name in plan.fields}
-        table = convert_rows(plan, columns, first, self._label, self._checks)
+        columns = {name: data[name][rows] for name in plan.fields}
+        table = convert_rows(plan, columns, start, self._label, self._checks)
         powers[rows] = table.powers_w
-        if temperature is not None:
+        if temperature is not None and self.header.temperature_column:
             temperature[rows] = table.temperature_k
-        if coarse is not None:
+        if coarse is not None and self.header.coarse_column:
             coarse[rows] = table.coarse_hz
         reasons = list(reasons)
-        for position, k in enumerate(rows):
-            if table.invalid[position]:
-                reasons[k] = table.invalid_reasons[table.invalid_code[position]]
+        invalid = table.invalid
+        if invalid.any():
+            codes = table.invalid_code
+            for position in np.flatnonzero(invalid):
+                reasons[rows[position]] = table.invalid_reasons[codes[position]]
         return powers, temperature, coarse, reasons
 
     def _label(self, row: int) -> str:

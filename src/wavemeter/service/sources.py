@@ -191,8 +191,8 @@ class TcpLineSource:
         except WavemeterError as exc:
             writer.write(f"error: {exc}\n".encode())
             await writer.drain()
-        except ConnectionError:
-            pass
+        except (ConnectionError, asyncio.CancelledError):
+            pass  # the peer went, or the service is stopping: the lines so far are in
         finally:
             self.parsers.remove(parser)
             self.server.note_lines(parser)
