@@ -311,10 +311,11 @@ def sustained(calibration: Path, lines: list[str], rate: int, seconds: float, fo
     lag_s = (received.max() - last_written) * 1e-9
     whole = missed == 0 and len(sequences) == sent and (np.diff(sequences) == 1).all()
     ok = whole and status["dropped_messages"] == 0 and logged == sent and lag_s <= 0.5
-    return (
-        ok,
-        f"{sent} sent, gaps {missed}, dropped {status['dropped_messages']}, logged {logged}, last {lag_s * 1e3:.0f} ms after the last line",
+    detail = (
+        f"{sent} sent, gaps {missed}, dropped {status['dropped_messages']}, logged {logged}, "
+        f"last {lag_s * 1e3:.0f} ms after the last line"
     )
+    return ok, detail
 
 
 def summary(runs: list[np.ndarray]) -> tuple[float, float]:
