@@ -340,6 +340,7 @@ def main(argv=None) -> int:
     )
     parser.add_argument("--quick", action="store_true", help="a short smoke run")
     args = parser.parse_args(argv)
+    load = os.getloadavg()
     readings, repeats, seconds = args.readings, args.repeats, args.seconds
     rates = [12_500, 25_000, 50_000, 100_000, 200_000, 400_000]
     if args.quick:
@@ -375,11 +376,11 @@ def main(argv=None) -> int:
             rate_results.append((rate, ok, detail))
             if not ok:
                 break
-    print_table(runs, cpu, rate_results, readings, repeats, seconds)
+    print_table(runs, cpu, rate_results, readings, repeats, seconds, load)
     return 0
 
 
-def print_table(runs, cpu, rate_results, readings, repeats, seconds) -> None:
+def print_table(runs, cpu, rate_results, readings, repeats, seconds, load) -> None:
     def verdict(passed: bool) -> str:
         return "PASS" if passed else "FAIL"
 
@@ -426,6 +427,10 @@ def print_table(runs, cpu, rate_results, readings, repeats, seconds) -> None:
     print(
         f"\nhighest sustained: {best:,} readings/s; target >= {TARGET_RATE:,}: "
         f"{verdict(best >= TARGET_RATE)}"
+    )
+    print(
+        f"machine: {os.cpu_count()} cores, load average {load[0]:.1f} at the start and "
+        f"{os.getloadavg()[0]:.1f} at the end (other processes share the cores)"
     )
 
 

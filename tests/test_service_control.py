@@ -105,9 +105,12 @@ def test_a_token_guards_control_subscriptions_and_http(meter):
         with Client(**addresses, token="s3cret") as client:
             assert client.status()["service"] == "wavemeter"
         url = service.addresses["http"]
-        with pytest.raises(urllib.error.HTTPError) as refused:
-            urllib.request.urlopen(url + "metrics", timeout=10)
-        assert refused.value.code == 401
+        for page in ("metrics", "", "api/status", "ws"):
+            with pytest.raises(urllib.error.HTTPError) as refused:
+                urllib.request.urlopen(url + page, timeout=10)
+            assert refused.value.code == 401
+        with urllib.request.urlopen(url + "?token=s3cret", timeout=10) as answer:
+            assert b"wavemeter live" in answer.read()
         with urllib.request.urlopen(url + "metrics?token=s3cret", timeout=10) as answer:
             assert answer.status == 200
 

@@ -132,3 +132,73 @@ def _meter():
     from wavemeter.service.simulated import simulated_meter
 
     return simulated_meter(7)
+
+
+class _Offset:
+    """A processor (as a lock would be): adds each reading's offset from a setpoint."""
+
+    outputs = {"offset_hz": "Hz"}
+
+    def __init__(self, setpoint_hz: float):
+        self.setpoint_hz = setpoint_hz
+        self.seen = 0
+        self.statuses = []
+
+    def observe(self, channel, columns):
+        self.seen += len(columns["sequence"])
+        return {"offset_hz": columns["frequency_hz"] - self.setpoint_hz}
+
+    def status_changed(self, channel, status):
+        self.statuses.append(status)
+
+
+def test_a_channel_processor_sees_every_reading_and_its_output_is_published(tmp_path):
+    import asyncio
+
+    from wavemeter.service import AsyncClient, read_log
+
+    device, calibration = _meter()
+    powers = device.powers(np.full(20, device.center_hz), power_w=1e-3, noise_w=5e-7, rng=6)
+    processor = _Offset(device.center_hz)
+    local = "tcp://127.0.0.1:0"
+    server = Server(
+        calibration, publish=local, control=local, http=None, log=tmp_path, signal_timeout_s=0.3
+    )
+    server.channel(0).processors.append(processor)
+    with server:
+        client = AsyncClient(server.addresses["publish"], server.addresses["control"])
+
+        async def read():
+            readings = client.readings(timeout_s=10)
+            first = asyncio.ensure_future(readings.__anext__())
+            while not (await client.status())["subscribers"]:
+                await asyncio.sleep(0.05)
+            server.feed(powers)
+            got = [await first] + [await readings.__anext__() for _ in range(19)]
+            await readings.aclose()
+            return got
+
+        got = asyncio.run(read())
+        client.close()
+        assert wait_for(lambda: "no signal" in processor.statuses, 5)
+    assert processor.seen == 20 and processor.statuses[:1] == ["ok"]
+    offsets = np.array([r.offset_hz for r in got])
+    np.testing.assert_allclose(offsets, [r.frequency_hz - device.center_hz for r in got])
+    assert np.all(np.abs(offsets) < 5 * np.array([r.frequency_std_hz for r in got]))
+    assert "offset_hz" in read_log(tmp_path).column_names
+
+
+def test_a_followed_file(meter, tmp_path):
+    device, folder = meter
+    rng = np.random.default_rng(8)
+    path = tmp_path / "readings.csv"
+    path.write_text(
+        "P1_mW,P2_mW,P3_mW\n" + "".join(f"{line}\n" for line in lines_of(device, 5, rng))
+    )
+    args = [str(folder / "chip.wmcal.json"), "--source", str(path), "--follow", *EPHEMERAL]
+    with serving(args) as service, Client(**addresses_of(service)) as client:
+        assert wait_for(lambda: client.status()["channels"][0]["readings"] == 5, 10)
+        with path.open("a") as appended:
+            appended.write("".join(f"{line}\n" for line in lines_of(device, 7, rng)))
+        assert wait_for(lambda: client.status()["channels"][0]["readings"] == 12, 10)
+        assert client.latest(0)["sequence"] == 11

@@ -333,7 +333,7 @@ class Server:
     def _process(self, block: RowBlock) -> None:
         reader = self._reader
         for index, part in block.by_channel():
-            channel = self._channel(index)
+            channel = self.channel(index)
             batch = channel.process(part, reader, self.run_id)
             self.publisher.publish(batch)
             channel.account(batch)
@@ -352,7 +352,10 @@ class Server:
                 str(index), batch.columns["flags"], latency, channel.latest.frequency_hz
             )
 
-    def _channel(self, index: int) -> Channel:
+    def channel(self, index: int) -> Channel:
+        """Channel ``index``, made now if no reading has come for it yet (to attach a
+        processor before the first reading: ``server.channel(0).processors.append(...)``;
+        on the loop, or before the server starts)."""
         channel = self.channels.get(index)
         if channel is None:
             channel = self.channels[index] = Channel(index, self.names.get(index))
