@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import socket
 import subprocess
+import sys
 import time
 
 import numpy as np
@@ -202,3 +203,17 @@ def test_a_followed_file(meter, tmp_path):
             appended.write("".join(f"{line}\n" for line in lines_of(device, 7, rng)))
         assert wait_for(lambda: client.status()["channels"][0]["readings"] == 12, 10)
         assert client.latest(0)["sequence"] == 11
+
+
+def test_standard_input_whose_header_the_calibration_cannot_read_is_an_error_line(meter):
+    _, folder = meter
+    result = subprocess.run(
+        [sys.executable, "-m", "wavemeter", "serve", str(folder / "chip.wmcal.json"), *EPHEMERAL],
+        input="P1_mW,P2_mW\n0.1,0.2\n",
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2
+    last = result.stderr.strip().splitlines()[-1]
+    assert last.startswith("error: <stdin>: ") and "ports" in last and "--ports" in last

@@ -22,6 +22,7 @@ import zmq
 
 from ..exceptions import InputError, WavemeterError
 from .encoding import decode_json, json_safe
+from .publisher import bind
 
 __all__ = ["Control"]
 
@@ -42,7 +43,7 @@ class Control:
     def __init__(self, context, endpoint: str, *, token: str | None = None):
         self.socket = context.socket(zmq.ROUTER)
         self.socket.setsockopt(zmq.LINGER, 0)
-        self.socket.bind(endpoint)
+        bind(self.socket, endpoint, "control")
         self.address = self.socket.getsockopt_string(zmq.LAST_ENDPOINT)
         self.token = token
         self.handlers: dict[str, Callable] = {}

@@ -3,7 +3,8 @@
 A :class:`LineParser` belongs to one line source (standard input, a followed file, one TCP
 connection). Its first line that is not blank or a comment is the header, read by
 :func:`wavemeter.jobs.read_header` as ``stream`` reads it; every data line after it is one
-reading, its numbers read by :class:`wavemeter.jobs.LineReader` and converted to SI by
+reading, its numbers read by :meth:`wavemeter.jobs.LineReader.block` (a block of lines at
+once, as ``stream`` reads each) and converted to SI by
 :func:`wavemeter.io.reading.convert_rows` (or, for a lone row,
 :class:`~wavemeter.io.reading.PlainRowConverter`). A line that holds no valid reading
 becomes an invalid row with its reason; its channel is the next one of the switch schedule,
@@ -114,12 +115,15 @@ class LineParser:
             if not line or line.startswith("#"):
                 continue
             number = self._number + index + 1
-            header = read_header(
-                iter([(number, line)]),
-                Path(self.name),
-                self.request,
-                "temperature_k" in calibration.requires and self.temperature_k is None,
-            )
+            try:
+                header = read_header(
+                    iter([(number, line)]),
+                    Path(self.name),
+                    self.request,
+                    "temperature_k" in calibration.requires and self.temperature_k is None,
+                )
+            except InputError as exc:
+                raise InputError(f"{self.name}: {exc}", parameter=exc.parameter) from None
             self.check(calibration, header)
             self.header = header
             self._reader = LineReader(header)

@@ -32,6 +32,16 @@ from .encoding import (
 )
 from .records import ReadingBatch
 
+
+def bind(socket, endpoint: str, role: str) -> None:
+    """Bind a ZeroMQ socket; a failure (the port taken) is an InputError naming it."""
+    try:
+        socket.bind(endpoint)
+    except zmq.ZMQError as exc:
+        socket.close(linger=0)
+        raise InputError(f"cannot bind the {role} address {endpoint}: {exc}") from None
+
+
 __all__ = ["Publisher", "Subscriber", "SUBSCRIBED_TOPIC", "DEFAULT_HWM", "SEND_BUFFER_BYTES"]
 
 #: the topic of the reply to a subscription
@@ -92,7 +102,7 @@ class Publisher:
         self.socket.setsockopt(zmq.SNDHWM, hwm)
         self.socket.setsockopt(zmq.SNDBUF, SEND_BUFFER_BYTES)
         self.socket.setsockopt(zmq.LINGER, 0)
-        self.socket.bind(endpoint)
+        bind(self.socket, endpoint, "publish")
         self.address = self.socket.getsockopt_string(zmq.LAST_ENDPOINT)
         self._send = zmq.Socket.shadow(self.socket.underlying).send_multipart
         self.token = token

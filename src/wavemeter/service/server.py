@@ -23,7 +23,7 @@ import numpy as np
 import zmq
 import zmq.asyncio
 
-from ..exceptions import InputError
+from ..exceptions import InputError, WavemeterError
 from .addresses import (
     DEFAULT_CONTROL,
     DEFAULT_HTTP,
@@ -122,7 +122,7 @@ class Server:
         self.line_totals = LineCounts()
         self.metrics = Metrics()
         self.addresses: dict[str, str] = {}
-        self.failure: str | None = None
+        self.failure: WavemeterError | None = None
         self.log = None
         self._reader = CalibrationReader(calibration)
         self._queue: collections.deque = collections.deque()
@@ -148,12 +148,12 @@ class Server:
 
         Raises
         ------
-        InputError
-            When a source fails for good (a header the calibration cannot read).
+        WavemeterError
+            What made a source fail for good (a header the calibration cannot read).
         """
         asyncio.run(self._main(on_ready, signals=True))
         if self.failure is not None:
-            raise InputError(self.failure)
+            raise self.failure
 
     def start(self) -> Server:
         """Serve in a thread of its own; return once every socket is bound."""
@@ -260,11 +260,12 @@ class Server:
                 getattr(self, part).close()
         context.term()
 
-    def fail_threadsafe(self, message: str) -> None:
-        """End the service because a source failed for good (any thread)."""
+    def fail_threadsafe(self, error: WavemeterError) -> None:
+        """End the service because a source failed for good (any thread); :meth:`run`
+        raises ``error`` once everything is stopped."""
 
         def fail():
-            self.failure = message
+            self.failure = error
             self._stopping.set()
 
         self._loop.call_soon_threadsafe(fail)
@@ -299,8 +300,10 @@ class Server:
         if int(channel) != channel or channel < 0:
             raise InputError(f"channel {channel!r}: expected an integer >= 0", parameter="channel")
         n = len(powers_w)
-        now = time.time_ns() if time_s is None else None
-        times = np.full(n, now) if now is not None else np.broadcast_to(np.asarray(time_s) * 1e9, n)
+        if time_s is None:
+            times = np.full(n, time.time_ns())
+        else:
+            times = np.round(np.broadcast_to(np.asarray(time_s, dtype=float), n) * 1e9)
         block = RowBlock(
             channel=np.full(n, int(channel), dtype=np.int64),
             powers_w=powers_w,
@@ -311,6 +314,8 @@ class Server:
 
     def submit_threadsafe(self, block: RowBlock) -> None:
         """Queue a block from another thread; the loop reads out what is queued together."""
+        if self._loop is None or self._loop.is_closed():
+            raise InputError("the server is not running: start it first (start() or run())")
         block.arrived = time.perf_counter()
         self._queue.append(block)
         if not self._draining:

@@ -36,6 +36,9 @@ LASER = {
     "drift_hz_per_s": 1e4,
 }
 BLOCK_S = 10.0
+#: the thread sleeps at least this long (s) between takes: above 1 / TICK_S readings per
+#: second, the readings due are taken together
+TICK_S = 5e-4
 #: the most readings taken in one go (after the thread was held up)
 _MAX_BLOCK = 50_000
 
@@ -151,7 +154,7 @@ class SimulatedSource:
                 taken += n
             wait_s = (start_ns + taken * period_ns - time.time_ns()) * 1e-9
             if wait_s > 0:
-                time.sleep(wait_s)
+                time.sleep(max(wait_s, TICK_S))
 
     def _readings(self, first: int, n: int, start_ns: int, period_ns: float) -> RowBlock:
         numbers = np.arange(first, first + n)

@@ -115,7 +115,7 @@ class ThreadLineSource:
             self.state = "ended"
         except WavemeterError as exc:
             self.state = "failed"
-            self.server.fail_threadsafe(str(exc))
+            self.server.fail_threadsafe(exc)
 
     def _read(self, feeder: _Feeder) -> None:
         handle = self._file if self.path is not None else None
