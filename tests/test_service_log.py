@@ -73,3 +73,15 @@ def test_kill_9_leaves_readable_files_missing_at_most_a_second(tmp_path):
     assert runs.num_rows > table.num_rows
     # two runs, each numbered from 0
     assert int((runs.column("sequence").to_numpy() == 0).sum()) == 2
+
+
+def test_logs_rotate_by_time_and_read_back_whole(tmp_path):
+    args = ["--simulate", "--log", str(tmp_path), "--log-rotate", "1s", *EPHEMERAL]
+    with serving(args) as service:
+        time.sleep(3.0)
+        assert service.stop(signal.SIGTERM) == 0
+    published = int(re.search(r"published (\d+) readings", service.stderr)[1])
+    segments = sorted((tmp_path / "ch0").glob("*.parquet"))
+    assert len(segments) >= 2 and not any(".part" in p.name for p in segments)
+    table = read_log(tmp_path)
+    assert _consecutive(table) == {0: published}

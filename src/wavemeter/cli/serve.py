@@ -95,6 +95,21 @@ DEFAULT_HTTP = "127.0.0.1:8560"
 )
 @click.option("--log-powers", is_flag=True, help="Log the port powers too (with --log).")
 @click.option(
+    "--log-rotate",
+    "log_rotate_s",
+    type=DURATION,
+    default="3600s",
+    show_default=True,
+    help="Start a new log file per channel after this long (s, ms).",
+)
+@click.option(
+    "--log-rotate-mb",
+    type=click.FloatRange(min=1, min_open=False),
+    default=256,
+    show_default=True,
+    help="... or once a channel's file holds this many MB.",
+)
+@click.option(
     "--token",
     help="A secret that clients, the dashboard and TCP sources must give; "
     "needed to bind anywhere but 127.0.0.1.",
@@ -147,6 +162,8 @@ def serve(
     http,
     log_dir,
     log_powers,
+    log_rotate_s,
+    log_rotate_mb,
     token,
     token_file,
     signal_timeout_s,
@@ -205,6 +222,7 @@ def serve(
         token=token,
         signal_timeout_s=signal_timeout_s,
         hwm=hwm,
+        log_options={"rotate_s": log_rotate_s, "rotate_bytes": int(log_rotate_mb * 2**20)},
         channel_names=names,
         calibration_path=None if simulate else str(calibration_file),
     )

@@ -430,6 +430,7 @@ class Server:
             "time_ns": time.time_ns(),
             "run": self.run_id,
             "subscribers": len(self.publisher.subscribers),
+            "sources": [{"name": source.name, "state": source.state} for source in self.sources],
             "channels": [
                 channel_view(channel, self.traces[index], sent.get(index, 0))
                 for index, channel in sorted(self.channels.items())

@@ -89,8 +89,9 @@
     };
     socket.onmessage = (event) => {
       const message = JSON.parse(event.data);
+      const sources = message.sources.map((s) => `${s.name}: ${s.state}`).join("; ");
       text(document.getElementById("summary"),
-           `run ${message.run} · ${message.subscribers} subscriber(s)`);
+           `run ${message.run} · ${message.subscribers} subscriber(s) · ${sources}`);
       message.channels.forEach(show);
     };
     socket.onclose = () => {
