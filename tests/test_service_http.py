@@ -54,9 +54,10 @@ def test_metrics_parse_as_prometheus_text():
         grown = _value(second["wavemeter_readings"], channel=channel) - _value(
             first["wavemeter_readings"], channel=channel
         )
-        assert 500 < grown < 1000  # 1.5 s at 500 readings/s per channel
+        # 1.5 s at 500 readings/s per channel (the scrapes' own timing on a busy machine aside)
+        assert 300 < grown < 1200
         rate = _value(second["wavemeter_readings_per_second"], channel=channel)
-        assert 350 < rate < 650
+        assert 250 < rate < 750
         assert _value(second["wavemeter_channel_signal"], channel=channel) == 1
         count = [
             s.value
