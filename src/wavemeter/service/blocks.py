@@ -96,9 +96,9 @@ class RowBlock:
 
     def by_channel(self):
         """``(channel, block)`` for each channel in the block, readings in order."""
-        channels = np.unique(self.channel)
-        if len(channels) == 1:
-            yield int(channels[0]), self
+        first = self.channel[0]
+        if first == self.channel[-1] and (self.channel == first).all():
+            yield int(first), self
             return
-        for channel in channels:
+        for channel in np.unique(self.channel):
             yield int(channel), self.take(self.channel == channel)

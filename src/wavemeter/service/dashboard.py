@@ -8,6 +8,7 @@ bins without a gap, recomputed at most every :data:`ADEV_EVERY_S`.
 
 from __future__ import annotations
 
+import math
 import time
 from collections import deque
 
@@ -43,9 +44,15 @@ class Trace:
         usable = np.isfinite(frequency) & ((batch.columns["flags"] & ReadingFlag.INVALID) == 0)
         if not usable.any():
             return
-        times_s = batch.columns["source_time_ns"][usable] * 1e-9
-        numbers = np.floor(times_s / BIN_S).astype(np.int64)
+        times_ns = batch.columns["source_time_ns"]
+        if len(frequency) == 1:  # the common case at a reading per batch
+            self._fold(math.floor(times_ns[0] * 1e-9 / BIN_S), float(frequency[0]), 1)
+            return
+        numbers = np.floor(times_ns[usable] * 1e-9 / BIN_S).astype(np.int64)
         values = frequency[usable]
+        if numbers[0] == numbers[-1]:
+            self._fold(int(numbers[0]), float(values.sum()), len(values))
+            return
         for number in np.unique(numbers):
             chosen = values[numbers == number]
             self._fold(int(number), float(chosen.sum()), len(chosen))

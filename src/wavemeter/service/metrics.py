@@ -64,13 +64,22 @@ class Metrics:
             "wavemeter_unroutable_lines", "Source lines without a readable channel", registry=r
         )
         self.logged = Gauge("wavemeter_logged_readings", "Readings written to the log", registry=r)
+        self._children: dict[str, tuple] = {}  # per channel: readings, latency, frequency
 
     def batch(self, channel: str, flags, latency_s: float, frequency_hz: float) -> None:
         """Count a published batch (flags: its int64 flag array)."""
-        self.readings.labels(channel).inc(len(flags))
-        self.latency.labels(channel).observe(latency_s)
+        children = self._children.get(channel)
+        if children is None:
+            children = self._children[channel] = (
+                self.readings.labels(channel),
+                self.latency.labels(channel),
+                self.frequency.labels(channel),
+            )
+        readings, latency, frequency = children
+        readings.inc(len(flags))
+        latency.observe(latency_s)
         if frequency_hz == frequency_hz:
-            self.frequency.labels(channel).set(frequency_hz)
+            frequency.set(frequency_hz)
         if flags.any():
             for name, bit in _BITS:
                 count = int((flags & bit).astype(bool).sum())
