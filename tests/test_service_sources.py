@@ -217,3 +217,20 @@ def test_standard_input_whose_header_the_calibration_cannot_read_is_an_error_lin
     assert result.returncode == 2
     last = result.stderr.strip().splitlines()[-1]
     assert last.startswith("error: <stdin>: ") and "ports" in last and "--ports" in last
+
+
+def test_with_a_token_a_tcp_source_must_send_it_first(meter):
+    device, _ = meter
+    rng = np.random.default_rng(9)
+    with tcp_service(meter, "--token", "s3cret") as service:
+        port = source_port(service)
+        with socket.create_connection(("127.0.0.1", port)) as connection:
+            connection.sendall(b"P1_mW,P2_mW,P3_mW\n0.1,0.2,0.3\n")
+            answer = connection.makefile().readline()
+        assert answer.startswith("error: refused") and "#token" in answer
+        with Client(**addresses_of(service), token="s3cret") as client:
+            with socket.create_connection(("127.0.0.1", port)) as connection:
+                body = "#token s3cret\nP1_mW,P2_mW,P3_mW\n" + "\n".join(lines_of(device, 4, rng))
+                connection.sendall((body + "\n").encode())
+                assert wait_for(lambda: client.status()["channels"], 10)
+                assert wait_for(lambda: client.status()["channels"][0]["readings"] == 4, 10)
