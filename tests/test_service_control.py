@@ -26,6 +26,9 @@ from ._service import (
     wait_for,
 )
 
+#: each test starts real `wavemeter serve` processes (seconds each): not the fast tier
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def meter(tmp_path_factory):

@@ -14,6 +14,9 @@ from ._service import EPHEMERAL, serving, wait_for
 
 CHROMIUM = shutil.which("chromium")
 
+#: each test starts real `wavemeter serve` processes (seconds each): not the fast tier
+pytestmark = pytest.mark.slow
+
 
 def _metrics(url: str) -> dict:
     with urllib.request.urlopen(url + "metrics", timeout=10) as answer:

@@ -10,10 +10,14 @@ import time
 
 import numpy as np
 import pyarrow.parquet as pq
+import pytest
 
 from wavemeter.service import read_log  # noqa: E402  (after the skip of _service)
 
 from ._service import EPHEMERAL, Serve, serving
+
+#: each test starts real `wavemeter serve` processes (seconds each): not the fast tier
+pytestmark = pytest.mark.slow
 
 
 def _consecutive(table) -> dict[int, int]:

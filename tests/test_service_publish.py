@@ -9,10 +9,14 @@ import signal
 import time
 
 import numpy as np
+import pytest
 
 from wavemeter.service import Client  # noqa: E402  (after the skip of _service)
 
 from ._service import EPHEMERAL, SUBSCRIBER, child, free_port, sequences, serving, wait_for
+
+#: each test starts real `wavemeter serve` processes (seconds each): not the fast tier
+pytestmark = pytest.mark.slow
 
 
 def _batches(process) -> tuple[list[dict], dict]:

@@ -36,6 +36,7 @@ def meter(tmp_path_factory):
     return make_meter(tmp_path_factory)
 
 
+@pytest.mark.slow
 def test_a_stalled_source_has_no_signal_within_the_timeout_and_back(meter):
     device, _ = meter
     rng = np.random.default_rng(2)
@@ -55,6 +56,7 @@ def test_a_stalled_source_has_no_signal_within_the_timeout_and_back(meter):
                 assert wait_for(lambda: status() == "ok", 5)
 
 
+@pytest.mark.slow
 def test_malformed_lines_become_invalid_readings_counted(meter):
     device, _ = meter
     rng = np.random.default_rng(3)
@@ -74,6 +76,7 @@ def test_malformed_lines_become_invalid_readings_counted(meter):
     assert status["channels"][0]["flag_counts"]["INVALID"] == len(bad)
 
 
+@pytest.mark.slow
 def test_standard_input_with_a_channel_column(meter):
     device, folder = meter
     rng = np.random.default_rng(4)
@@ -96,6 +99,7 @@ def test_standard_input_with_a_channel_column(meter):
     assert status["lines"]["unroutable"] == 1 and len(got) == 39
 
 
+@pytest.mark.slow
 def test_a_tcp_connection_whose_header_the_calibration_cannot_read_gets_an_error(meter):
     with tcp_service(meter) as service:
         with socket.create_connection(("127.0.0.1", source_port(service))) as connection:
@@ -189,6 +193,7 @@ def test_a_channel_processor_sees_every_reading_and_its_output_is_published(tmp_
     assert "offset_hz" in read_log(tmp_path).column_names
 
 
+@pytest.mark.slow
 def test_a_followed_file(meter, tmp_path):
     device, folder = meter
     rng = np.random.default_rng(8)
@@ -205,6 +210,7 @@ def test_a_followed_file(meter, tmp_path):
         assert client.latest(0)["sequence"] == 11
 
 
+@pytest.mark.slow
 def test_standard_input_whose_header_the_calibration_cannot_read_is_an_error_line(meter):
     _, folder = meter
     result = subprocess.run(
@@ -219,6 +225,7 @@ def test_standard_input_whose_header_the_calibration_cannot_read_is_an_error_lin
     assert last.startswith("error: <stdin>: ") and "ports" in last and "--ports" in last
 
 
+@pytest.mark.slow
 def test_with_a_token_a_tcp_source_must_send_it_first(meter):
     device, _ = meter
     rng = np.random.default_rng(9)
