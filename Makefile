@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint docs bench trust thermal wideband cascade scale noise peers fuzz clean
+.PHONY: demo test lint docs bench trust thermal wideband cascade scale noise peers fuzz serve-bench clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -69,6 +69,11 @@ scale: $(BIN)/wavemeter
 # docs/figures/noise_adev.png
 noise: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/noise.py
+
+# issue 30: wavemeter serve vs stream, latency at 1 kHz with 1 and 3 subscribers (one stopped),
+# CPU per 1 kHz channel, the highest sustained rate with logging (a few minutes)
+serve-bench: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/serve.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'

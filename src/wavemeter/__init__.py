@@ -56,7 +56,17 @@ _WHERE = {
 }
 
 #: subpackages reachable as attributes (``wm.model.cone``), loaded on first use
-_SUBPACKAGES = ("analysis", "calibration", "fleet", "io", "jobs", "model", "report", "simulation")
+_SUBPACKAGES = (
+    "analysis",
+    "calibration",
+    "fleet",
+    "io",
+    "jobs",
+    "model",
+    "report",
+    "service",
+    "simulation",
+)
 
 __all__ = sorted(_WHERE) + ["__version__"]
 
