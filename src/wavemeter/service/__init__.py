@@ -4,8 +4,8 @@
 many subscribers (ZeroMQ), answers control requests, logs to Parquet and serves metrics and
 a live dashboard over HTTP; :class:`Client` and :class:`AsyncClient` read and control it;
 :func:`read_log` reads a log folder back. This is the only package that imports pyzmq,
-aiohttp and prometheus_client; the names below load on first use. ``docs/user-guide/service.rst``
-describes the wire format and the sockets.
+aiohttp and prometheus_client; the names below load on first use. The user guide's page
+on the service (``docs/user-guide/service.rst``) describes the wire format and the sockets.
 """
 
 from __future__ import annotations
