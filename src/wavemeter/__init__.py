@@ -31,6 +31,8 @@ _WHERE = {
     "predict_frequency_hz": "calibration",
     "retrieve_phase_rad": "calibration",
     "ReadingFlag": "calibration",
+    "ReferenceFreeCalibrator": "calibration",
+    "ReferenceLines": "reference",
     "Interferometer": "simulation",
     "CascadeInterferometer": "simulation",
     "cone_vectors": "model",
@@ -55,7 +57,17 @@ _WHERE = {
 }
 
 #: subpackages reachable as attributes (``wm.model.cone``), loaded on first use
-_SUBPACKAGES = ("analysis", "calibration", "fleet", "io", "jobs", "model", "report", "simulation")
+_SUBPACKAGES = (
+    "analysis",
+    "calibration",
+    "fleet",
+    "io",
+    "jobs",
+    "model",
+    "reference",
+    "report",
+    "simulation",
+)
 
 __all__ = sorted(_WHERE) + ["__version__"]
 

@@ -4,6 +4,7 @@ Importing this package registers every calibrator class under its file tag
 (:mod:`wavemeter.calibration.registry`).
 """
 
+from .absolute import ReferenceFreeCalibrator, self_calibrate
 from .base import BaseCalibrator
 from .baselines import (
     ConventionalCalibrator,
@@ -32,11 +33,13 @@ __all__ = [
     "NonlinearFitCalibrator",
     "PlaneEllipseCalibrator",
     "ReadingFlag",
+    "ReferenceFreeCalibrator",
     "load_calibration",
     "predict_frequency_hz",
     "registered",
     "retrieve_phase_rad",
     "save_calibration",
+    "self_calibrate",
     "ThermalCalibrator",
     "WidebandCalibrator",
 ]
