@@ -7,12 +7,18 @@ Two ways (:func:`identify_lines`):
 - **pattern**: otherwise, by the pattern of spacings. The found lines' positions (the
   meter's phase: linear in frequency up to a smooth dispersion) are mapped onto the table
   by every hypothesis that sends two neighbouring found lines to two table lines (one to
-  three table lines apart, either direction); the map is refitted (a polynomial of low
-  order) on the lines it then explains. A hypothesis stands when every found line lies
-  within a quarter of the local spacing of a distinct table line. One standing assignment
-  is the identification; none, or more than one, is refused with the reason (a band
-  without a feature that fixes the place of its lines, such as the gap at a band's origin
-  or its end, fits shifted assignments equally well). Nothing is ever guessed.
+  three table lines apart, either direction); the map (a cubic in the position) is
+  refitted on the lines it then explains. A hypothesis stands when every found line lies
+  within a quarter of the local spacing of a distinct table line. The standing assignment
+  of least chi-square (with the lines' stated frequency uncertainties, inflated by the
+  best fit's reduced chi-square when above 1) is the identification when every other one
+  is worse by at least ``DELTA_CHI2``; otherwise, or when none stands, it is refused with
+  the reason, as is a best fit whose residuals exceed the stated uncertainty by far. Found
+  lines map to consecutive table lines (unless ``allow_missing``: a missed line would look
+  like a band's origin gap). A cubic map absorbs the slow change of a band's spacing, so a
+  stretch of one branch fits assignments shifted by a line equally well: it takes a feature
+  that fixes the lines' place (the gap at a band's origin, a band end inside ``band_hz``,
+  or a known scale). Nothing is ever guessed.
 """
 
 from __future__ import annotations
@@ -32,6 +38,15 @@ QUARTER_SPACING = 0.25
 MAX_PAIR_STEP = 3
 #: refits of a hypothesis' map on the lines it explains
 REFITS = 3
+#: the identification's chi-square must beat every other standing assignment's by this
+DELTA_CHI2 = 25.0
+#: position-to-frequency map of a pattern hypothesis: polynomial order
+PATTERN_ORDER = 3
+#: default frequency uncertainty of a found line: this share of the median table spacing
+DEFAULT_STD_SPACING = 1e-3
+#: the identification's residuals may exceed the lines' stated uncertainty by this much
+#: (reduced chi-square); beyond it the map or the lines are not what they should be
+MAX_REDUCED_CHI2 = 25.0
 
 
 @dataclass(frozen=True)
@@ -80,15 +95,18 @@ def _explains(frequency: np.ndarray, centers: np.ndarray, spacing: np.ndarray):
     return nearest
 
 
-def _pattern_assignments(x: np.ndarray, centers: np.ndarray, order: int, scale_range):
-    """Every distinct standing assignment of positions ``x`` (increasing with frequency)."""
+def _pattern_assignments(
+    x: np.ndarray, centers: np.ndarray, order: int, scale_range, allow_missing: bool
+):
+    """Every distinct standing assignment of positions ``x`` (increasing with frequency),
+    with its residuals (Hz); consecutive table lines only unless ``allow_missing``."""
     spacing = _local_spacing(centers)
     count = x.size
     pairs = sorted({0, count // 2 - 1, count - 2} - {-1}) if count >= 2 else []
-    found: dict[tuple, float] = {}
+    found: dict[tuple, np.ndarray] = {}
     for i in pairs:
         for a in range(centers.size):
-            for step in range(1, MAX_PAIR_STEP + 1):
+            for step in range(1, (MAX_PAIR_STEP if allow_missing else 1) + 1):
                 b = a + step
                 if b >= centers.size:
                     break
@@ -104,8 +122,8 @@ def _pattern_assignments(x: np.ndarray, centers: np.ndarray, order: int, scale_r
                     predicted = np.polyval(coefficients, x - x.mean())
                     refit = _explains(predicted, centers, spacing)
                     if refit is not None and np.array_equal(refit, assignment):
-                        residual = predicted - centers[assignment]
-                        found[tuple(assignment)] = float(np.sqrt(np.mean(residual**2)))
+                        if allow_missing or np.all(np.diff(assignment) == 1):
+                            found[tuple(assignment)] = predicted - centers[assignment]
                         break
                     assignment = refit
     return found
@@ -121,7 +139,9 @@ def identify_lines(
     direction: int | None = None,
     scale_range=None,
     pressure_pa: float | None = None,
-    order: int = 2,
+    frequency_std_hz=None,
+    allow_missing: bool = False,
+    order: int = PATTERN_ORDER,
 ) -> Identification:
     """Identify found lines with table lines (module docstring), or refuse with the reason.
 
@@ -149,6 +169,14 @@ def identify_lines(
     pressure_pa : None or float
         The cell's pressure (Pa): the lines are expected at the table's centres shifted to it
         (``ReferenceLines.centers_at``).
+    frequency_std_hz : None, float or array_like, shape (M,)
+        Standard uncertainty (Hz) of each found line's frequency as the map would give it
+        (its centre fit and the table's); None: ``DEFAULT_STD_SPACING`` of the median table
+        spacing.
+    allow_missing : bool
+        Whether table lines between found ones may have gone unfound. By default every line
+        between the first and the last found one must be found: a missed line would look
+        like the gap at a band's origin.
     order : int
         Polynomial order of the position-to-frequency map of a pattern hypothesis.
 
@@ -206,15 +234,22 @@ def identify_lines(
                 f"found line {worst} lies {distance[worst] / 1e9:.4g} GHz from its nearest table "
                 f"line, beyond the stated axis error {axis_error_hz / 1e9:.4g} GHz"
             )
+    if frequency_std_hz is None:
+        sigma = np.full(x.size, DEFAULT_STD_SPACING * float(np.median(np.diff(centers))))
+    else:
+        sigma = np.broadcast_to(np.asarray(frequency_std_hz, dtype=float), x.shape)
+    if not np.all(np.isfinite(sigma) & (sigma > 0)):
+        raise InputError("frequency_std_hz must be finite and > 0 for every found line")
     directions = (1, -1) if direction is None else (int(direction),)
     results = {}
     for sign in directions:
         rank = np.argsort(sign * x)
-        standing = _pattern_assignments(sign * x[rank], centers, order, scale_range)
-        for assignment, rms in standing.items():
+        standing = _pattern_assignments(sign * x[rank], centers, order, scale_range, allow_missing)
+        for assignment, residual in standing.items():
             table = np.empty(x.size, dtype=int)
             table[rank] = np.asarray(assignment)
-            results[tuple(table)] = (sign, rms)
+            chi2 = float(np.sum((residual / sigma[rank]) ** 2))
+            results[tuple(table)] = (sign, chi2, float(np.sqrt(np.mean(residual**2))))
     why = ("; ".join(notes) + "; ") if notes else ""
     if not results:
         raise InputError(
@@ -224,24 +259,41 @@ def identify_lines(
             "band",
             parameter="reference_lines",
         )
-    if len(results) > 1:
-        shown = []
-        for table, (sign, rms) in list(results.items())[:3]:
-            labels = [candidates.labels[k] for k in table]
-            shown.append(
-                f"[{labels[0]} .. {labels[-1]}, direction {sign:+d}, rms {rms / 1e6:.3g} MHz]"
-            )
+    ranked = sorted(results.items(), key=lambda item: item[1][1])
+    best_table, (best_sign, best_chi2, best_rms) = ranked[0]
+    dof = max(x.size - order - 1, 1)
+    if best_chi2 / dof > MAX_REDUCED_CHI2:
         raise InputError(
-            f"{why}the {x.size} lines found cannot be identified uniquely: {len(results)} "
-            f"assignments fit their spacings, e.g. {' or '.join(shown)}. The band holds no "
-            "feature that fixes the place of its lines (a band origin gap or a band end): "
-            "sweep across one, or give a recorded axis good to a quarter of the spacing",
+            f"{why}the best assignment of the {x.size} lines found leaves residuals of "
+            f"{best_rms / 1e6:.3g} MHz RMS, {np.sqrt(best_chi2 / dof):.3g} times the lines' "
+            "uncertainty: a line missed between others (a missed line looks like a band's "
+            "origin gap), a dip that is no table line, or a phase that is not smooth in "
+            "frequency",
             parameter="reference_lines",
         )
-    ((table, (sign, rms)),) = results.items()
+    inflation = max(1.0, best_chi2 / dof)
+    rivals = [item for item in ranked[1:] if (item[1][1] - best_chi2) / inflation < DELTA_CHI2]
+    if rivals:
+        shown = []
+        for table, (sign, chi2, rms) in [ranked[0], *rivals][:3]:
+            labels = [candidates.labels[k] for k in table]
+            shown.append(
+                f"[{labels[0]} .. {labels[-1]}, direction {sign:+d}, rms {rms / 1e6:.3g} MHz, "
+                f"chi2 {chi2:.4g}]"
+            )
+        raise InputError(
+            f"{why}the {x.size} lines found cannot be identified uniquely: {len(rivals) + 1} "
+            f"assignments fit their spacings within chi2 {DELTA_CHI2:g}, e.g. "
+            f"{' or '.join(shown)}. The band holds no feature that fixes the place of its "
+            "lines (a band origin gap or a band end): sweep across one, or give a recorded "
+            "axis good to a quarter of the spacing",
+            parameter="reference_lines",
+        )
+    second = ranked[1][1][1] if len(ranked) > 1 else float("inf")
     return Identification(
-        np.asarray(table) + offset,
+        np.asarray(best_table) + offset,
         "pattern",
-        f"{why}by the pattern of spacings: the only assignment within a quarter spacing "
-        f"(direction {sign:+d}, rms {rms / 1e6:.3g} MHz with a polynomial map of order {order})",
+        f"{why}by the pattern of spacings (direction {best_sign:+d}, rms {best_rms / 1e6:.3g} "
+        f"MHz with a polynomial map of order {order}; chi2 {best_chi2:.4g}, next assignment "
+        f"{second:.4g})",
     )

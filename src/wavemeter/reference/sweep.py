@@ -195,6 +195,7 @@ def axis_from_phase(
     identification = identify_lines(
         fitted.center,
         lines,
+        frequency_std_hz=_line_std_hz(fitted, phase, phase_std, approx, scale_range, lines),
         approx_hz=approx,
         axis_error_hz=axis_error_hz,
         band_hz=band_hz,
@@ -219,6 +220,21 @@ def axis_from_phase(
         identification=identification,
         correction=correction,
     )
+
+
+def _line_std_hz(fitted, phase, phase_std, approx, scale_range, lines):
+    """Each found line's frequency uncertainty for the identification (Hz): its centre fit
+    and the phase noise at it, through the phase scale (from the recorded axis, else the
+    middle of ``scale_range``), and the table's median uncertainty; None when no scale is
+    known."""
+    if approx is not None and approx.size > 1:
+        scale = abs(np.polyfit(fitted.center, approx, 1)[0])
+    elif scale_range is not None:
+        scale = 0.5 * (scale_range[0] + scale_range[1])
+    else:
+        return None
+    spread = np.hypot(fitted.center_std, phase_std) * scale
+    return np.hypot(spread, np.median(lines.std_hz))
 
 
 def correct_sweep_axis(

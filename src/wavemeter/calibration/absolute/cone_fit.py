@@ -246,7 +246,15 @@ def fit_cone(powers, *, power=None, offsets: str = "none") -> ConeFit:
                 parameter="offsets",
             )
     shifted = readings - vertex
-    basis = np.linalg.svd(shifted, full_matrices=False)[2][:3].T
+    _, singular, right = np.linalg.svd(shifted, full_matrices=False)
+    if not singular[2] > 1e-9 * singular[0]:
+        raise InputError(
+            "the readings span fewer than 3 dimensions (singular values "
+            f"{singular[:3].tolist()}): an interferometer's readings span 3; are two port "
+            "columns copies or sums of others?",
+            parameter="powers",
+        )
+    basis = right[:3].T
     frame, spread = _cone_frame(shifted @ basis, power)
     frame_std = 0.0 if power is not None else spread * np.sqrt(2.0 / readings.shape[0])
     return ConeFit(vertex, basis, frame, spread, frame_std)

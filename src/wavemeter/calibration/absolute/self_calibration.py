@@ -3,8 +3,9 @@
 :func:`sweep_phase_reference_free` gives the meter's unwrapped phase along a sweep from the
 powers alone: a cone fitted to the whole sweep unwraps it roughly; the cone is then fitted
 again on windows of one fringe (half overlapping), where the map is nearly constant even
-when it changes across a wide band, each window's phase aligned to the rough one (direction
-and mean), each sample read in the window centred nearest to it. :func:`self_calibrate`
+when it changes across a wide band; each window's phase takes the rough one's direction
+and is joined to the previous window's where they overlap (the first to the rough phase's
+mean), and each sample is read in the window centred nearest to it. :func:`self_calibrate`
 then finds, fits and identifies the cell's lines in that phase by their spacings within the
 band and fits the axis ``f = g(phi)``: the FSR, the offset and the dispersion come from the
 line positions.
@@ -61,19 +62,30 @@ def sweep_phase_reference_free(powers, *, offsets: str = "none", window_rad: flo
     centers = np.arange(rough.min() + window_rad / 2, rough.max(), window_rad / 2)
     nearest = np.argmin(np.abs(rough[:, None] - centers[None, :]), axis=1)
     phase = rough.copy()
+    previous = None  # the last window's samples and its phase of them
     for k, center in enumerate(centers):
         inside = np.abs(rough - center) <= window_rad / 2
-        mine = nearest == k
-        if inside.sum() < MIN_WINDOW_READINGS or not mine.any():
+        if inside.sum() < MIN_WINDOW_READINGS:
+            previous = None
             continue
         local = np.unwrap(
             cone_phase_rad(fit_cone(readings[inside], offsets=offsets), readings[inside])
         )
         sign = 1.0 if np.polyfit(rough[inside], local, 1)[0] > 0 else -1.0
         difference = _wrap(sign * local - rough[inside])
-        shift = np.angle(np.mean(np.exp(1j * difference)))
-        correction = _wrap(difference - shift)
-        phase[inside & mine] = rough[inside & mine] + correction[mine[inside]]
+        # near the rough phase first, then onto the previous window where they overlap
+        aligned = rough[inside] + _wrap(difference - np.angle(np.mean(np.exp(1j * difference))))
+        if previous is not None:
+            shared = inside & previous[0]
+            if shared.sum() >= MIN_WINDOW_READINGS // 2:
+                mine = np.flatnonzero(inside)
+                lookup = np.searchsorted(mine, np.flatnonzero(shared))
+                aligned += np.mean(previous[1][shared] - aligned[lookup])
+        full = np.full(rough.size, np.nan)
+        full[inside] = aligned
+        previous = (inside, full)
+        chosen = inside & (nearest == k)
+        phase[chosen] = full[chosen]
     return phase, cone
 
 
