@@ -136,7 +136,7 @@ class ReferenceFreeCalibrator(LabelLockedCalibrator):
             "phase_origin": "first reading of the fit",
             "direction": "growing from the first to the last reading of the fit",
             "net_phase_rad": abs(net),
-            "power_spread": self.cone_.power_spread,
+            **self._method_diagnostics(),
         }
         if abs(net) < np.pi:
             warnings.warn(
@@ -157,6 +157,15 @@ class ReferenceFreeCalibrator(LabelLockedCalibrator):
 
     def _raw_phase(self, powers):
         return cone_phase_rad(self.cone_, powers)
+
+    def _method_diagnostics(self) -> dict:
+        return {
+            "cone": {
+                "power_spread": self.cone_.power_spread,
+                "frame_std_rad": self.cone_.frame_std_rad,
+                "offsets_w": self.cone_.vertex_w.tolist(),
+            }
+        }
 
     # ------------------------------------------------------------------ without labels
     def _labelled(self) -> bool:
