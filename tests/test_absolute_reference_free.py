@@ -89,7 +89,9 @@ def test_random_power_without_a_monitor_leaves_the_stated_frame_error():
     assert 0.45 < np.mean(np.square(ratios)) < 1.8
 
 
-@pytest.mark.parametrize("ports", [3, 4, 5])
+@pytest.mark.parametrize(
+    "ports", [3, pytest.param(4, marks=pytest.mark.slow), pytest.param(5, marks=pytest.mark.slow)]
+)
 def test_detector_offsets_are_fitted_when_the_power_varies(ports):
     device, frequency, phase = sweep(ports)
     power = POWER_W * (1 + 0.3 * np.random.default_rng(2).uniform(-1, 1, frequency.size))

@@ -164,9 +164,15 @@ def _fit_one(x: np.ndarray, y: np.ndarray, guess_center: float, guess_hwhm: floa
     start = np.array(
         [0.0, np.log(np.pi * peak_absorbance), np.log(0.3), np.log(0.7), baseline, 0, 0, 0]
     )
-    result = least_squares(
-        lambda p: _transmission_model(p, xs, 0.0) - y, start, method="lm", x_scale="jac"
-    )
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            result = least_squares(
+                lambda p: _transmission_model(p, xs, 0.0) - y, start, method="lm", x_scale="jac"
+            )
+    except (ValueError, FloatingPointError):  # a window that is no line drives it to inf
+        return None
+    if not (result.success and np.all(np.isfinite(result.x))):
+        return None
     params = result.x
     residual = result.fun
     dof = max(xs.size - params.size, 1)
