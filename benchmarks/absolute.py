@@ -28,9 +28,13 @@ absolute part), compared with the true-axis calibration's on the same readings.
 
 Targets (issue 32): (b) and (c) absolute RMS <= 1.2x the stated budget (RMS of the stated
 uncertainty), pooled per laser preset; z std 0.9-1.1 pooled per preset; (a) inherits the
-laser's error (RMS >= half the recorded axis's RMS error over the test band) or is refused;
-identification right in every case or refused with the reason; precision of (b), (c) <=
-1.05x the true-axis calibration's in every case. Stdout carries only the tables.
+laser's error or is refused (below); identification right in every case or refused with
+the reason; precision of (b), (c) <= 1.05x the true-axis calibration's in every case.
+"(a) inherits the laser's error": its RMS
+is at least half the laser's axis RMS error over the test band, or, where that error
+exceeds half an FSR, half of ``FSR / sqrt 12`` (the coarse value, the truth here, picks the
+fringe, so an error spread over a whole fringe is what a wrong axis leaves); or (a) is
+refused. Stdout carries only the tables.
 
 Usage: ``python benchmarks/absolute.py [--seeds 3] [--samples 50000] [--test 4000]
 [--quick]`` (``--quick`` or ``WAVEMETER_BENCH_QUICK=1``: one seed, 3 ports, 30000 samples).
@@ -229,7 +233,9 @@ def case_table(cases) -> str:
     for case in cases:
         o = case.outcomes
         cells = [case.preset, case.ports, case.seed, _mhz(case.axis_error_rms_hz, 4)]
-        cells.append("refused" if o["a"].refused else _mhz(rms(o["a"].error_hz), 4))
+        cells.append(
+            f"refused: {o['a'].refused[:70]}" if o["a"].refused else _mhz(rms(o["a"].error_hz), 4)
+        )
         for method in ("b", "c"):
             if o[method].refused:
                 cells += ["refused", "-"]
@@ -263,6 +269,7 @@ def budget_table(cases) -> str:
         "laser",
         "calibration",
         *BUDGET_TERMS,
+        "axis total",
         "calibrator's own (reading + fit)",
         "total stated",
         "abs RMS error",
@@ -278,8 +285,11 @@ def budget_table(cases) -> str:
             if not done:
                 continue
             cells = [preset, LABELS[method]]
-            for name in (*BUDGET_TERMS, "calibration"):
+            for name in BUDGET_TERMS:
                 cells.append(_mhz(rms(np.concatenate([o.terms_hz[name] for o in done]))))
+            axis = [np.sqrt(sum(o.terms_hz[name] ** 2 for name in BUDGET_TERMS)) for o in done]
+            cells.append(_mhz(rms(np.concatenate(axis))))
+            cells.append(_mhz(rms(np.concatenate([o.terms_hz["calibration"] for o in done]))))
             cells.append(_mhz(rms(np.concatenate([o.std_hz for o in done]))))
             cells.append(_mhz(rms(np.concatenate([o.error_hz for o in done]))))
             rows.append(cells)
@@ -332,18 +342,25 @@ def targets_table(cases) -> tuple[str, bool]:
                 not wrong,
             )
         plain = [c for c in mine if not c.outcomes["a"].refused]
-        inherits = all(rms(c.outcomes["a"].error_hz) >= 0.5 * c.axis_error_rms_hz for c in plain)
+        inherits = all(rms(c.outcomes["a"].error_hz) >= 0.5 * _expected_plain_hz(c) for c in plain)
         figure = ", ".join(
-            f"{_mhz(rms(c.outcomes['a'].error_hz), 4)} vs {_mhz(c.axis_error_rms_hz, 4)}"
+            f"{_mhz(rms(c.outcomes['a'].error_hz), 4)} vs {_mhz(_expected_plain_hz(c), 4)}"
             for c in plain[:3]
         )
         refused = len(mine) - len(plain)
         add(
-            f"{preset}: (a) plain shows the laser's error (RMS >= half the axis error's)",
+            f"{preset}: (a) plain shows the laser's error (RMS >= half the laser's, or refused)",
             (figure or "-") + (f"; {refused} refused" if refused else ""),
             inherits,
         )
     return markdown_table(["target", "measured", "status"], rows), passed
+
+
+def _expected_plain_hz(case) -> float:
+    """The error (Hz RMS) a calibration that inherits the laser's axis shows: the axis's own
+    RMS error, or, where that exceeds half an FSR, the RMS of an error spread evenly over one
+    FSR (``FSR / sqrt 12``): the coarse value, here the truth, then picks the fringe."""
+    return min(case.axis_error_rms_hz, DESIGN_FSR_HZ / np.sqrt(12.0))
 
 
 def anchors_table(cases) -> str:
