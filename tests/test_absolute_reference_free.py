@@ -161,6 +161,10 @@ def test_label_free_fit_has_the_documented_origin_and_direction():
         cal.predict(readings[:3])
     with pytest.raises(wm.InputError, match="not saved"):
         cal.save("never-written.json")
+    with pytest.raises(wm.InputError, match="no calibration summary"):
+        cal.summary()
+    assert cal.diagnostics_["cone"]["frame_std_rad"] >= 0
+    assert np.all(cal.flags(readings[:10]) == 0)
 
 
 def test_label_free_frequency_from_an_fsr_and_an_anchor():

@@ -191,6 +191,22 @@ class ReferenceFreeCalibrator(LabelLockedCalibrator):
     def _partial_span(self) -> bool:
         return self._labelled() and super()._partial_span()
 
+    def summary(self):
+        """The fit report (see the base class), for a fit with frequencies.
+
+        Raises
+        ------
+        InputError
+            For a fit without frequencies: it has no frequency scale to report; its phase
+            convention and the cone's numbers are in ``diagnostics_``.
+        """
+        if not self._labelled():
+            raise InputError(
+                "a reference-free fit without frequencies has no calibration summary: its "
+                "phase convention and the cone's numbers are in diagnostics_"
+            )
+        return super().summary()
+
     def save(self, path) -> None:
         """Write the calibration file (a fit with frequencies only).
 
