@@ -62,7 +62,7 @@ noise: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/noise.py
 
 # issue 32: absolute accuracy from a reference cell: plain, axis-corrected and self-calibrated
-# over a simulated cell's band, three laser presets, 3/4/5 ports, three seeds (about 30 min)
+# over a simulated cell's band, three laser presets, 3/4/5 ports, three seeds (15-35 min)
 absolute: $(BIN)/wavemeter
 	cd benchmarks && ../$(BIN)/python absolute.py
 
