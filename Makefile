@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint docs bench trust thermal wideband cascade scale noise peers fuzz serve-bench clean
+.PHONY: demo test lint docs bench trust thermal wideband cascade scale noise absolute peers fuzz serve-bench clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -74,6 +74,11 @@ noise: $(BIN)/wavemeter
 # CPU per 1 kHz channel, the highest sustained rate with logging (a few minutes)
 serve-bench: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/serve.py
+
+# issue 32: absolute accuracy from a reference cell: plain, axis-corrected and self-calibrated
+# over a simulated cell's band, three laser presets, 3/4/5 ports, three seeds (15-35 min)
+absolute: $(BIN)/wavemeter
+	cd benchmarks && ../$(BIN)/python absolute.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'
