@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 from scipy import stats
@@ -49,9 +50,9 @@ def chi2_median(free: int, noise_dof: float) -> float:
     return free * float(stats.f.median(free, noise_dof))
 
 
-@dataclasses.dataclass(frozen=True)
-class OffModelBasis:
-    """The calibration sweep's cone distances, as ``OFF_MODEL`` uses them.
+class OffModelBasis(NamedTuple):
+    """The calibration sweep's cone distances, as ``OFF_MODEL`` uses them (a named tuple:
+    plain numbers, as learned attributes are).
 
     Attributes
     ----------
