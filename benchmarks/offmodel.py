@@ -14,7 +14,7 @@ Data sets:
   random frequencies over the FSR;
 - simulated, model error: the same devices read through detectors that compress by
   ``COMPRESSION`` (5 %) at the sweep's largest reading (``p - 0.05 p^2 / p_max``, sweep and
-  test alike): the fit warns ``other_misfit``, the sweep's median distance is 50-100 times
+  test alike): the fit warns ``other_misfit``, the sweep's median distance is 12-130 times
   the noise's;
 - measured: the MiniPTI 3x3 fibre coupler (``../shared/data/minipti-fiber-3x3``, 3726
   readings of ``DC CH1..3`` in V), calibrated with MiniPTI's published phase as the label
