@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint docs bench trust thermal wideband cascade scale noise absolute peers fuzz serve-bench clean
+.PHONY: demo test lint docs bench trust offmodel thermal wideband cascade scale noise absolute peers fuzz serve-bench clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -46,6 +46,11 @@ bench: $(BIN)/wavemeter
 # the fault catalogue of issue 9: every fault at three severities, warnings, flags, remedies
 trust: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/trust.py
+
+# issue 29: OFF_MODEL against the calibration's own distances, old and new rule side by side on
+# simulated devices (clean, with a model error) and the measured fibre coupler (about a minute)
+offmodel: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/offmodel.py
 
 # the thermally compensated calibration of issue 10: ThermalCalibrator against its bound, plain
 # and re-anchored plain calibrations; writes docs/figures/thermal_error_vs_temperature.png

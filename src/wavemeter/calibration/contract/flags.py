@@ -9,7 +9,11 @@ integer per reading whose bits are :class:`ReadingFlag` members:
     calibrated noise of port ``j``), is improbable: its p-value is below
     ``OFF_MODEL_P_VALUE`` (1e-6). With the noise estimated on ``dof`` degrees of freedom,
     ``chi2 / (n - 2)`` follows an F distribution with ``(n - 2, dof)`` degrees of freedom.
-    Only calibrators with a cone map (the learned ones) test it.
+    When the calibration sweep's own distances show a model error (the fit then warns,
+    e.g. ``other_misfit``), that distribution is scaled to the sweep's median distance
+    (:mod:`~wavemeter.calibration.contract.off_model`): the flag then means "unlike the
+    calibration's readings", not "off the model by more than the noise". Only calibrators
+    with a cone map (the learned ones) test it.
 ``OUTSIDE_SPAN`` (2)
     The frequency lies outside the calibrated span by more than 5 standard deviations,
     for a calibration over less than one FSR (which extrapolates there); for a
