@@ -6,8 +6,8 @@ column), then turns every data line into an output line the moment it arrives, w
 flushed before the next line is read: ``frequency_hz,wavelength_nm,frequency_std_hz``, for
 a cascade ``order_error_probability``, then ``flags``, floats at full precision (the
 shortest text that reads back to the same float64, as the table writer writes them). Each
-reading goes through the calibration's :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.stream`,
-so it gets the numbers ``predict``, ``frequency_std_hz`` and ``flags`` give it.
+reading goes through the calibration's ``stream``, so it gets the numbers ``predict``,
+``frequency_std_hz`` and ``flags`` give it.
 
 A line that is no reading (another number of cells than the header, text where a number
 should be) or an invalid one (NaN, a power-meter sentinel, no light, as in files) is written
@@ -37,7 +37,8 @@ from ..io.reading import ColumnChecks, ColumnPlan, PlainRowConverter, convert_ro
 from ..io.source import Source
 from ..io.text import column_names, split_cells
 from ..units import SPEED_OF_LIGHT_M_S
-from .measure import about_file, check_stream
+from .measure import about_file
+from .readings import check_reading_options, check_readings
 
 __all__ = [
     "stream_lines",
@@ -177,12 +178,20 @@ def stream_lines(
     summary = StreamSummary(source=source)
     numbered = iter(enumerate(lines, start=1))
     thermal = "temperature_k" in calibration.requires
+    check_reading_options(calibration, coarse_hz=coarse_hz, temperature_k=temperature_k)
+    ports_given = request is not None and request.ports is not None
     try:
         with about_file(source):
             header = _read_header(numbered, source, request, thermal and temperature_k is None)
             if check is not None:
                 check(header)
-            check_stream(calibration, header, coarse_hz, temperature_k)
+            check_readings(
+                calibration,
+                header,
+                coarse_hz=coarse_hz,
+                temperature_k=temperature_k,
+                ports_given=ports_given,
+            )
         _Stream(calibration, header, out, coarse_hz, temperature_k).run(numbered, summary)
     except KeyboardInterrupt:
         summary.interrupted = True
