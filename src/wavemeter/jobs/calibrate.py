@@ -240,12 +240,12 @@ def _recorded(label: str):
         yield caught
 
 
-def _fit_in_chunks(calibrator, path, options: CalibrateOptions, progress, check):
-    """Read the sweep in chunks and fit it: what was read, a sample of its rows, the
-    fit's warnings."""
-    label = input_label(path)
+def _fit_in_chunks(calibrator, paths: tuple, options: CalibrateOptions, progress, check):
+    """Read the (one) sweep in chunks and fit it: what was read, a sample of its rows, the
+    inputs of its readings (none), the fit's warnings."""
+    label = input_label(paths[0])
     stream = iter_readings(
-        path,
+        paths[0],
         options.request,
         chunk_rows=CHUNK_ROWS,
         need_x=True,
@@ -356,11 +356,10 @@ def calibrate_file(
     calibrator = build_calibrator(options)
     _check_inputs(calibrator, paths, options)
     record = options_record(options, calibrator)
-    in_chunks = "fit_chunks" in calibrator.capabilities and len(paths) == 1
-    fit = _fit_in_chunks if in_chunks and not calibrator.requires else _fit_whole
-    read, sample, inputs, caught = fit(
-        calibrator, paths[0] if fit is _fit_in_chunks else paths, options, progress, check
-    )
+    # in chunks: a calibrator that can (a set cannot), of one sweep, needing no inputs
+    chunked = "fit_chunks" in calibrator.capabilities and not calibrator.requires
+    fit = _fit_in_chunks if chunked and len(paths) == 1 else _fit_whole
+    read, sample, inputs, caught = fit(calibrator, paths, options, progress, check)
     if options.strict and caught:
         raise CalibrationRefused(read.label, caught)
     crlb_rms_hz = _crlb_rms_hz(calibrator, sample.powers_w, sample.frequency_hz, inputs)
