@@ -47,7 +47,7 @@ def main() -> None:
         if has_arrow:
             seconds, _ = median_time_s(lambda: read_table(csv_path), args.runs)
             results.append((label, "pyarrow.csv", seconds))
-        with mock.patch("wavemeter.io.text._parse_text_with_arrow", return_value=None):
+        with mock.patch("wavemeter.io.text._pyarrow", return_value=None):
             seconds, _ = median_time_s(lambda: read_table(csv_path), args.runs)
         results.append((label, "numpy.loadtxt", seconds))
         output = {

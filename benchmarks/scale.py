@@ -65,7 +65,7 @@ from wavemeter.calibration.models.delay_search import search_delay  # noqa: E402
 from wavemeter.calibration.models.learned_fit import fit_learned_map  # noqa: E402
 from wavemeter.calibration.models.linear_map import map_cost, object_vectors, unfitted_cost  # noqa: E402
 from wavemeter.calibration.models.subsample import DIAGNOSTIC_SAMPLES  # noqa: E402
-from wavemeter.model import kernels  # noqa: E402
+from wavemeter.model import kernels, numba_kernel  # noqa: E402
 
 SEED = 7
 FSR_HZ = 50e9
@@ -247,10 +247,10 @@ WHOLE_FIT_HEADERS = (
 def use_numpy(flag: bool) -> None:
     """Switch the fused kernels between numba and numpy for the calls that follow."""
     if flag:
-        os.environ[kernels.NO_NUMBA_VARIABLE] = "1"
+        os.environ[numba_kernel.NO_NUMBA_VARIABLE] = "1"
     else:
-        os.environ.pop(kernels.NO_NUMBA_VARIABLE, None)
-    kernels._numba_module.cache_clear()
+        os.environ.pop(numba_kernel.NO_NUMBA_VARIABLE, None)
+    numba_kernel.numba_module.cache_clear()
 
 
 def predict_rows(sizes, runs: int) -> tuple[list[list[str]], list[list[str]]]:
@@ -398,7 +398,7 @@ def main(argv=None) -> None:
     parts = set(args.only.split(","))
     start = time.perf_counter()
     print(
-        f"# Scale (issue 13): fused kernels on the {kernels.kernel_backend()} path, "
+        f"# Scale (issue 13): fused kernels on the {numba_kernel.kernel_backend()} path, "
         f"{os.cpu_count()} cores, OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}"
     )
     if "fit" in parts:

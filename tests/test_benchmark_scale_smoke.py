@@ -43,7 +43,7 @@ def test_predict_row_times_every_path_against_arctan2(scale):
     for ratio, rate in zip(row[2:], throughput[2:], strict=True):
         assert float(rate) == pytest.approx(arctan_rate / float(ratio.split()[0]), rel=0.02)
     # the switch between the paths is undone: the next predict takes the default path again
-    assert scale.kernels.kernel_backend() in scale.kernels.BACKENDS
+    assert scale.numba_kernel.kernel_backend() in scale.kernels.BACKENDS
     assert np.isfinite(cals["pinv"].predict(powers)).all()
 
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.methods import learned
+from wavemeter.calibration.methods import learned_chunks
 from wavemeter.calibration.models.learned_fit import gram_objects as _gram_objects
 from wavemeter.calibration.models.linear_map import object_delay_derivative, object_vectors
 from wavemeter.calibration.models.moments import FringeMoments
@@ -356,7 +356,7 @@ def test_a_long_sweep_in_chunks_is_the_fit_to_rounding():
 
 def test_a_wrong_design_fsr_is_refused_before_the_moments_grow(monkeypatch):
     frequency, powers = sweep()
-    monkeypatch.setattr(learned, "MAX_MOMENT_BYTES", 1 << 20)
+    monkeypatch.setattr(learned_chunks, "MAX_MOMENT_BYTES", 1 << 20)
     # 50 Hz: a bin per reading, 0.5 kB each: the moments are dropped at 1 MiB
     moments, sample = calibrator(fsr_hz=50.0)._accumulate(chunked(frequency, powers))
     assert moments is None and sample.samples == SAMPLES
@@ -367,7 +367,7 @@ def test_a_wrong_design_fsr_is_refused_before_the_moments_grow(monkeypatch):
 
 def test_a_sweep_over_too_many_fringes_for_the_moments_is_refused(monkeypatch):
     frequency, powers = sweep()
-    monkeypatch.setattr(learned, "MAX_MOMENT_BYTES", 1000)
+    monkeypatch.setattr(learned_chunks, "MAX_MOMENT_BYTES", 1000)
     with pytest.raises(wm.InputError, match="binned moments would take more than") as info:
         calibrator().fit(powers, frequency)
     assert info.value.parameter == "fsr_hz"

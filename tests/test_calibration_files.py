@@ -15,11 +15,7 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.files.document import (
-    MAX_DEPTH,
-    MAX_INTEGER_DIGITS,
-    SCHEMA_VERSION,
-)
+from wavemeter.calibration.files.document import MAX_DEPTH, MAX_INTEGER_DIGITS, SCHEMA_VERSION
 from wavemeter.cli._common import printable
 
 from .conftest import NOISE_W, POWER_W

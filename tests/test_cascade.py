@@ -16,7 +16,8 @@ import pytest
 from scipy import stats
 
 import wavemeter as wm
-from wavemeter.calibration.methods.cascade import DISAGREEMENT_STD, HANDOVER_CAUSE
+from wavemeter.calibration.methods.cascade_chain import DISAGREEMENT_STD
+from wavemeter.calibration.methods.cascade_handover import HANDOVER_CAUSE
 from wavemeter.calibration.methods.cascade_reading import noise_scale
 from wavemeter.model import handover_error_probability, wrap_error_probability
 

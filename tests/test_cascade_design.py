@@ -17,9 +17,9 @@ import pytest
 from scipy import integrate
 
 import wavemeter as wm
-from wavemeter.model.cascade_design import (
+from wavemeter.model.cascade_design import MAX_STAGES
+from wavemeter.model.cascade_search import (
     _SERIES_MARGIN,
-    MAX_STAGES,
     _log_edge_rate,
     _log_handover_rate,
     _log_tail_integral,

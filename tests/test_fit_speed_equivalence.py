@@ -1,6 +1,6 @@
 """The lean fit diagnostics compute the numbers of the code they replaced (issue 13).
 
-``misfit_report`` (with :mod:`wavemeter.calibration.checks.residual_tests`) and ``cone_vectors``
+``misfit_report`` (with :mod:`wavemeter.stats`, then in ``residual_tests``) and ``cone_vectors``
 were rewritten to be fast on large sweeps without changing a decision or a reported number
 beyond rounding. Each case here is computed twice: with today's code and with the code of
 ``FROZEN_COMMIT`` (read from git and loaded beside the package, its own ``cone_vectors``
@@ -37,12 +37,13 @@ import pytest
 from scipy import fft, linalg
 
 import wavemeter as wm
-from wavemeter.calibration.checks import misfit, residual_tests
+from wavemeter.calibration.checks import misfit, misfit_causes
 from wavemeter.calibration.fitting import steps
 from wavemeter.calibration.methods import learned
 from wavemeter.calibration.models.learned_fit import fit_learned_map
 from wavemeter.model import cone
 from wavemeter.simulation.drift import flicker_power_noise, slow_power_drift
+from wavemeter.stats import blocks, cosine_transform, nested_tests
 
 from .test_dead_ports import darken
 from .test_misfit_wideband import narrow_band_case, wideband_report, wideband_sweep
@@ -133,14 +134,14 @@ def path(request, frozen, monkeypatch):
     reference from DCTs); ``blocks`` runs today's passes over the readings in blocks of 97
     rows (the sweeps here are shorter than one block of ``ROW_BLOCK``)."""
     if request.param == "blocks":
-        monkeypatch.setattr(residual_tests, "ROW_BLOCK", 97)
-    for module in (residual_tests, frozen.residual_tests):
+        monkeypatch.setattr(blocks, "ROW_BLOCK", 97)
+    for module in (nested_tests, frozen.residual_tests):
         if request.param.endswith("projected"):
             monkeypatch.setattr(module, "MAX_FORMED_DIRECTIONS", 0)
         if request.param == "formed":
             monkeypatch.setattr(module, "MIN_DCT_READINGS", 10**9)
     if request.param.startswith("taylor"):
-        monkeypatch.setattr(residual_tests, "MIN_TAYLOR_BLOCK", 1)
+        monkeypatch.setattr(cosine_transform, "MIN_TAYLOR_BLOCK", 1)
     return request.param
 
 
@@ -365,17 +366,17 @@ def test_taylor_cosine_coefficients_are_the_dcts(samples, orders, monkeypatch):
     """The block Taylor series give scipy's DCT-II coefficients and DCT-III sums to
     rounding: ``1e-14`` of the values' RMS times ``sqrt(N)`` (the coefficients' scale),
     any length (a prime, blocks with a tail), any number of orders."""
-    monkeypatch.setattr(residual_tests, "MIN_TAYLOR_BLOCK", 1)
+    monkeypatch.setattr(cosine_transform, "MIN_TAYLOR_BLOCK", 1)
     rng = np.random.default_rng(samples + orders)
     values = rng.standard_normal((samples, 2))
     expected = fft.dct(values, type=2, axis=0)[:orders] / 2.0
-    got = residual_tests._cosine_analysis(values, orders)
+    got = cosine_transform.cosine_analysis(values, orders)
     assert np.abs(got - expected).max() <= 1e-14 * np.sqrt(samples)
     coefficients = rng.standard_normal((orders - 1, 2))
     padded = np.zeros((samples, 2))
     padded[1:orders] = coefficients / 2.0
     expected = fft.dct(padded, type=3, axis=0)
-    got = residual_tests._cosine_synthesis(coefficients, samples)
+    got = cosine_transform.cosine_synthesis(coefficients, samples)
     assert np.abs(got - expected).max() <= 1e-14 * np.sqrt(orders)
 
 
@@ -384,12 +385,12 @@ def test_orthonormal_columns_span_what_orth_spans(rank, monkeypatch):
     """Householder QR and the SVD of its triangle give scipy's ``orth``: the same rank
     (here a fourth column that is, or is not, a combination of the others) and the same
     projector, to rounding."""
-    monkeypatch.setattr(residual_tests, "ROW_BLOCK", 97)
+    monkeypatch.setattr(blocks, "ROW_BLOCK", 97)
     rng = np.random.default_rng(rank)
     columns = rng.standard_normal((1000, 4))
     if rank == 3:
         columns[:, 3] = columns[:, :3] @ np.array([0.5, -2.0, 1.0])
-    basis = residual_tests.orthonormal_columns(columns)
+    basis = blocks.orthonormal_columns(columns)
     expected = linalg.orth(columns)
     assert basis.shape == expected.shape == (1000, rank)
     np.testing.assert_allclose(basis.T @ basis, np.eye(rank), atol=1e-14)
@@ -409,7 +410,7 @@ def test_the_cases_cover_every_cause(frozen):
     causes = set()
     for case in CASES.values():
         causes.update(_report(_frozen_report(frozen), case()).causes)
-    assert causes == set(misfit.CAUSES)
+    assert causes == set(misfit_causes.CAUSES)
 
 
 @pytest.mark.parametrize("taylor", [False, True])
@@ -418,7 +419,7 @@ def test_wideband_report_is_todays(degree, taylor, frozen, monkeypatch):
     """Each reading's map, a design and two phase coefficients (a stack of maps)."""
     sweep, coefficients = case_wideband()
     if taylor:
-        monkeypatch.setattr(residual_tests, "MIN_TAYLOR_BLOCK", 1)
+        monkeypatch.setattr(cosine_transform, "MIN_TAYLOR_BLOCK", 1)
     new = wideband_report(sweep, coefficients, degree)
 
     def compute(report):
@@ -470,8 +471,8 @@ def test_calibrator_fit_is_todays(name, retrieval, frozen, monkeypatch):
     of 997 readings): the diagnostics, the warnings and what the fit takes from the report
     (the noise after a misfit, the parameter covariance)."""
     frequency, powers, monitor = FIT_CASES[name]()
-    monkeypatch.setattr(residual_tests, "MIN_TAYLOR_BLOCK", 1)
-    monkeypatch.setattr(residual_tests, "ROW_BLOCK", 997)
+    monkeypatch.setattr(cosine_transform, "MIN_TAYLOR_BLOCK", 1)
+    monkeypatch.setattr(blocks, "ROW_BLOCK", 997)
     new = _fit(frequency, powers, monitor, retrieval=retrieval)
 
     def compute(report):

@@ -371,9 +371,9 @@ def test_rows_with_another_number_of_fields_name_their_line(
     tmp_path, monkeypatch, parser, text, expected
 ):
     if parser != "arrow":
-        monkeypatch.setattr("wavemeter.io.text._parse_text_with_arrow", lambda *args: None)
+        monkeypatch.setattr("wavemeter.io.text._pyarrow", lambda: None)
     if parser == "exact":
-        monkeypatch.setattr("wavemeter.io.text._parse_text_with_numpy", lambda *args: None)
+        monkeypatch.setattr("wavemeter.io.text._parse_with_numpy", lambda *args: None)
     path = _csv(tmp_path / "s.csv", text)
     with pytest.raises(FileFormatError, match=rf"^{path}: {expected}, the header has 4"):
         read_table(path)

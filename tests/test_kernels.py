@@ -12,7 +12,7 @@ import pytest
 
 import wavemeter as wm
 from wavemeter.calibration.models.learned_fit import retrieve_phase_rad
-from wavemeter.model import kernels
+from wavemeter.model import kernels, numba_kernel
 from wavemeter.model.cone import cone_vectors, phase_to_frequency_hz, wrap_phase_rad
 from wavemeter.model.retrieval import cone_ml_phase_rad
 from wavemeter.validation import check_powers
@@ -32,16 +32,16 @@ RETRIEVALS = ("pinv", "ml")
 @pytest.fixture(autouse=True)
 def fresh_backend_choice():
     """Each test finds numba (or not) afresh, and leaves no choice behind."""
-    kernels._numba_module.cache_clear()
+    numba_kernel.numba_module.cache_clear()
     yield
-    kernels._numba_module.cache_clear()
+    numba_kernel.numba_module.cache_clear()
 
 
 def needs(backend: str) -> None:
     if backend == "numba":
         pytest.importorskip("numba")
-        if kernels.kernel_backend() != "numba":
-            pytest.skip(f"{kernels.NO_NUMBA_VARIABLE} is set")
+        if numba_kernel.kernel_backend() != "numba":
+            pytest.skip(f"{numba_kernel.NO_NUMBA_VARIABLE} is set")
 
 
 def phase_gap_rad(a, b) -> np.ndarray:
@@ -165,8 +165,8 @@ def test_shared_and_single_thread_calls_give_the_same_bits(monkeypatch, retrieva
 
     monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 2)  # shared even on one core
     cal, device, rng = fitted(3, seed=21, retrieval=retrieval)
-    readings = sample_readings(cal, device, rng, 3 * kernels.BLOCK_ROWS + 5, np.zeros(3))
-    assert readings.shape[0] > 2 * kernels.BLOCK_ROWS  # several parts
+    readings = sample_readings(cal, device, rng, 3 * numba_kernel.BLOCK_ROWS + 5, np.zeros(3))
+    assert readings.shape[0] > 2 * numba_kernel.BLOCK_ROWS  # several parts
     found = {}
     for shared, threshold in ((False, readings.shape[0] + 1), (True, 1)):
         monkeypatch.setitem(kernels.PARALLEL_MIN_READINGS, retrieval, threshold)
@@ -272,8 +272,8 @@ def test_bad_shapes_are_refused():
 
 # ---------------------------------------------------------------- choosing the path
 def test_no_numba_variable_keeps_the_numpy_path(monkeypatch):
-    monkeypatch.setenv(kernels.NO_NUMBA_VARIABLE, "1")
-    assert kernels.kernel_backend() == "numpy"
+    monkeypatch.setenv(numba_kernel.NO_NUMBA_VARIABLE, "1")
+    assert numba_kernel.kernel_backend() == "numpy"
     monkeypatch.setattr(kernels, "_numba_path", None)  # any call to it would fail
     readings = np.tile([2.0, 1.0, 1.0], (LARGE, 1))
     np.testing.assert_array_equal(
@@ -286,8 +286,8 @@ def test_no_numba_variable_keeps_the_numpy_path(monkeypatch):
 @pytest.mark.parametrize("retrieval", RETRIEVALS)
 def test_numba_takes_large_batches_only(monkeypatch, retrieval):
     needs("numba")
-    monkeypatch.setenv(kernels.NO_NUMBA_VARIABLE, "0")
-    assert kernels.kernel_backend() == "numba"
+    monkeypatch.setenv(numba_kernel.NO_NUMBA_VARIABLE, "0")
+    assert numba_kernel.kernel_backend() == "numba"
     cal, device, rng = fitted(3, seed=7, retrieval=retrieval)
     calls = []
     numba_path = kernels._numba_path
@@ -321,23 +321,23 @@ def test_the_disk_cache_keeps_a_kernel_per_setting(tmp_path):
     pytest.importorskip("numba")
     code = (
         "import sys, numpy as np\n"
-        "from wavemeter.model import kernels\n"
-        "kernels.MAX_STEPS = int(sys.argv[1])\n"
+        "from wavemeter.model import kernels, numba_kernel\n"
+        "numba_kernel.MAX_STEPS = int(sys.argv[1])\n"
         "rng = np.random.default_rng(1)\n"
         "readings = rng.uniform(1.0, 2.0, (kernels.NUMBA_MIN_READINGS['ml'], 3))\n"
         "phase = kernels.fused_ml_phase_rad(readings, rng.normal(size=(3, 3)), backend='numba')\n"
         "print(phase[:20].tolist())\n"
     )
-    env = {k: v for k, v in os.environ.items() if k != kernels.NO_NUMBA_VARIABLE}
+    env = {k: v for k, v in os.environ.items() if k != numba_kernel.NO_NUMBA_VARIABLE}
     env["NUMBA_CACHE_DIR"] = str(tmp_path)
 
     def phases(max_steps: int) -> str:
         command = [sys.executable, "-c", code, str(max_steps)]
         return subprocess.run(command, capture_output=True, text=True, check=True, env=env).stdout
 
-    converged = phases(kernels.MAX_STEPS)
+    converged = phases(numba_kernel.MAX_STEPS)
     assert phases(1) != converged  # one step: not the cached kernel of MAX_STEPS steps
-    assert phases(kernels.MAX_STEPS) == converged
+    assert phases(numba_kernel.MAX_STEPS) == converged
 
 
 @pytest.mark.skipif(not hasattr(os, "register_at_fork"), reason="no fork on this platform")
@@ -348,17 +348,17 @@ def test_a_process_forked_after_a_kernel_ran_runs_the_kernels_too():
     pytest.importorskip("numba")
     code = (
         "import multiprocessing, numpy as np\n"
-        "from wavemeter.model import kernels\n"
+        "from wavemeter.model import kernels, numba_kernel\n"
         "readings = np.tile([2.0, 1.0, 1.0], (kernels.PARALLEL_MIN_READINGS['pinv'], 1))\n"
         "def phase(_):\n"
         "    found = kernels.fused_pinv_phase_rad(readings, np.eye(3), backend='numba')\n"
-        "    return kernels.kernel_backend(), float(np.ptp(found)), float(found[0])\n"
+        "    return numba_kernel.kernel_backend(), float(np.ptp(found)), float(found[0])\n"
         "if __name__ == '__main__':\n"
         "    phase(0)\n"
         "    with multiprocessing.get_context('fork').Pool(1) as pool:\n"
         "        print(*pool.map_async(phase, [0]).get(timeout=60)[0])\n"
     )
-    env = {k: v for k, v in os.environ.items() if k != kernels.NO_NUMBA_VARIABLE}
+    env = {k: v for k, v in os.environ.items() if k != numba_kernel.NO_NUMBA_VARIABLE}
     env["NUMBA_NUM_THREADS"] = "2"  # a shared call even on a single core
     run = subprocess.run(
         [sys.executable, "-c", code],
@@ -388,7 +388,7 @@ def steps_one_by_one(cal, readings, offset_w) -> np.ndarray:
 def test_calibrator_predict_equals_the_steps_one_by_one(monkeypatch, retrieval, ports, no_numba):
     if no_numba == "0":
         needs("numba")
-    monkeypatch.setenv(kernels.NO_NUMBA_VARIABLE, no_numba)
+    monkeypatch.setenv(numba_kernel.NO_NUMBA_VARIABLE, no_numba)
     dark = np.linspace(1e-6, 4e-6, ports)
     cal, device, rng = fitted(ports, seed=ports + 20, retrieval=retrieval, dark_w=dark)
     for samples in (1, 50, LARGE // 3):  # the small path and, with numba, the large one

@@ -17,11 +17,13 @@ import pytest
 from scipy import stats
 
 import wavemeter as wm
-from wavemeter.calibration.checks import residual_tests
-from wavemeter.calibration.checks.misfit import CAUSES, TEST_P_VALUE, MisfitReport, misfit_report
+from wavemeter.calibration.checks.misfit import MisfitReport, misfit_report
+from wavemeter.calibration.checks.misfit_causes import CAUSES
 from wavemeter.calibration.models.learned_fit import fit_learned_map
 from wavemeter.exceptions import CalibrationWarning, InputError
 from wavemeter.simulation.drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
+from wavemeter.stats import nested_tests
+from wavemeter.stats.nested_tests import TEST_P_VALUE
 
 POWER_W = 1e-3
 NOISE_W = 5e-7  # Table 1
@@ -425,7 +427,7 @@ def test_cosines_through_dcts_give_the_statistics_of_the_formed_columns(monkeypa
     drift = slow_power_drift(600, 0.002, rng=44)
     powers = device.powers(frequency, POWER_W * drift, NOISE_W, rng=45)
     fast = report_of(frequency, powers)
-    monkeypatch.setattr(residual_tests, "MIN_DCT_READINGS", 10**9)
+    monkeypatch.setattr(nested_tests, "MIN_DCT_READINGS", 10**9)
     formed = report_of(frequency, powers)
     assert fast.causes == formed.causes == ("power_drift",)
     assert 0.0 < fast.p_values["power"] < TEST_P_VALUE  # a drift, p-values not underflowed
@@ -464,7 +466,7 @@ def test_a_deep_power_dip_forms_the_cosine_columns(monkeypatch):
     frequency, powers = sweep(device, 1001, power_w=POWER_W * scale, seed=43)
     report = report_of(frequency, powers, scale=scale)
     assert not report.misfit  # in the model
-    monkeypatch.setattr(residual_tests, "MIN_DCT_READINGS", 10**9)
+    monkeypatch.setattr(nested_tests, "MIN_DCT_READINGS", 10**9)
     formed = report_of(frequency, powers, scale=scale)
     for name in ("power", "phase"):
         assert report.p_values[name] == pytest.approx(formed.p_values[name], rel=1e-12)

@@ -23,13 +23,14 @@ import pytest
 from scipy import optimize, special
 
 import wavemeter as wm
-from wavemeter.calibration.checks import residual_tests
-from wavemeter.calibration.checks.misfit import TEST_P_VALUE, MisfitReport, misfit_report
-from wavemeter.calibration.checks.residual_tests import Projector
+from wavemeter.calibration.checks.misfit import MisfitReport, misfit_report
 from wavemeter.calibration.models.learned_fit import fit_learned_map
 from wavemeter.exceptions import InputError
 from wavemeter.model.cone import cone_vectors, delay_phase_rad
 from wavemeter.simulation.drift import slow_power_drift
+from wavemeter.stats import cosine_columns, nested_tests
+from wavemeter.stats.nested_tests import TEST_P_VALUE
+from wavemeter.stats.projection import Projector
 
 POWER_W = 1e-3
 NOISE_W = 5e-7  # Table 1
@@ -329,18 +330,18 @@ def test_projected_directions_give_the_statistics_of_the_formed_ones(monkeypatch
     sweep = wideband_sweep(4, 71, higher_phase_rad=(QUADRATIC_PHASE_RAD, 0.1), power=drift)
     coefficients = sweep.phase_coefficients_rad
     built = []
-    original = residual_tests.ProjectedCosineColumns.__init__
+    original = cosine_columns.ProjectedCosineColumns.__init__
 
     def spy(self, *args):
         original(self, *args)
         built.append(self)
 
-    monkeypatch.setattr(residual_tests.ProjectedCosineColumns, "__init__", spy)
-    monkeypatch.setattr(residual_tests, "MAX_FORMED_DIRECTIONS", 0)
+    monkeypatch.setattr(cosine_columns.ProjectedCosineColumns, "__init__", spy)
+    monkeypatch.setattr(nested_tests, "MAX_FORMED_DIRECTIONS", 0)
     projected = wideband_report(sweep, coefficients, 2)
     assert len(built) == 2  # the power and phase tests
     assert sum(columns.frame.shape[1] for columns in built) >= 1
-    monkeypatch.setattr(residual_tests, "MIN_DCT_READINGS", 10**9)
+    monkeypatch.setattr(nested_tests, "MIN_DCT_READINGS", 10**9)
     formed = wideband_report(sweep, coefficients, 2)
     assert projected.causes == formed.causes == ("power_drift",)
     assert 0.0 < projected.p_values["power"] < TEST_P_VALUE  # a drift, not underflowed

@@ -18,13 +18,9 @@ import pytest
 import wavemeter as wm
 from wavemeter.calibration.contract.flags import ReadingFlag
 from wavemeter.exceptions import CalibrationWarning, InputError
-from wavemeter.jobs.noise import (
-    AMBIGUOUS_STEP_CAUSE,
-    EXCLUDED_FLAGS,
-    measure_series,
-    reads_modulo_fsr,
-    time_unit_s,
-)
+from wavemeter.jobs.noise import EXCLUDED_FLAGS, measure_series, reads_modulo_fsr
+from wavemeter.jobs.noise_clock import time_unit_s
+from wavemeter.jobs.noise_unwrap import AMBIGUOUS_STEP_CAUSE
 
 from .conftest import NOISE_W, POWER_W
 
@@ -78,8 +74,8 @@ def test_series_is_the_calibrations_frequency_in_file_order_whatever_the_chunks(
     assert whole.rows == ROWS and whole.excluded == 0 and whole.rate_hz == RATE_HZ
     assert whole.unwrapped and whole.fsr_hz == calibration.fsr_hz_
     assert whole.time_column is None and whole.ambiguous_steps == 0
-    # progress in bytes of the text file, once per chunk, to its end
-    assert (progress.total, progress.unit) == (path.stat().st_size, "bytes")
+    # progress in rows of the text file (counted before reading), once per chunk, to its end
+    assert (progress.total, progress.unit) == (ROWS, "rows")
     assert len(progress.steps) == -(-ROWS // 257) and progress.steps[-1] == progress.total
 
 
@@ -141,7 +137,10 @@ def test_a_drift_over_two_fsrs_is_unwrapped_chunk_by_chunk(meter, tmp_path, rng)
         assert np.max(np.abs(error - np.mean(error))) < 5 * series.meter_std_hz + scale_hz
         assert series.ambiguous_steps == 0
     # the calibrated scale's uncertainty goes with the series (a drift's std needs it)
-    assert series.scale_rel_std == calibration.delay_std_s_ / calibration.delay_s_ > 0
+    # (stated as the FSR's standard error over the FSR: 1/delay, so the same to rounding)
+    relative = calibration.delay_std_s_ / calibration.delay_s_
+    assert relative > 0
+    assert series.scale_rel_std == pytest.approx(relative, rel=1e-12)
 
 
 def test_a_step_of_a_third_fsr_warns_that_the_unwrap_is_ambiguous(meter, tmp_path, rng):

@@ -8,7 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from wavemeter.io import ColumnRequest
-from wavemeter.io.reading import ColumnChecks, PlainRowConverter, convert_rows, plan_columns
+from wavemeter.io.checks import ColumnChecks
+from wavemeter.io.convert import PlainRowConverter, convert_rows
+from wavemeter.io.plan import plan_columns
 from wavemeter.io.source import Source
 
 HEADER = ("P1_dBm", "P2_mW", "P3_uW", "P4", "Temp (C)")

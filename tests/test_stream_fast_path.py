@@ -27,7 +27,7 @@ from wavemeter.calibration.methods.cascade_reading import (
     noise_scale,
 )
 from wavemeter.io import read_table
-from wavemeter.io.reading import convert_rows
+from wavemeter.io.convert import convert_rows
 from wavemeter.jobs import stream, stream_lines
 
 from .conftest import NOISE_W, POWER_W, thermal_sweep
@@ -121,7 +121,7 @@ def test_the_off_model_screen_gives_way_to_the_test_at_its_threshold(device, mon
     rows = clean + amounts[:, None] * direction
     calls = []
     exact = cal._off_model
-    monkeypatch.setattr(cal, "_off_model", lambda readings: calls.append(1) or exact(readings))
+    monkeypatch.setattr(cal, "_off_model", lambda *args: calls.append(1) or exact(*args))
     flags = assert_streams_its_numbers(cal, rows)
     assert [bool(bit) for bit in flags & FLAG.OFF_MODEL] == [False] * 5 + [True] * 4
     # beside the one call of flags() above: the flagged rows and some of the others, at
@@ -207,7 +207,7 @@ def test_a_cascade_streams_what_read_gives(cascade):
 def test_each_stage_reads_one_reading_as_the_batch_does(cascade):
     cal, rows = cascade
     chain = cal.read(rows)
-    readings = cal._check_readings(rows)
+    readings = cal._corrected(rows)
     readers = [
         StageReader(stage, error, median)
         for stage, error, median in zip(

@@ -160,12 +160,11 @@ def test_every_input_format_gives_the_whole_file_result_at_any_chunk_size(chip, 
         )
         assert summary.rows == ROWS and summary.invalid_rows == len(MISSING_ROWS)
         assert_same_output(read_output(out), expected)
-        # a text file's progress is in bytes (rows unknown beforehand), others' in rows
-        text = data.suffix in (".csv", ".tsv")
-        total = data.stat().st_size if text else ROWS
-        assert (progress.total, progress.unit) == (total, "bytes" if text else "rows")
-        assert progress.steps[-1] == total and progress.steps == sorted(progress.steps)
-        assert len(progress.steps) == -(-ROWS // chunk_rows)
+        # progress in rows for every format (a text file's counted before reading)
+        assert (progress.total, progress.unit) == (ROWS, "rows")
+        assert progress.steps == [
+            min(k * chunk_rows, ROWS) for k in range(1, 1 - (-ROWS // chunk_rows))
+        ]
 
 
 class ProgressRecord:
@@ -258,7 +257,7 @@ def test_csv_blocks_cut_mid_line_give_the_same_rows(chip, tmp_path, monkeypatch,
     data.write_bytes(text.encode())
     monkeypatch.setattr(text_module, "_BLOCK_BYTES", 37)
     if parser == "lines":
-        monkeypatch.setattr(text_module, "_arrow_chunks", lambda *args: None)
+        monkeypatch.setattr(text_module, "_pyarrow", lambda: None)
     whole = read_table(data, ColumnRequest(keep=("time_s",)), need_x=False, allow_invalid=True)
     for chunk_rows in CHUNK_SIZES:
         stream = iter_readings(
@@ -270,7 +269,9 @@ def test_csv_blocks_cut_mid_line_give_the_same_rows(chip, tmp_path, monkeypatch,
         np.testing.assert_array_equal(powers, whole.powers_w)
         kept = np.concatenate([chunk.kept["time_s"] for chunk in chunks])
         np.testing.assert_array_equal(kept, chip["time_s"])
-        assert stream.progress == data.stat().st_size == stream.progress_total[0]
+        # rows read; the total counted from line ends (each blank line counts)
+        blank = text.count(newline * 2)
+        assert stream.progress == ROWS and stream.progress_total == (ROWS + blank, "rows")
 
 
 @pytest.mark.parametrize("parser", ["arrow", "lines"])
@@ -279,7 +280,7 @@ def test_invalid_rows_across_chunks_keep_their_file_lines(chip, tmp_path, monkey
     data = tmp_path / "r.csv"
     data.write_text(text)
     if parser == "lines":
-        monkeypatch.setattr(text_module, "_arrow_chunks", lambda *args: None)
+        monkeypatch.setattr(text_module, "_pyarrow", lambda: None)
     expected = [f"line {line_of_row[row]} (p2_w is NaN, empty or inf)" for row in MISSING_ROWS]
     for chunk_rows in CHUNK_SIZES:
         out = tmp_path / f"o{chunk_rows}.csv"
@@ -322,7 +323,7 @@ def test_a_bad_cell_deep_in_the_file_is_named_by_its_line(chip, tmp_path, monkey
     data = tmp_path / "r.csv"
     data.write_text("\n".join(lines))
     if parser == "lines":
-        monkeypatch.setattr(text_module, "_arrow_chunks", lambda *args: None)
+        monkeypatch.setattr(text_module, "_pyarrow", lambda: None)
     with pytest.raises(FileFormatError, match=rf"line {bad_line}, column 'p1_w': 'abc' is not"):
         list(iter_readings(data, chunk_rows=7, allow_invalid=True))
 

@@ -1,4 +1,5 @@
-"""The one exception family of the package, and the warning a misfit calibration emits.
+"""The one exception family of the package, the warning a misfit calibration emits, and the
+note a reader gives about what it chose.
 
 Library code raises these (never bare ``ValueError``/``TypeError``/``assert``); the command
 line catches :class:`WavemeterError` and ``OSError`` only, so anything else is a bug and
@@ -18,6 +19,7 @@ __all__ = [
     "NotFittedError",
     "EdgeMinimumError",
     "CalibrationWarning",
+    "InputNote",
     "recorded_calibration_warnings",
 ]
 
@@ -80,6 +82,12 @@ class CalibrationWarning(UserWarning):
     def record(self) -> dict:
         """JSON-ready ``{"cause", "message", "remedy"}``, as ``diagnostics_`` keeps it."""
         return {"cause": self.cause, "message": str(self), "remedy": self.remedy}
+
+
+class InputNote(UserWarning):
+    """How an input was read where the reader chose what the caller did not say (a
+    ``;``-separated file read with decimal commas): worth knowing, not a problem. The
+    command line prints it as ``note: ...`` on stderr."""
 
 
 @contextlib.contextmanager

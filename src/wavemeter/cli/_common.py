@@ -14,10 +14,10 @@ import numpy as np
 from ..atomic import check_output
 from ..exceptions import InputError, WavemeterError
 from ..io import FORMATS, ColumnRequest, read_table, table_format
-from ..io.reading import NO_LIGHT_REASON
+from ..io.convert import NO_LIGHT_REASON
 from ..progress import busy
 from ..units import SPEED_OF_LIGHT_M_S, frequency_text
-from ._params import FREQUENCY, FSR, AliasedOption, FrequencyParam
+from ._params import DELIMITER, FREQUENCY, FSR, AliasedOption, FrequencyParam
 from ._streams import STDIN_LABEL, is_stdio
 
 __all__ = [
@@ -208,9 +208,10 @@ def out_option(help_text: str):
 
 
 def column_options(*, axis: bool = True, drop_invalid: bool = True):
-    """Options that choose columns and units of an input file (see DESIGN, input files);
-    ``axis``: the frequency axis, monitor and temperature columns; ``drop_invalid``: the
-    --drop-invalid switch (a stream always writes invalid rows as NaN)."""
+    """Options that choose columns and units of an input file (see DESIGN, input files)
+    and how a text input's cells are written (--delimiter, --decimal); ``axis``: the
+    frequency axis, monitor and temperature columns; ``drop_invalid``: the --drop-invalid
+    switch (a stream always writes invalid rows as NaN)."""
 
     def decorate(command):
         options = [
@@ -224,6 +225,18 @@ def column_options(*, axis: bool = True, drop_invalid: bool = True):
                 "--power-unit",
                 metavar="UNIT",
                 help="Unit of the port columns: W, mW, uW, nW, dBm or V (default: from names).",
+            ),
+            click.option(
+                "--delimiter",
+                type=DELIMITER,
+                help="Column delimiter of CSV/TSV input: one character (, ; |), tab or space "
+                "(default: an Excel sep= first line's, else found from the file).",
+            ),
+            click.option(
+                "--decimal",
+                type=click.Choice([".", ","]),
+                help="Decimal mark of CSV/TSV input (default: '.', or ',' for a ';'-separated "
+                "file written with decimal commas, with a note).",
             ),
         ]
         if drop_invalid:
@@ -276,6 +289,8 @@ def column_request(options: dict, **extra) -> ColumnRequest:
         power_unit=options.get("power_unit"),
         monitor=options.get("monitor_column"),
         temperature=options.get("temperature_column"),
+        delimiter=options.get("delimiter"),
+        decimal=options.get("decimal"),
         **extra,
     )
 

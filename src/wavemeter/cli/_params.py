@@ -39,6 +39,7 @@ __all__ = [
     "FrequencyListParam",
     "BandParam",
     "StagePortsParam",
+    "DelimiterParam",
     "FREQUENCY",
     "FSR",
     "OPTICAL_FREQUENCY",
@@ -52,6 +53,7 @@ __all__ = [
     "FSRS",
     "BAND",
     "STAGE_PORTS",
+    "DELIMITER",
     "BARE_FREQUENCY_LIMIT_HZ",
 ]
 
@@ -422,6 +424,27 @@ class StagePortsParam(click.ParamType):
         return tuple(stages)
 
 
+class DelimiterParam(click.ParamType):
+    """The column delimiter of text input: one character (``,`` ``;`` ``|``), or ``tab``
+    (also ``\t``) or ``space`` (runs of spaces and tabs). Converts to the character
+    (``" "`` for space); whether a text table can have it is checked by the reader."""
+
+    name = "CHAR"
+    _NAMED = {"tab": "\t", "\\t": "\t", "space": " ", "comma": ",", "semicolon": ";"}
+
+    def convert(self, value, param, ctx):
+        text = str(value)
+        delimiter = self._NAMED.get(text.strip().lower(), text)
+        if len(delimiter) != 1:
+            self.fail(
+                f"{text!r} is not one character: give the delimiter as one character (, ; |), "
+                "or tab or space",
+                param,
+                ctx,
+            )
+        return delimiter
+
+
 #: any frequency; a bare number is in Hz
 FREQUENCY = FrequencyParam()
 #: a free spectral range: refuses a bare number below 1 MHz (``--fsr 50`` meant 50GHz)
@@ -450,3 +473,5 @@ FSRS = FrequencyListParam(FSR)
 BAND = BandParam()
 #: the port columns of each stage of a cascade (positions from 1)
 STAGE_PORTS = StagePortsParam()
+#: the column delimiter of text input
+DELIMITER = DelimiterParam()

@@ -9,8 +9,10 @@ temporary file is removed; the exit code is 128 + the signal number.
 
 Every :class:`wavemeter.CalibrationWarning` a command's fit emits is printed as one line
 ``warning: [cause] message`` on stderr, also with ``--quiet`` (a warning is about the
-result, not progress). Warnings a command refuses (``calibrate --strict``) arrive as
-:class:`WarningsRefused`: one ``error: [cause] message`` line each and exit code 3.
+result, not progress); an :class:`~wavemeter.exceptions.InputNote` (how a file was read)
+as ``note: message``, once, unless ``--quiet``. Warnings a command refuses (``calibrate
+--strict``) arrive as :class:`WarningsRefused`: one ``error: [cause] message`` line each
+and exit code 3.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import warnings
 import click
 
 from .._version import __version__
-from ..exceptions import CalibrationWarning, WavemeterError
+from ..exceptions import CalibrationWarning, InputNote, WavemeterError
 
 __all__ = ["main", "cli", "COMMANDS", "OPTION_OF_PARAMETER", "WarningsRefused", "warning_text"]
 
@@ -49,6 +51,7 @@ COMMANDS = {
     "design": "Choose the fewest cascade stages that read a band at a wrong-order rate.",
     "fleet": "Calibrate many devices (a wafer) in parallel on dask: summary and wafer map.",
     "noise": "Frequency noise, linewidth and Allan deviation of a laser from its readings.",
+    "serve": "The live instrument: publish readings to many clients, log, metrics, dashboard.",
 }
 
 
@@ -123,6 +126,8 @@ OPTION_OF_PARAMETER = {
     "map_order": "--map-order",
     "stage_ports": "--stage-ports",
     "max_order_error": "--max-order-error",
+    "delimiter": "--delimiter",
+    "decimal": "--decimal",
     "per_fsr": "--per-fsr",
     "dark_w": "--dark-w",
     "dark_file": "--dark",
@@ -254,11 +259,19 @@ def _calibration_warnings_as_lines():
     default); other warnings are shown as before."""
     with warnings.catch_warnings():
         warnings.simplefilter("always", CalibrationWarning)
+        warnings.simplefilter("always", InputNote)
         show_other = warnings.showwarning
+        noted = set()
 
         def show(message, category, filename, lineno, file=None, line=None):
             if issubclass(category, CalibrationWarning):
                 click.echo(_one_line("warning: ", warning_text(message)), err=True)
+            elif issubclass(category, InputNote):
+                context = click.get_current_context(silent=True)
+                quiet = context is not None and context.params.get("quiet")
+                if not quiet and str(message) not in noted:
+                    click.echo(_one_line("note: ", str(message)), err=True)
+                noted.add(str(message))
             else:
                 show_other(message, category, filename, lineno, file, line)
 

@@ -43,8 +43,9 @@ EXIT_INTERRUPTED = 130
 def stream(calibration_file, follow_path, coarse_column, coarse_hz, temperature_k, **options):
     """Live readout: turn lines of port readings into lines of frequency as they arrive.
 
-    Reads a header line, then one reading per line (comma- or tab-separated) from standard
-    input, or from FILE with --follow, and writes to standard output the line
+    Reads a header line, then one reading per line (comma-, tab- or ;-separated, or as
+    --delimiter says; an Excel sep= first line is understood) from standard input, or
+    from FILE with --follow, and writes to standard output the line
     frequency_hz,wavelength_nm,frequency_std_hz,flags for each reading the moment it
     arrives (a cascade calibration adds order_error_probability before flags). Floats
     are written at full precision; frequency_std_hz is NaN for a calibration that gives

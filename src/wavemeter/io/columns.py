@@ -31,7 +31,8 @@ __all__ = [
 
 @dataclass(frozen=True)
 class ColumnRequest:
-    """Which columns to use and their units; ``None`` means find them by name.
+    """Which columns to use, their units, and how a text table's cells are written;
+    ``None`` means find it from the file.
 
     Parameters
     ----------
@@ -51,6 +52,14 @@ class ColumnRequest:
         Column with a coarse frequency (or wavelength) per reading, for calibration sets.
     keep : sequence of str
         Further columns to carry through unchanged (e.g. a time stamp).
+    delimiter : str, optional
+        The column delimiter of a text table (``","``, ``";"``, ``"\t"``, ``" "`` for runs
+        of spaces and tabs, or another one character); default: an Excel ``sep=`` first
+        line's, else sniffed. Refused for files of other formats.
+    decimal : {".", ","}, optional
+        The decimal mark of a text table; default ``"."``, or ``","`` for a
+        ``;``-separated table written with decimal commas (noted). It cannot be the
+        delimiter. Refused for files of other formats.
     """
 
     x: str | None = None
@@ -61,6 +70,8 @@ class ColumnRequest:
     temperature: str | None = None
     coarse: str | None = None
     keep: Sequence[str] = ()
+    delimiter: str | None = None
+    decimal: str | None = None
 
 
 # ---------------------------------------------------------------------------- name patterns

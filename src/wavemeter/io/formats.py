@@ -27,8 +27,10 @@ from .hdf5 import HDF5ChunkWriter, read_hdf5, write_hdf5
 from .mat import read_mat
 from .npz import NPZChunkWriter, read_npz, write_npz
 from .parquet import ParquetChunkWriter, read_parquet, require_pyarrow, write_parquet
-from .source import RawInput, Source, open_input
-from .text import DelimitedChunkWriter, read_text, refuse_text_chunk, write_csv, write_tsv
+from .source import Source, open_input
+from .text import read_text
+from .text_layout import check_dialect, refuse_text_chunk
+from .text_writer import DelimitedChunkWriter, write_csv, write_tsv
 
 __all__ = [
     "FileFormat",
@@ -52,19 +54,26 @@ class FileFormat:
     extensions : tuple of str
         File extensions (lower case, with the dot) that mean this format.
     read : callable
-        ``read(raw, max_bytes) -> Source``.
+        ``read(raw, max_bytes) -> Source``; a text format's also takes the delimiter and
+        the decimal mark, ``read(raw, max_bytes, delimiter, decimal)``.
     write : callable or None
         ``write(path, columns)`` with 1-D float64, int64 or text columns; None: read only.
     chunk_writer : callable or None
         ``chunk_writer(path)`` returns a writer with ``write(columns)`` appending rows and
         ``close()`` finishing the file, ``abort()`` releasing it after a failure.
+    label : str
+        The format as users know it (``"CSV"``, ``"HDF5"``), for messages.
+    text : bool
+        A delimited text format: its cells have a delimiter and a decimal mark.
     """
 
     name: str
     extensions: tuple[str, ...]
-    read: Callable[[RawInput, int], Source]
+    read: Callable[..., Source]
     write: Callable[[Path, dict[str, np.ndarray]], None] | None
     chunk_writer: Callable[[Path], object] | None = None
+    label: str = ""
+    text: bool = False
 
 
 #: every format the package reads, and writes where ``write`` is set
@@ -75,6 +84,8 @@ FILE_FORMATS = (
         read_text,
         write_csv,
         functools.partial(DelimitedChunkWriter, delimiter=","),
+        label="CSV",
+        text=True,
     ),
     FileFormat(
         "tsv",
@@ -82,11 +93,22 @@ FILE_FORMATS = (
         read_text,
         write_tsv,
         functools.partial(DelimitedChunkWriter, delimiter="\t"),
+        label="TSV",
+        text=True,
     ),
-    FileFormat("parquet", (".parquet", ".pq"), read_parquet, write_parquet, ParquetChunkWriter),
-    FileFormat("hdf5", (".h5", ".hdf5", ".hdf"), read_hdf5, write_hdf5, HDF5ChunkWriter),
-    FileFormat("npz", (".npz",), read_npz, write_npz, NPZChunkWriter),
-    FileFormat("mat", (".mat",), read_mat, None),
+    FileFormat(
+        "parquet",
+        (".parquet", ".pq"),
+        read_parquet,
+        write_parquet,
+        ParquetChunkWriter,
+        label="Parquet",
+    ),
+    FileFormat(
+        "hdf5", (".h5", ".hdf5", ".hdf"), read_hdf5, write_hdf5, HDF5ChunkWriter, label="HDF5"
+    ),
+    FileFormat("npz", (".npz",), read_npz, write_npz, NPZChunkWriter, label="NPZ"),
+    FileFormat("mat", (".mat",), read_mat, None, label="MATLAB"),
 )
 _BY_NAME = {file_format.name: file_format for file_format in FILE_FORMATS}
 #: output formats of :func:`write_table`
@@ -121,15 +143,36 @@ def _refuse_stream_chunk(head: bytes, chunk: bytes, suffix: str) -> str | None:
     return refuse_text_chunk(head, chunk)
 
 
-def open_source(path, max_bytes: int) -> Source:
+def open_source(path, max_bytes: int, delimiter=None, decimal=None) -> Source:
     """The fields of the data file at ``path`` (``-``: standard input), read by its format.
 
     A regular file is read in place; a pipe, device or standard input is read once, at
-    most ``max_bytes`` bytes, then parsed from memory.
+    most ``max_bytes`` bytes, then parsed from memory. Every data file is opened here.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    max_bytes : int
+        The size limit (see :func:`~wavemeter.io.read_table`).
+    delimiter, decimal : str, optional
+        The column delimiter and decimal mark of a text table (default: found from the
+        file); given for a file of another format, they are refused.
     """
+    check_dialect(delimiter, decimal)
     suffix = Path(str(path)).suffix.lower()
     raw = open_input(path, max_bytes, lambda head, chunk: _refuse_stream_chunk(head, chunk, suffix))
-    return _format_of(raw.head(1024), raw.suffix).read(raw, max_bytes)
+    file_format = _format_of(raw.head(1024), raw.suffix)
+    if file_format.text:
+        return file_format.read(raw, max_bytes, delimiter, decimal)
+    for parameter, value in (("delimiter", delimiter), ("decimal", decimal)):
+        if value is not None:
+            raise InputError(
+                f"is a {file_format.label} file, not a text table: it has no {parameter} "
+                f"(given {value!r}); leave the {parameter} out",
+                parameter=parameter,
+            )
+    return file_format.read(raw, max_bytes)
 
 
 def table_format(path, file_format: str | None = None) -> str:

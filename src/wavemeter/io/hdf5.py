@@ -107,7 +107,7 @@ def _read(raw: RawInput, max_bytes: int, matlab: bool) -> Source:
                     name: _dataset_rows(dataset, sample_axes.get(name), start, stop)
                     for name, dataset in datasets.items()
                 }
-                yield Chunk(start, columns, sample_label, stop)
+                yield Chunk(start, columns, sample_label)
 
     return Source(shapes, load, unit_attributes=units, chunks=chunks)
 

@@ -137,7 +137,7 @@ def read_npz(raw: RawInput, max_bytes: int) -> Source:
                         name: _member_rows(streams[name], layouts[name], stop - start, name)
                         for name in names
                     }
-                    yield Chunk(start, columns, sample_label, stop)
+                    yield Chunk(start, columns, sample_label)
             finally:
                 for stream in streams.values():
                     stream.close()

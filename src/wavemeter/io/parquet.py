@@ -86,7 +86,7 @@ def read_parquet(raw: RawInput, max_bytes: int) -> Source:
                     for name in names
                 }
                 start += batch.num_rows
-                yield Chunk(start - batch.num_rows, columns, sample_label, start)
+                yield Chunk(start - batch.num_rows, columns, sample_label)
         if start != rows:
             raise FileFormatError("the columns hold fewer rows than the file declares: damaged")
 

@@ -257,10 +257,16 @@ class Source:
         one chunk at a time; ``sample_axes[name]`` is the axis of a 2-D field that runs
         over the samples. None: the format reads whole fields only
         (:func:`whole_chunks` slices them).
-    progress_total : tuple of (int, str) or None
-        How far a read through :attr:`chunks` has to go and in what unit, when not in
-        rows (``(size, "bytes")`` for a text file, whose rows are not counted
-        beforehand); None: the rows the fields declare.
+    count_rows : callable or None
+        ``count_rows()`` counts the data rows of a file whose fields do not declare their
+        length (a text file) by a fast pass over it, for progress; None: the fields
+        declare it.
+    decimal : str
+        The decimal mark of the file's text cells (``","`` in a text file read with
+        decimal commas), for turning a text field into numbers.
+    note : str or None
+        What the reader chose that the caller did not say (a text file read with decimal
+        commas), for an :class:`~wavemeter.exceptions.InputNote`.
     """
 
     shapes: dict[str, tuple[int, ...]]
@@ -268,7 +274,9 @@ class Source:
     row_label: Callable[[int], str] = sample_label
     unit_attributes: dict[str, str] = field(default_factory=dict)
     chunks: Callable[..., Iterator[Chunk]] | None = None
-    progress_total: tuple[int, str] | None = None
+    count_rows: Callable[[], int] | None = None
+    decimal: str = "."
+    note: str | None = None
 
 
 @dataclass(frozen=True)
@@ -285,15 +293,11 @@ class Chunk:
     row_label : callable
         ``row_label(i)`` names data row ``i`` (zero-based, file-wide, ``start <= i <
         start + m``) as the user finds it (``line 7``, ``row 5``).
-    progress : int
-        How far the read is after this chunk: rows, or the unit of
-        :attr:`Source.progress_total`.
     """
 
     start: int
     columns: dict[str, np.ndarray]
     row_label: Callable[[int], str]
-    progress: int
 
     @property
     def n_rows(self) -> int:
@@ -329,10 +333,7 @@ def whole_chunks(
     for start in range(0, rows, chunk_rows):
         stop = min(start + chunk_rows, rows)
         yield Chunk(
-            start,
-            {name: values[start:stop] for name, values in data.items()},
-            source.row_label,
-            stop,
+            start, {name: values[start:stop] for name, values in data.items()}, source.row_label
         )
 
 

@@ -5,9 +5,10 @@ its header or metadata (as :func:`~wavemeter.io.read_table` does, with the same 
 yields the rows as :class:`~wavemeter.io.Table` chunks, in file order. How each format is
 read in chunks:
 
-- CSV/TSV: pyarrow's streaming CSV reader when installed, else chunks of lines parsed by
-  numpy; a chunk that does not parse is read cell by cell, which names the line of a bad
-  cell, and a last line cut short is refused, as in a whole read.
+- CSV/TSV: pyarrow's CSV reader a block of lines at a time when installed, else chunks of
+  lines parsed by numpy; a chunk that does not parse is read cell by cell, which names the
+  line of a bad cell, and a last line cut short is refused, as in a whole read (the same
+  parsers, :mod:`~wavemeter.io.text`).
 - Parquet: ``ParquetFile.iter_batches`` over the columns used.
 - HDF5: slices of the datasets.
 - NPZ: the members' streams, when each field's samples lie one after the other (1-D
@@ -21,21 +22,24 @@ Invalid rows are flagged per chunk with their reason and file line. When they ar
 allowed, the rows after the first invalid one are still read (not yielded) to count them
 all, so the error says how many there are, as a whole read does. Checks that need a whole
 column (a port column with no positive reading: dBm?) are made when the file has been read.
+Progress is counted in rows: a text file's are counted by a fast pass over its line ends.
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
+import functools
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import InputError, WavemeterError
+from ..exceptions import InputError
+from .checks import ColumnChecks
 from .columns import ColumnRequest
-from .formats import open_source
-from .reading import ColumnChecks, ColumnPlan, convert_rows, invalid_rows_error, plan_columns
+from .convert import convert_rows
+from .plan import ColumnPlan, plan_columns
+from .reading import about_file, invalid_rows_error, open_noted
 from .source import MAX_BYTES, Source, whole_chunks
 from .table import Table
 
@@ -112,28 +116,12 @@ def iter_readings(
     request = request or ColumnRequest()
     find_extras = need_x if find_extras is None else find_extras
     extras = (find_extras, find_extras if find_temperature is None else find_temperature)
-    with _about_file(label):
-        source = open_source(path, max_bytes)
+    with about_file(label):
+        source = open_noted(path, max_bytes, request, label, depth=4)
         plan = plan_columns(source, request, need_x=need_x, extras=extras)
     return ReadingStream(
         dataclasses.replace(plan, path=label), source, int(chunk_rows), allow_invalid
     )
-
-
-@contextlib.contextmanager
-def _about_file(path: Path):
-    """Errors of reading a file start with its name; every error is an InputError (or a
-    FileFormatError), as :func:`~wavemeter.io.read_table` raises them."""
-    try:
-        yield
-    except InputError as exc:
-        if str(exc).startswith(f"{path}: "):
-            raise
-        raise type(exc)(f"{path}: {exc}", parameter=exc.parameter) from exc
-    except WavemeterError as exc:
-        raise InputError(f"{path}: {exc}") from exc
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
 
 
 class ReadingStream:
@@ -150,10 +138,11 @@ class ReadingStream:
     kept : tuple of str
         Columns copied as they are (``request.keep``).
     progress_total : tuple of (int, str)
-        How far the read goes and in what unit: ``(rows, "rows")``, or ``(bytes,
-        "bytes")`` for a text file, whose rows are not counted beforehand.
+        How far the read goes: ``(rows, "rows")``, the data rows the file declares or, for
+        a text file, counted when first asked for by a fast pass over its line ends (a
+        blank line after the header counts as a row).
     progress : int
-        How far the read is after the chunk last yielded, in that unit.
+        Data rows read so far, after the chunk last yielded.
     rows : int
         Data rows read so far (all of them once iteration ended).
     invalid_rows : int
@@ -176,14 +165,18 @@ class ReadingStream:
         self.coarse_column = singles["coarse"].name if "coarse" in singles else None
         self.monitor_column = singles["monitor"].name if "monitor" in singles else None
         self.kept = tuple(plan.request.keep)
-        if source.chunks is not None and source.progress_total is not None:
-            self.progress_total = source.progress_total
-        else:  # the samples of the fields read, as declared
-            self.progress_total = (_declared_rows(plan, source), "rows")
         self.progress = 0
         self.rows = 0
         self.invalid_rows = 0
         self.invalid_examples: list[str] = []
+
+    @functools.cached_property
+    def progress_total(self) -> tuple[int, str]:
+        """``(rows, "rows")``: the data rows of the file (see the class's text)."""
+        if self._source.count_rows is None:
+            return _declared_rows(self._plan, self._source), "rows"
+        with about_file(self.source):
+            return self._source.count_rows(), "rows"
 
     def describe_invalid(self, limit: int = _DESCRIBED) -> str:
         """The first invalid rows read, with their reasons (as ``Table.describe_invalid``)."""
@@ -193,7 +186,7 @@ class ReadingStream:
         if self._started:
             raise InputError(f"{self.source}: the readings of a stream are read once")
         self._started = True
-        with _about_file(self.source):
+        with about_file(self.source):
             yield from self._chunks()
 
     def _raw_chunks(self):
@@ -210,10 +203,11 @@ class ReadingStream:
         for chunk in self._raw_chunks():
             data = dict(chunk.columns)
             for name in self.kept:
-                data[name] = _kept_values(name, data[name], kinds, chunk.row_label, chunk.start)
+                data[name] = _kept_values(
+                    name, data[name], kinds, chunk.row_label, chunk.start, self._source.decimal
+                )
             table = convert_rows(self._plan, data, chunk.start, chunk.row_label, checks)
-            self.rows = chunk.start + table.n_rows
-            self.progress = chunk.progress
+            self.rows = self.progress = chunk.start + table.n_rows
             invalid = np.flatnonzero(table.invalid)
             if invalid.size:
                 self.invalid_rows += invalid.size
@@ -247,23 +241,31 @@ def _described(table: Table, rows: np.ndarray) -> list[str]:
 
 
 def _kept_values(
-    name: str, values: np.ndarray, kinds: dict[str, str], row_label: Callable, start: int
+    name: str,
+    values: np.ndarray,
+    kinds: dict[str, str],
+    row_label: Callable,
+    start: int,
+    decimal: str,
 ) -> np.ndarray:
     """A kept column's chunk as numbers or text, the same throughout the file.
 
-    A text file's kept column comes as text; it is numbers (empty cells NaN) when every
-    cell of its first chunk is a number, else text (as a whole read decides it from every
-    cell). A later chunk of a column of numbers must hold numbers.
+    A text file's kept column comes as text; it is numbers (empty cells NaN, the file's
+    decimal mark ``decimal``) when every cell of its first chunk is a number, else text
+    (as a whole read decides it from every cell). A later chunk of a column of numbers
+    must hold numbers.
     """
     if values.dtype.kind != "U":
         kinds.setdefault(name, "numbers")
         return values
-    numbers = _as_numbers(values)
+    numbers = _as_numbers(values, decimal)
     kind = kinds.setdefault(name, "text" if numbers is None else "numbers")
     if kind == "text":
         return values
     if numbers is None:
-        bad = next(k for k, cell in enumerate(values) if _as_numbers(np.array([cell])) is None)
+        bad = next(
+            k for k, cell in enumerate(values) if _as_numbers(np.array([cell]), decimal) is None
+        )
         raise InputError(
             f"kept column {name!r} holds numbers, then text at {row_label(start + bad)} "
             f"({values[bad][:40]!r}); a file read in chunks keeps a column as numbers or as "
@@ -273,8 +275,13 @@ def _kept_values(
     return numbers
 
 
-def _as_numbers(cells: np.ndarray) -> np.ndarray | None:
-    """Text cells as float64 (empty cells NaN), or None when one is not a number."""
+def _as_numbers(cells: np.ndarray, decimal: str) -> np.ndarray | None:
+    """Text cells as float64 (empty cells NaN; decimal mark ``decimal``), or None when one
+    is not a number (with decimal commas, a cell holding ``.``)."""
+    if decimal == ",":
+        if np.char.find(cells, ".").max(initial=-1) >= 0:
+            return None
+        cells = np.char.replace(cells, ",", ".")
     try:
         return np.where(cells == "", "nan", cells).astype(float)
     except ValueError:

@@ -10,10 +10,11 @@ command line.
 from .calibrate import CalibrationRefused, DeviceResult, calibrate_device, calibrate_file
 from .calibrator import CalibrateOptions, build_calibrator, method_settings
 from .chunks import RowSample, fit_sweep_chunks
+from .line_reader import LineReader
 from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, measure_file
 from .noise import NoiseSeries, measure_series
 from .readings import check_ports, check_reading_options, check_readings
-from .stream import StreamSummary, follow_lines, stream_lines
+from .stream import StreamHeader, StreamSummary, follow_lines, read_header, stream_lines
 from .sweeps import SweepRead, SweepsRead
 
 __all__ = [
@@ -33,6 +34,9 @@ __all__ = [
     "MEASURE_CHUNK_ROWS",
     "stream_lines",
     "follow_lines",
+    "read_header",
+    "LineReader",
+    "StreamHeader",
     "StreamSummary",
     "measure_series",
     "NoiseSeries",

@@ -17,16 +17,10 @@ them spoils a power spectrum. Readings flagged ``OUTSIDE_SPAN``, ``POWER_RANGE``
 ``TEMPERATURE_RANGE`` are kept and counted: the calibration is extrapolated there, which
 distorts the frequency smoothly and slightly (a scale error), not reading by reading.
 
-A calibration of one interferometer reads the frequency modulo its FSR (so does a
-calibration that picks its window or fringe order from one coarse frequency for the whole
-file): the series is unwrapped with period FSR, chunk by chunk, across excluded readings.
-A step of more than ``AMBIGUOUS_STEP_FSR`` (a quarter) of the FSR between consecutive
-usable readings is ambiguous (the laser moved that far, or the unwrap added a whole FSR):
-a :class:`~wavemeter.exceptions.CalibrationWarning` says how many and where.
-
-The sampling rate is given (``rate_hz``) or taken from a time column, checked for uniform
-sampling (:mod:`wavemeter.jobs.timestamps`); given both, they must agree within
-``TIME_JITTER_TOLERANCE``.
+A calibration that reads the frequency modulo its FSR gets its series unwrapped
+(:mod:`wavemeter.jobs.noise_unwrap`). The sampling rate is given (``rate_hz``) or taken
+from a time column whose steps are checked for uniform sampling
+(:mod:`wavemeter.jobs.noise_clock`).
 """
 
 from __future__ import annotations
@@ -42,34 +36,25 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration.contract.flags import ReadingFlag
-from ..exceptions import CalibrationWarning, InputError
+from ..exceptions import InputError
 from ..io import ColumnRequest, ReadingStream, iter_readings
 from ..io.streaming import CHUNK_ROWS
-from ..units import frequency_text
 from ..validation import check_positive
 from .measure import ChunkMeasurement
+from .noise_clock import TIME_JITTER_TOLERANCE, Clock
+from .noise_unwrap import Unwrapper
 from .readings import check_reading_options, check_readings
-from .timestamps import GAP_FACTOR, TIME_JITTER_TOLERANCE, Clock, time_unit_s
 
 __all__ = [
     "measure_series",
     "NoiseSeries",
     "EXCLUDED_FLAGS",
-    "AMBIGUOUS_STEP_FSR",
-    "AMBIGUOUS_STEP_CAUSE",
-    "TIME_JITTER_TOLERANCE",
-    "GAP_FACTOR",
-    "time_unit_s",
     "reads_modulo_fsr",
 ]
 
 #: flags that exclude a reading from the series (its frequency may be off by far more
 #: than its standard deviation); the other flags are counted, the readings kept
 EXCLUDED_FLAGS = ReadingFlag.INVALID | ReadingFlag.OFF_MODEL | ReadingFlag.ORDER_AMBIGUOUS
-#: a step between consecutive readings above this fraction of the FSR is ambiguous
-AMBIGUOUS_STEP_FSR = 0.25
-#: cause of the warning about ambiguous steps
-AMBIGUOUS_STEP_CAUSE = "ambiguous_step"
 
 
 @dataclass(frozen=True)
@@ -148,50 +133,6 @@ def reads_modulo_fsr(calibration, coarse_column: str | None, coarse_hz: float | 
     if "coarse_hz" not in calibration.requires:
         return True
     return coarse_column is None and coarse_hz is not None
-
-
-class _Unwrapper:
-    """Unwraps a frequency series with period FSR, chunk by chunk, across NaN readings,
-    and counts the ambiguous steps (over ``AMBIGUOUS_STEP_FSR`` of the FSR)."""
-
-    def __init__(self, fsr_hz: float):
-        self.fsr_hz = fsr_hz
-        self.last_hz: float | None = None
-        self.ambiguous = 0
-        self.first: tuple[str, float] | None = None  # row and size of the first ambiguous step
-
-    def __call__(self, frequency_hz: np.ndarray, table) -> None:
-        """Unwrap one chunk's frequencies (m,) in place; NaN stay NaN."""
-        usable = np.flatnonzero(np.isfinite(frequency_hz))
-        if usable.size == 0:
-            return
-        values = frequency_hz[usable]
-        joined = values if self.last_hz is None else np.concatenate(([self.last_hz], values))
-        unwrapped = np.unwrap(joined, period=self.fsr_hz)
-        steps = np.abs(np.diff(unwrapped))
-        ambiguous = np.flatnonzero(steps > AMBIGUOUS_STEP_FSR * self.fsr_hz)
-        if ambiguous.size and self.first is None:
-            row = usable[ambiguous[0] + (1 if self.last_hz is None else 0)]
-            self.first = (table.row_label(int(table.row_index[row])), float(steps[ambiguous[0]]))
-        self.ambiguous += ambiguous.size
-        unwrapped = unwrapped if self.last_hz is None else unwrapped[1:]
-        frequency_hz[usable] = unwrapped
-        self.last_hz = float(unwrapped[-1])
-
-    def warning(self, source: Path) -> CalibrationWarning | None:
-        if not self.ambiguous:
-            return None
-        row, step_hz = self.first
-        return CalibrationWarning(
-            f"{source}: {self.ambiguous} step(s) between consecutive readings exceed "
-            f"{AMBIGUOUS_STEP_FSR:g} of the FSR ({frequency_text(self.fsr_hz)}), the first "
-            f"before {row} ({frequency_text(step_hz)}): the calibration reads the frequency "
-            "modulo its FSR, so the series, unwrapped to the nearest fringe, may be off by "
-            "whole FSRs from there on",
-            cause=AMBIGUOUS_STEP_CAUSE,
-            remedy="read faster than the laser moves a quarter of the FSR, or use a meter "
-            "that reads the absolute frequency (a cascade of stages)",
-        )
 
 
 def _scale_rel_std(calibration) -> float:
@@ -299,7 +240,7 @@ def measure_series(
     measured = ChunkMeasurement(calibration, offered, coarse_hz, temperature_k, phase=False)
     modulo = reads_modulo_fsr(calibration, stream.coarse_column, coarse_hz)
     fsr_hz = float(calibration.fsr_hz_)
-    unwrap = _Unwrapper(fsr_hz) if modulo else None
+    unwrap = Unwrapper(fsr_hz) if modulo else None
     clock = None if time_column is None else Clock(time_column, stream.source)
     parts: list[np.ndarray] = []
     flags_seen = np.zeros(len(ReadingFlag), dtype=np.int64)

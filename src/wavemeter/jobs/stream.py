@@ -1,13 +1,13 @@
 """Live readout: lines of port readings in, one line of frequency out per reading, at once.
 
 :func:`stream_lines` reads a header line, finds the columns in it as the file readers do
-(:func:`wavemeter.io.reading.plan_columns`: ports, their units, a temperature or coarse
+(:func:`wavemeter.io.plan.plan_columns`: ports, their units, a temperature or coarse
 column), then turns every data line into an output line the moment it arrives, written and
 flushed before the next line is read: ``frequency_hz,wavelength_nm,frequency_std_hz``, for
 a cascade ``order_error_probability``, then ``flags``, floats at full precision (the
 shortest text that reads back to the same float64, as the table writer writes them). Each
-reading goes through the calibration's ``stream``, so it gets the numbers ``predict``,
-``frequency_std_hz`` and ``flags`` give it.
+reading goes through the calibration's :meth:`~wavemeter.calibration.BaseCalibrator.stream`,
+so it gets the numbers ``predict``, ``frequency_std_hz`` and ``flags`` give it.
 
 A line that is no reading (another number of cells than the header, text where a number
 should be) or an invalid one (NaN, a power-meter sentinel, no light, as in files) is written
@@ -19,7 +19,6 @@ appended to, like ``tail -n +1 -f``.
 from __future__ import annotations
 
 import csv
-import math
 import time
 import warnings
 from collections.abc import Callable, Iterable, Iterator
@@ -33,10 +32,13 @@ from ..calibration.contract.flags import ReadingFlag
 from ..calibration.contract.streaming import INVALID_READING_CAUSE
 from ..exceptions import CalibrationWarning, InputError
 from ..io import ColumnRequest
-from ..io.reading import ColumnChecks, ColumnPlan, PlainRowConverter, convert_rows, plan_columns
+from ..io.checks import ColumnChecks
+from ..io.convert import PlainRowConverter, convert_rows
+from ..io.plan import ColumnPlan, plan_columns
 from ..io.source import Source
-from ..io.text import column_names, split_cells
+from ..io.text_layout import LineCells, column_names, excel_separator
 from ..units import SPEED_OF_LIGHT_M_S
+from .line_reader import LineReader
 from .measure import about_file
 from .readings import check_reading_options, check_readings
 
@@ -47,6 +49,7 @@ __all__ = [
     "StreamSummary",
     "STREAM_COLUMNS",
     "MAX_LINE_WARNINGS",
+    "read_header",
 ]
 
 #: the output columns, in order; a calibration's ``reading_outputs`` (a cascade's
@@ -68,25 +71,28 @@ class StreamHeader:
         The header's line number (1-based).
     names : tuple of str
         Every column of the header, in order.
-    delimiter : str
-        ``","`` or ``"\\t"``.
+    delimiter : str or None
+        The delimiter (None: runs of whitespace).
     port_names, port_units : tuple of str
         The port columns and the unit each is read in (``""``: relative).
     temperature_column, coarse_column : str or None
         The columns found for these roles.
     plan : ColumnPlan
         What to read from each line and how to convert it.
+    cells : LineCells
+        How a line is split into cells and a cell read as a number.
     """
 
     source: Path
     line: int
     names: tuple[str, ...]
-    delimiter: str
+    delimiter: str | None
     port_names: tuple[str, ...]
     port_units: tuple[str, ...]
     temperature_column: str | None
     coarse_column: str | None
     plan: ColumnPlan
+    cells: LineCells
 
 
 @dataclass
@@ -136,12 +142,16 @@ def stream_lines(
         A fitted calibration.
     lines : iterable of str
         Text lines, the header first (blank lines and ``#`` comment lines are skipped
-        anywhere); comma- or tab-separated. May be endless (:func:`follow_lines`, a pipe):
-        each line is read only after the output of the one before it is written.
+        anywhere; an Excel ``sep=`` first line names the delimiter); separated as
+        ``request`` says, else by tab, ``;`` or comma (see
+        :class:`~wavemeter.io.text_layout.LineCells`). May be endless
+        (:func:`follow_lines`, a pipe): each line is read only after the output of the
+        one before it is written.
     out : text file
         Where the output goes: the header line, then one line per data line, each flushed.
     request : ColumnRequest, optional
-        Columns chosen by the user (ports, power unit, coarse and temperature columns).
+        Columns chosen by the user (ports, power unit, coarse and temperature columns,
+        delimiter and decimal mark).
     coarse_hz : float, optional
         Coarse frequency (Hz) of every reading, for a calibration that needs one, when the
         lines have no coarse column.
@@ -182,7 +192,7 @@ def stream_lines(
     ports_given = request is not None and request.ports is not None
     try:
         with about_file(source):
-            header = _read_header(numbered, source, request, thermal and temperature_k is None)
+            header = read_header(numbered, source, request, thermal and temperature_k is None)
             if check is not None:
                 check(header)
             check_readings(
@@ -198,35 +208,61 @@ def stream_lines(
     return summary
 
 
-def _read_header(numbered, source: Path, request, find_temperature: bool) -> StreamHeader:
-    """The first line that is not blank or a comment, its columns found as in files."""
+def read_header(numbered, source: Path, request, find_temperature: bool) -> StreamHeader:
+    """The first line that is not blank or a comment, its columns found as in files (an
+    Excel ``sep=`` first line names the delimiter).
+
+    Parameters
+    ----------
+    numbered : iterator of (int, str)
+        Line numbers (1-based) and lines; consumed up to the header line.
+    source : Path
+        What the input is called in messages.
+    request : ColumnRequest or None
+        Columns chosen by the user (and the delimiter and decimal mark).
+    find_temperature : bool
+        Look for a temperature column by name.
+
+    Returns
+    -------
+    StreamHeader
+
+    Raises
+    ------
+    InputError
+        When the lines end before a header, or its columns cannot be found as in files.
+    """
+    request = request or ColumnRequest()
+    declared = None
     for number, text in numbered:
         line = text.lstrip("\ufeff").strip()
+        if number == 1 and (declared := excel_separator(text)) is not None:
+            continue
         if not line or line.startswith("#"):
             continue
-        delimiter = "\t" if "\t" in line else ","
+        delimiter = request.delimiter if request.delimiter is not None else declared
+        cells = LineCells(line, delimiter, request.decimal, str(source))
         try:
-            names = column_names(split_cells(line, delimiter))
+            names = column_names(cells.split(line))
         except csv.Error as exc:
             raise InputError(
                 f"line {number}: the header cannot be split into names ({exc})"
             ) from None
         # the header's columns as a text file's: of unknown length, values line by line
         columns = Source({column: (-1,) for column in names}, load=None)
-        plan = plan_columns(
-            columns, request or ColumnRequest(), need_x=False, extras=(False, find_temperature)
-        )
+        plan = plan_columns(columns, request, need_x=False, extras=(False, find_temperature))
         singles = plan.singles
         return StreamHeader(
             source=source,
             line=number,
             names=tuple(names),
-            delimiter=delimiter,
+            delimiter=cells.delimiter,
             port_names=plan.port_names,
             port_units=plan.port_units,
             temperature_column=singles["temperature"].name if "temperature" in singles else None,
             coarse_column=singles["coarse"].name if "coarse" in singles else None,
             plan=plan,
+            cells=cells,
         )
     raise InputError(
         "no header line: the input ended before a line naming the columns (e.g. P1_mW,P2_mW,P3_mW)"
@@ -257,8 +293,7 @@ class _Stream:
         self.header = header
         self.out = out
         plan = header.plan
-        self.width = len(header.names)
-        self.fields = [(name, header.names.index(name)) for name in plan.fields]
+        self.cells = LineReader(header)
         self.checks = ColumnChecks()
         self.plain = PlainRowConverter.of(plan)
         self.powers = _Latest()
@@ -325,21 +360,9 @@ class _Stream:
 
     def _read(self, line: str, number: int) -> tuple[tuple, str | None]:
         """The output values of a data line (the flags last), or why it is no valid reading."""
-        try:
-            cells = split_cells(line, self.header.delimiter)
-        except csv.Error as exc:
-            return (), f"cannot be split into cells ({exc})"
-        if len(cells) == self.width + 1 and not cells[-1].strip():
-            cells.pop()  # a trailing delimiter
-        if len(cells) != self.width:
-            return (), f"{len(cells)} cells, the header has {self.width}"
-        data = {}
-        for name, column in self.fields:
-            cell = cells[column].strip()
-            try:
-                data[name] = float(cell) if cell else math.nan
-            except ValueError:
-                return (), f"column {name!r}: {cell[:40]!r} is not a number"
+        data, reason = self.cells.values(line)
+        if reason is not None:
+            return (), reason
         plain = None if self.plain is None else self.plain.convert(data)
         if plain is not None:
             self.powers.value, temperature_k = plain

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..exceptions import InputError, WavemeterError
 from ..io import ColumnRequest, port_key, read_table
-from ..io.reading import NO_LIGHT_REASON
+from ..io.convert import NO_LIGHT_REASON
 from .readings import TEMPERATURE_COLUMN_NAMES
 
 __all__ = [
@@ -372,7 +372,12 @@ def read_dark_w(options, layout, *, progress: Callable | None = None):
     if options.dark_file is None:
         return None, None
     request = options.request or ColumnRequest()
-    ports_only = ColumnRequest(ports=request.ports, power_unit=request.power_unit)
+    ports_only = ColumnRequest(
+        ports=request.ports,
+        power_unit=request.power_unit,
+        delimiter=request.delimiter,
+        decimal=request.decimal,
+    )
     whole = _read(
         options.dark_file,
         ports_only,

@@ -1,7 +1,8 @@
 """The physics: object space on the cone, coupler matrices, phase retrieval, its limit and
 the uncertainty of a reading."""
 
-from .cascade_design import CascadeDesign, design_cascade
+from .cascade_design import design_cascade
+from .cascade_result import CascadeDesign
 from .cone import (
     cone_vectors,
     delay_phase_rad,

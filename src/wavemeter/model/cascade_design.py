@@ -57,18 +57,15 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy import optimize, special
 
 from ..exceptions import InputError
 from ..validation import check_positive
-from .limits import crlb_ideal_frequency_std
-from .orders import any_error_probability, handover_error_rate
+from .cascade_result import CascadeDesign
+from .cascade_search import DesignSetting
 
 __all__ = [
-    "CascadeDesign",
     "design_cascade",
     "MAX_STAGES",
     "DEFAULT_NOISE_FACTOR",
@@ -81,192 +78,6 @@ MAX_STAGES = 8
 DEFAULT_NOISE_FACTOR = 2.0
 #: the relative FSR error a design allows for (twice Table 1's 5 % delay spread)
 DEFAULT_FSR_TOLERANCE = 0.1
-
-#: the search for ``F_0``: the smallest and largest relative excess ``F_0 / max(B, F_{K-1}) - 1``
-_EXCESS_RANGE = (1e-9, 1e7)
-#: points of the log grid over the excess before the bounded refinement
-_GRID_POINTS = 97
-#: above this margin ``1 - z R(z)`` (``R`` the Mills ratio) is taken from its series
-_SERIES_MARGIN = 100.0
-#: below this spread ``z' - z`` (relative to ``max(z, 1)``) the band average of ``Q`` is
-#: ``Q`` at the middle (the band is narrow against ``s_0``)
-_NARROW_SPREAD = 1e-6
-
-
-def _log_handover_rate(margin):
-    """``log`` of :func:`~wavemeter.model.orders.handover_error_rate` at margin ``z``
-    (``log 2 Q(z)``), exact also where the rate underflows."""
-    return math.log(2.0) + special.log_ndtr(-np.asarray(margin, dtype=float))
-
-
-def _log_tail_integral(margin: float) -> float:
-    """``log g(z)``, ``g(z) = phi(z) - z Q(z) = integral_z^inf Q(u) du``, for ``z >= 0``.
-
-    ``g = phi(z) (1 - z R(z))`` with the Mills ratio ``R = Q / phi``; above
-    ``_SERIES_MARGIN`` the bracket comes from its series ``z^-2 (1 - 3 z^-2 + 15 z^-4 -
-    105 z^-6)``, next term ``945 z^-8`` (the direct form loses ``z^2`` eps to cancellation).
-    """
-    log_pdf = -0.5 * margin**2 - 0.5 * math.log(2.0 * math.pi)
-    if margin > _SERIES_MARGIN:
-        inverse_square = margin**-2
-        series = 1.0 - 3.0 * inverse_square + 15.0 * inverse_square**2 - 105.0 * inverse_square**3
-        return log_pdf + math.log(inverse_square * series)
-    mills = math.sqrt(math.pi / 2.0) * special.erfcx(margin / math.sqrt(2.0))
-    return log_pdf + math.log(1.0 - margin * mills)
-
-
-def _log_edge_rate(coarsest_fsr_hz: float, coarsest_std_hz: float, band_width_hz: float):
-    """``log`` of the band-averaged wrap rate of the coarsest stage, both ends (item 4 of the
-    module docstring).
-
-    Returns
-    -------
-    float
-        ``log(2 (s_0 / B) (g(z) - g(z')))``.
-    """
-    near = (coarsest_fsr_hz - band_width_hz) / (2.0 * coarsest_std_hz)
-    far = (coarsest_fsr_hz + band_width_hz) / (2.0 * coarsest_std_hz)
-    if far - near < _NARROW_SPREAD * max(near, 1.0):
-        return math.log(2.0) + float(special.log_ndtr(-(near + far) / 2.0))
-    log_near = _log_tail_integral(near)
-    log_difference = log_near + math.log1p(-math.exp(_log_tail_integral(far) - log_near))
-    return math.log(2.0 * coarsest_std_hz / band_width_hz) + log_difference
-
-
-@dataclass(frozen=True)
-class CascadeDesign:
-    """A cascade of ideal stages chosen by :func:`design_cascade`.
-
-    Attributes
-    ----------
-    fsrs_hz : tuple of float, shape (K,)
-        Stage FSRs (Hz), coarsest first; the last is ``finest_fsr_hz`` exactly.
-    wrong_order_rate : float
-        Predicted probability per reading that some stage's order is wrong (the coarsest
-        stage wraps or a hand-over picks the wrong order).
-    handover_margins : tuple of float, shape (K - 1,)
-        Margin of each hand-over ``k -> k+1``: half the finer FSR over the residual's
-        standard deviation (standard deviations).
-    handover_rates : tuple of float, shape (K - 1,)
-        Wrong-order rate of each hand-over (per reading).
-    ratios : tuple of float, shape (K - 1,)
-        ``F_k / F_{k+1}`` of each hand-over (all equal).
-    stage_std_hz : tuple of float, shape (K,)
-        Frequency standard deviation of each stage at its share of the power (Hz): the
-        ideal bound times ``noise_factor``.
-    edge_margin : float
-        How far the coarsest stage's unique range reaches beyond each end of the band, in
-        that stage's standard deviations: ``(F_0 - B) / (2 s_0)``.
-    edge_rate : float
-        Wrap rate of the coarsest stage, averaged over readings uniform over the band.
-    band_hz : (float, float) or None
-        The band (Hz, low and high); None when only its width was given.
-    band_width_hz : float
-        Width ``B`` of the band (Hz).
-    ports : int
-        Ports per stage.
-    power_w : float
-        Source power entering the cascade (W); each stage receives ``power_w / K``.
-    noise_w : float
-        Detector noise standard deviation per port and reading (W).
-    requested_rate : float
-        The wrong-order rate asked for (per reading).
-    noise_factor : float
-        The stages' noise over the ideal bound the design allows for.
-    fsr_tolerance : float
-        The relative error of every FSR the design allows for: margins and rates are
-        those of the worst case (item 8 of the module docstring).
-    """
-
-    fsrs_hz: tuple[float, ...]
-    wrong_order_rate: float
-    handover_margins: tuple[float, ...]
-    handover_rates: tuple[float, ...]
-    ratios: tuple[float, ...]
-    stage_std_hz: tuple[float, ...]
-    edge_margin: float
-    edge_rate: float
-    band_hz: tuple[float, float] | None
-    band_width_hz: float
-    ports: int
-    power_w: float
-    noise_w: float
-    requested_rate: float
-    noise_factor: float = 1.0
-    fsr_tolerance: float = 0.0
-
-    @property
-    def stages(self) -> int:
-        """Number of stages ``K``."""
-        return len(self.fsrs_hz)
-
-    @property
-    def stage_power_w(self) -> float:
-        """Power each stage receives (W): ``power_w / K``."""
-        return self.power_w / self.stages
-
-    @property
-    def meets_rate(self) -> bool:
-        """Whether the predicted wrong-order rate is at most the requested one."""
-        return self.wrong_order_rate <= self.requested_rate
-
-    def to_dict(self) -> dict:
-        """The design as plain JSON-ready values, units in the key names, plus
-        ``stages``, ``stage_power_w`` and ``meets_rate``."""
-        values = {
-            name: list(value) if isinstance(value, tuple) else value
-            for name, value in asdict(self).items()
-        }
-        return {
-            **values,
-            "stages": self.stages,
-            "stage_power_w": self.stage_power_w,
-            "meets_rate": self.meets_rate,
-        }
-
-    def __str__(self) -> str:
-        """An aligned table: one row per stage (FSR, ratio to the next, stage std, margin
-        and rate of its hand-over to the next), then the wrap and total rates."""
-        header = ("stage", "FSR GHz", "ratio", "std MHz", "margin (std)", "hand-over rate")
-        rows = []
-        for index, (fsr, std) in enumerate(zip(self.fsrs_hz, self.stage_std_hz, strict=True)):
-            handover = index < self.stages - 1
-            rows.append(
-                (
-                    str(index + 1),
-                    f"{fsr / 1e9:.6g}",
-                    f"{self.ratios[index]:.4g}" if handover else "-",
-                    f"{std / 1e6:.5g}",
-                    f"{self.handover_margins[index]:.2f}" if handover else "-",
-                    _rate_text(self.handover_rates[index]) if handover else "-",
-                )
-            )
-        widths = [max(len(row[column]) for row in (header, *rows)) for column in range(6)]
-        lines = [
-            "  ".join(cell.rjust(width) for cell, width in zip(row, widths, strict=True))
-            for row in (header, *rows)
-        ]
-        band = (
-            f"{self.band_hz[0] / 1e12:.6g}-{self.band_hz[1] / 1e12:.6g} THz, "
-            if self.band_hz is not None
-            else ""
-        )
-        lines += [
-            f"band: {band}{self.band_width_hz / 1e9:.6g} GHz wide; stage 1's range reaches "
-            f"{self.edge_margin:.2f} std beyond each end: wrap rate {_rate_text(self.edge_rate)}",
-            f"{self.stages} stage(s) of {self.ports} ports, each {self.stage_power_w:.4g} W "
-            f"(source {self.power_w:.4g} W), detector noise {self.noise_w:.4g} W per port; "
-            f"stages {self.noise_factor:g}x the ideal noise, FSRs within "
-            f"{100 * self.fsr_tolerance:g} % (margins and rates at the worst)",
-            f"wrong-order rate per reading: {_rate_text(self.wrong_order_rate)} predicted "
-            f"({_rate_text(self.requested_rate)} requested)",
-        ]
-        return "\n".join(lines)
-
-
-def _rate_text(rate: float) -> str:
-    """A rate with 3 digits; one too small for a double is shown as ``< 1e-300``."""
-    return f"{rate:.3g}" if rate > 1e-300 else "< 1e-300"
 
 
 # ---------------------------------------------------------------------------- checks
@@ -335,114 +146,6 @@ def _stage_count(stages) -> int | None:
     return int(stages)
 
 
-# ---------------------------------------------------------------------------- the model
-@dataclass(frozen=True)
-class _Setting:
-    """What is fixed while ``F_0`` and ``K`` are searched."""
-
-    band_hz: tuple[float, float] | None
-    band_width_hz: float
-    finest_fsr_hz: float
-    ports: int
-    power_w: float
-    noise_w: float
-    requested_rate: float
-    noise_factor: float
-    fsr_tolerance: float
-
-    def fsrs_hz(self, coarsest_fsr_hz: float, stages: int) -> tuple[float, ...]:
-        """Geometric FSRs from ``coarsest_fsr_hz`` to the finest, which is kept exact."""
-        if stages == 1:
-            return (self.finest_fsr_hz,)
-        steps = np.arange(stages - 1) / (stages - 1)
-        ratio = self.finest_fsr_hz / coarsest_fsr_hz
-        return (*(float(coarsest_fsr_hz * ratio**step) for step in steps), self.finest_fsr_hz)
-
-    def stage_std_hz(self, fsrs_hz) -> tuple[float, ...]:
-        stage_power_w = self.power_w / len(fsrs_hz)
-        return tuple(
-            self.noise_factor
-            * float(crlb_ideal_frequency_std(self.ports, stage_power_w, self.noise_w, fsr))
-            for fsr in fsrs_hz
-        )
-
-    def margins(self, fsrs_hz, stds_hz) -> np.ndarray:
-        """Each hand-over's margin (std) with the coarser FSR ``fsr_tolerance`` above its
-        design and the finer one below it (item 8 of the module docstring)."""
-        wider, narrower = 1.0 + self.fsr_tolerance, 1.0 - self.fsr_tolerance
-        stds = np.asarray(stds_hz)
-        half = np.asarray(fsrs_hz[1:]) * narrower / 2.0
-        return half / np.hypot(stds[:-1] * wider, stds[1:] * narrower)
-
-    def log_edge_rate(self, fsrs_hz, stds_hz) -> float:
-        """``log`` of the wrap rate with the coarsest FSR ``fsr_tolerance`` below its
-        design (its unique range then narrowest)."""
-        narrower = 1.0 - self.fsr_tolerance
-        return _log_edge_rate(fsrs_hz[0] * narrower, stds_hz[0] * narrower, self.band_width_hz)
-
-    def edge_margin(self, fsrs_hz, stds_hz) -> float:
-        """``(F_0 - B) / (2 s_0)`` with the coarsest FSR ``fsr_tolerance`` below its design."""
-        narrower = 1.0 - self.fsr_tolerance
-        return (fsrs_hz[0] * narrower - self.band_width_hz) / (2.0 * stds_hz[0] * narrower)
-
-    def log_rate(self, coarsest_fsr_hz: float, stages: int) -> float:
-        """``log`` of the sum of the wrap and hand-over rates (the search's objective)."""
-        fsrs = self.fsrs_hz(coarsest_fsr_hz, stages)
-        stds = np.array(self.stage_std_hz(fsrs))
-        terms = [self.log_edge_rate(fsrs, stds)]
-        terms += list(_log_handover_rate(self.margins(fsrs, stds)))
-        return float(special.logsumexp(terms))
-
-    def design(self, coarsest_fsr_hz: float, stages: int) -> CascadeDesign:
-        fsrs = self.fsrs_hz(coarsest_fsr_hz, stages)
-        stds = self.stage_std_hz(fsrs)
-        margins = self.margins(fsrs, stds)
-        # the rate at margin z: erfc(z / sqrt 2), as for a half FSR of z standard deviations
-        handover_rates = handover_error_rate(2.0 * margins, 1.0)
-        edge_rate = math.exp(self.log_edge_rate(fsrs, stds))
-        total = any_error_probability(np.array([edge_rate, *handover_rates]))
-        return CascadeDesign(
-            fsrs_hz=fsrs,
-            wrong_order_rate=float(total),
-            handover_margins=tuple(float(margin) for margin in margins),
-            handover_rates=tuple(float(rate) for rate in handover_rates),
-            ratios=tuple(fsrs[k] / fsrs[k + 1] for k in range(stages - 1)),
-            stage_std_hz=stds,
-            edge_margin=self.edge_margin(fsrs, stds),
-            edge_rate=edge_rate,
-            band_hz=self.band_hz,
-            band_width_hz=self.band_width_hz,
-            ports=self.ports,
-            power_w=self.power_w,
-            noise_w=self.noise_w,
-            requested_rate=self.requested_rate,
-            noise_factor=self.noise_factor,
-            fsr_tolerance=self.fsr_tolerance,
-        )
-
-    def best(self, stages: int) -> CascadeDesign | None:
-        """The rate-minimising design of ``stages`` stages; None when ``K = 1`` and the
-        finest FSR does not exceed the band."""
-        narrowest = self.band_width_hz / (1.0 - self.fsr_tolerance)
-        if stages == 1:
-            if self.finest_fsr_hz <= narrowest:
-                return None
-            return self.design(self.finest_fsr_hz, 1)
-        floor_hz = max(narrowest, self.finest_fsr_hz)
-
-        def objective(log_excess: float) -> float:
-            return self.log_rate(floor_hz * (1.0 + math.exp(log_excess)), stages)
-
-        grid = np.linspace(*np.log(_EXCESS_RANGE), _GRID_POINTS)
-        best = int(np.argmin([objective(point) for point in grid]))
-        bracket = (grid[max(best - 1, 0)], grid[min(best + 1, grid.size - 1)])
-        found = optimize.minimize_scalar(
-            objective, bounds=bracket, method="bounded", options={"xatol": 1e-6}
-        )
-        log_excess = found.x if found.fun <= objective(grid[best]) else grid[best]
-        return self.design(floor_hz * (1.0 + math.exp(log_excess)), stages)
-
-
 def design_cascade(
     band_hz,
     finest_fsr_hz: float,
@@ -506,7 +209,7 @@ def design_cascade(
         what would help).
     """
     band, width = _band(band_hz)
-    setting = _Setting(
+    setting = DesignSetting(
         band_hz=band,
         band_width_hz=width,
         finest_fsr_hz=_positive("finest_fsr_hz", finest_fsr_hz),

@@ -37,7 +37,7 @@ integer per reading whose bits are :class:`ReadingFlag` members:
     which it picks a wrong order unseen (no reading of one interferometer can tell).
     For a cascade of stages (which needs no coarse value): the probability that some
     stage picked a wrong order, from the stages' uncertainties and each hand-over's
-    residual (:meth:`~wavemeter.calibration.methods.cascade.CascadeCalibrator.order_error_probability`),
+    residual (the cascade calibrator's ``order_error_probability``),
     exceeds the calibration's ``max_order_error`` (default 1e-6).
 
 The pure functions here decide each rule; the calibrators supply the numbers.
@@ -52,6 +52,7 @@ from scipy import special
 
 __all__ = [
     "ReadingFlag",
+    "flag_summary",
     "OFF_MODEL_P_VALUE",
     "POWER_RANGE_FACTOR",
     "UNCHECKED_OFFSET_FACTOR",
@@ -143,6 +144,25 @@ def flag_counts(flags) -> dict[str, int]:
     mask = np.asarray(flags, dtype=np.int64)
     counts = {bit.name: int(np.count_nonzero(mask & bit)) for bit in ReadingFlag}
     return {name: count for name, count in counts.items() if count}
+
+
+def flag_summary(counts: dict[str, int], flagged: int, readings: int) -> str:
+    """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2``: the words every command
+    and the report count flags in (a reading may have several bits, so the counts can add
+    up to more than the readings flagged).
+
+    Parameters
+    ----------
+    counts : dict of str to int
+        Readings with each bit, by bit name (:func:`flag_counts`).
+    flagged : int
+        Readings with any bit.
+    readings : int
+        Readings in all.
+    """
+    text = f"flagged {flagged} of {readings} readings"
+    listed = ", ".join(f"{name} {count}" for name, count in counts.items())
+    return f"{text}: {listed}" if listed else text
 
 
 def temperature_flags(

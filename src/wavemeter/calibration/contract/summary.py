@@ -11,8 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ...units import SPEED_OF_LIGHT_M_S
-from ..models.delay_search import frequency_text
+from ...units import SPEED_OF_LIGHT_M_S, frequency_text
 
 __all__ = ["Check", "FitReport", "FitValue", "LABEL_WIDTH", "Table", "value_text"]
 

@@ -193,7 +193,7 @@ class SweepFitMixin:
         -----
         CalibrationWarning
             ``"dead_port"`` for a port without a fringe; a misfit cause
-            (:data:`wavemeter.calibration.checks.misfit.CAUSES`) when the sweep departs
+            (:data:`wavemeter.calibration.checks.misfit_causes.CAUSES`) when the sweep departs
             from the model. The evidence is kept in ``diagnostics_``.
         """
         self._check_params()

@@ -20,8 +20,8 @@ from ...model.orders import any_error_probability
 from ...model.uncertainty import student_factor
 from ..contract.flags import off_model_threshold
 from ..contract.streaming import SCREEN_MARGIN
+from ..models.band_reading import band_cone_distance
 from ..models.wideband_fit import NEWTON_STEPS, PREDICT_ITERATIONS
-from .wideband_reading import band_cone_distance
 
 __all__ = [
     "CascadeReading",
@@ -136,11 +136,11 @@ class StageReader:
     retrieval), for a live stream.
 
     The steps :func:`~wavemeter.calibration.models.wideband_fit.band_frequency_hz`, the stage's
-    ``_frequency_std_of`` and :func:`~wavemeter.calibration.methods.wideband_reading.band_cone_distance`
+    ``_frequency_std_of`` and :func:`~wavemeter.calibration.models.band_reading.band_cone_distance`
     take for a batch, for a single reading: the phase polynomial and the Legendre basis
     evaluated as numpy's ``polyval`` and ``legvander`` do, the map's pseudo-inverse solved
     as :func:`~wavemeter.model.retrieval.stacked_pinv` solves it, the variance of
-    :func:`~wavemeter.calibration.methods.wideband_reading.band_frequency_variance_hz2`, on numbers
+    :func:`~wavemeter.calibration.models.band_reading.band_frequency_variance_hz2`, on numbers
     and short vectors instead of arrays of readings, whose per-call costs rule at one
     reading (about 60 us a stage, against 600 us through those functions). What the stage
     fixes (its model, noise, covariance, thresholds) is taken once. The frequency and its

@@ -21,7 +21,6 @@ window's readings modulo the FSR it picks the alias nearest the coarse value.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import warnings
 
@@ -31,23 +30,21 @@ from ...exceptions import CalibrationWarning, InputError, recorded_calibration_w
 from ...model.cone import wrap_to_period
 from ...validation import (
     MIN_SAMPLES,
-    check_coarse_inside,
-    check_fitted,
     check_frequency,
     check_monitor,
-    check_per_reading,
     check_positive,
     check_powers,
 )
-from ..contract.base import BaseCalibrator, Part
+from ..contract.base import BaseCalibrator
 from ..contract.params import clone
 from ..contract.records import ReadingInputs
 from ..contract.summary import FitValue
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
 from ..files.registry import calibrator_class
-from ..models.reanchor import ReanchorFit, check_reference_readings, reanchored_copy
 from .learned import Calibrator
 from .set_checks import adjacent_check, adjacent_evaluation, window_label
+from .set_reading import WindowReadingMixin
+from .set_reanchor import reanchored_set
 
 __all__ = ["CalibrationSet", "WINDOW_FSR_TOLERANCE"]
 
@@ -56,7 +53,7 @@ __all__ = ["CalibrationSet", "WINDOW_FSR_TOLERANCE"]
 WINDOW_FSR_TOLERANCE = 0.15
 
 
-class CalibrationSet(BaseCalibrator):
+class CalibrationSet(WindowReadingMixin, BaseCalibrator):
     """A calibration per FSR-wide window of a sweep spanning many FSRs.
 
     Parameters
@@ -286,115 +283,6 @@ class CalibrationSet(BaseCalibrator):
             warnings.warn(note, stacklevel=2)
         return self
 
-    # ------------------------------------------------------------------ windows
-    def covered_hz(self) -> tuple[float, float]:
-        """Lowest and highest coarse frequency (Hz) the set has a window for.
-
-        The union of the windows and the calibration sweep: readings beyond the outer
-        window edges but inside the sweep use the outer window.
-        """
-        check_fitted(self)
-        edges = self.window_edges_hz_
-        return min(float(edges[0]), self.span_hz_[0]), max(float(edges[-1]), self.span_hz_[1])
-
-    def window_index(self, coarse_hz) -> np.ndarray:
-        """Index into ``windows_`` of the window for each coarse frequency.
-
-        Parameters
-        ----------
-        coarse_hz : float or array_like, shape (N,)
-            Approximate frequency (Hz).
-
-        Returns
-        -------
-        ndarray of int, shape (N,) (shape (1,) for a scalar)
-
-        Raises
-        ------
-        ValueError
-            When a coarse frequency lies outside :meth:`covered_hz`.
-        """
-        check_fitted(self)
-        coarse = check_per_reading("coarse_hz", coarse_hz, np.size(coarse_hz))
-        low, high = self.covered_hz()
-        check_coarse_inside(
-            coarse,
-            (coarse >= low) & (coarse <= high),
-            f"outside the calibrated span {low / 1e12:.6f} to {high / 1e12:.6f} THz: no window "
-            "has a map there",
-        )
-        position = np.floor((coarse - self.window_edges_hz_[0]) / self.fsr_hz_)
-        return np.clip(position, 0, len(self.windows_) - 1).astype(int)
-
-    def _per_window(self, readings: np.ndarray, coarse: np.ndarray, retrieve) -> np.ndarray:
-        """``retrieve(window, readings, coarse)`` applied to each window's readings."""
-        index = self.window_index(coarse)
-        result = np.empty(readings.shape[0])
-        for window_number in np.unique(index):
-            rows = index == window_number
-            result[rows] = retrieve(self.windows_[window_number], readings[rows], coarse[rows])
-        return result
-
-    def parts(self) -> tuple[Part, ...]:
-        """One part per window, low to high frequency."""
-        check_fitted(self)
-        edges = self.window_edges_hz_
-        return tuple(
-            Part(
-                window_label(edges, index),
-                "window",
-                window,
-                (float(edges[index]), float(edges[index + 1])),
-            )
-            for index, window in enumerate(self.windows_)
-        )
-
-    # ------------------------------------------------------------------ retrieval
-    def _coverage(self, inputs: ReadingInputs):
-        low, high = self.covered_hz()
-        coarse = inputs.coarse_hz
-        return (
-            (coarse >= low) & (coarse <= high),
-            f"outside the calibrated span {low / 1e12:.6f} to {high / 1e12:.6f} THz: no "
-            "window has a map there",
-        )
-
-    def _frequency_hz(self, readings, inputs: ReadingInputs) -> np.ndarray:
-        """The window's frequency alias (modulo its FSR) nearest each coarse value."""
-
-        def nearest_alias(window, rows, coarse_rows):
-            fine = window.predict(rows)
-            return coarse_rows + wrap_to_period(fine - coarse_rows, window.fsr_hz_)
-
-        return self._per_window(readings, inputs.coarse_hz, nearest_alias)
-
-    def _phase_rad(self, readings, inputs: ReadingInputs) -> np.ndarray:
-        """The phase (rad) of each reading in its window, zero at the window's centre."""
-        return self._per_window(
-            readings, inputs.coarse_hz, lambda window, rows, _: window.phase(rows)
-        )
-
-    def _frequency_std(self, readings, inputs: ReadingInputs, include_calibration: bool):
-        """The standard deviation (Hz) of the window that reads each reading."""
-        return self._per_window(
-            readings,
-            inputs.coarse_hz,
-            lambda window, rows, _: window.frequency_std_hz(
-                rows, include_calibration=include_calibration
-            ),
-        )
-
-    def _crlb(self, readings, inputs: ReadingInputs, frequency_hz) -> np.ndarray:
-        """The bound under the map and noise of each reading's window."""
-        index = self.window_index(inputs.coarse_hz)
-        result = np.empty(readings.shape[0])
-        for window_number in np.unique(index):
-            rows = index == window_number
-            result[rows] = self.windows_[window_number].crlb_hz(
-                readings[rows], frequency_hz=None if frequency_hz is None else frequency_hz[rows]
-            )
-        return result
-
     def reanchor(self, powers, frequency_hz, *, coarse_hz=None, temperature_k=None):
         """A copy whose windows are re-anchored to readings of reference lines.
 
@@ -433,86 +321,7 @@ class CalibrationSet(BaseCalibrator):
             span), ``coarse_hz`` or ``temperature_k``; naming ``window`` when the windows
             cannot be re-anchored.
         """
-        check_fitted(self)
-        raw, frequency, temperature = check_reference_readings(
-            powers, frequency_hz, self.n_ports_, temperature_k
-        )
-        if coarse_hz is not None:
-            try:
-                check_per_reading("coarse_hz", coarse_hz, frequency.size)
-            except InputError as exc:
-                raise InputError(str(exc), parameter="coarse_hz") from exc
-        low, high = self.covered_hz()
-        outside = (frequency < low) | (frequency > high)
-        if outside.any():
-            raise InputError(
-                f"frequency_hz {frequency[outside][0]!r} Hz is outside the calibrated span "
-                f"{low / 1e12:.6f} to {high / 1e12:.6f} THz: no window to re-anchor there",
-                parameter="frequency_hz",
-            )
-        if "reanchor" not in self.windows_[0].capabilities:
-            raise InputError(
-                f"windows of method {type(self.windows_[0]).method!r} cannot be re-anchored",
-                parameter="window",
-            )
-        readings = raw - self._reading_offset_w()
-        index = self.window_index(frequency)
-        windows = list(self.windows_)
-        anchored = np.unique(index)
-        for number in anchored:
-            rows = index == number
-            windows[number] = self.windows_[number].reanchor(
-                readings[rows],
-                frequency[rows],
-                temperature_k=None if temperature is None else temperature[rows],
-            )
-            windows[number].diagnostics_["reanchor"]["interpolated_from"] = []
-        centers = np.array([window.center_hz_ for window in self.windows_])
-        records = [windows[number].diagnostics_["reanchor"] for number in anchored]
-        shifts = np.unwrap([record["phase_shift_rad"] for record in records])
-        variances = np.square([record["phase_shift_std_rad"] for record in records])
-        for number in np.setdiff1d(np.arange(len(windows)), anchored):
-            # weight of each re-anchored window: linear interpolation, held beyond the ends
-            weight = np.array(
-                [
-                    np.interp(centers[number], centers[anchored], unit)
-                    for unit in np.eye(anchored.size)
-                ]
-            )
-            shift_std = float(np.sqrt(weight**2 @ variances))
-            fit = ReanchorFit(
-                phase_shift_rad=float(weight @ shifts),
-                phase_shift_std_rad=shift_std,
-                delay_change_s=None,
-                delay_change_std_s=None,
-                covariance=np.diag([shift_std**2, 0.0]),
-                lines_hz=(),
-                readings=0,
-            )
-            source = anchored[weight > 0].tolist()
-            windows[number] = reanchored_copy(
-                self.windows_[number], fit, {**fit.record(), "interpolated_from": source}
-            )
-        corrected = copy.deepcopy(self)
-        corrected.windows_ = windows
-        corrected.diagnostics_ = {
-            **(corrected.diagnostics_ or {}),
-            "reanchor": {
-                "lines_hz": np.unique(frequency).tolist(),
-                "readings": int(frequency.size),
-                "windows": [window.diagnostics_["reanchor"] for window in windows],
-            },
-        }
-        return corrected
-
-    def _offsets_known(self) -> bool:
-        return super()._offsets_known() or any(w._offsets_known() for w in self.windows_)
-
-    def _model_flags(self, readings, inputs: ReadingInputs) -> np.ndarray:
-        """Each window's own bits."""
-        return self._per_window(
-            readings, inputs.coarse_hz, lambda window, rows, _: window.flags(rows)
-        ).astype(np.int64)
+        return reanchored_set(self, powers, frequency_hz, coarse_hz, temperature_k)
 
     # ------------------------------------------------------------------ reporting
     def _fsr_std_hz(self) -> float | None:

@@ -1,48 +1,28 @@
 """One calibration across a band of many FSRs: a phase polynomial and a smooth map.
 
-:mod:`wavemeter.calibration.models.wideband_fit` holds the model ``p = m A(y) u(t(y))``,
-``t(y) = sum b_i y^i``, ``A(y) = sum A_j L_j(y)`` (``y = (f - f0) / h`` across the band)
-and its fit; :mod:`wavemeter.calibration.models.wideband_orders` chooses the orders.
-:class:`WidebandCalibrator` learns it from one sweep (gaps of whole FSRs allowed) and
-reads absolute frequency from a reading and a coarse frequency within half an FSR, and
-says what it knows of each reading:
-
-* **uncertainty**: :meth:`WidebandCalibrator.frequency_std_hz` is the delta method through
-  the retrieval used with each reading's own map, plus the spread the covariance of every
-  fitted number (map coefficients and phase coefficients) gives, with the Student factor
-  of the noise estimate, as for :class:`~wavemeter.calibration.methods.learned.Calibrator`;
-* **flags**: ``OUTSIDE_SPAN`` for a frequency outside the calibrated band (by more than
-  ``SPAN_MARGIN_STD`` standard deviations; a coarse value half an FSR beyond it has no
-  map at all), ``ORDER_AMBIGUOUS`` where the frequency found lies more than
-  ``ORDER_MARGIN_FSR`` of the local FSR from the coarse value (the order then rests on a
-  coarse value that is itself that far off), ``OFF_MODEL`` as for the learned calibrator;
-* the fit diagnostics of :mod:`wavemeter.calibration.checks.misfit` on the band model.
+:class:`WidebandCalibrator` learns the wide-band model
+(:mod:`~wavemeter.calibration.models.wideband_fit`, its orders chosen by
+:mod:`~wavemeter.calibration.models.wideband_orders`) from one sweep, gaps of whole FSRs
+allowed: the paper's delay on the central FSRs, the fit grown to the band, the orders by
+cross-validation, the ports and the residual judged on the band model. It reads absolute
+frequency from a reading and a coarse frequency within half an FSR
+(:mod:`~wavemeter.calibration.methods.wideband_reading`). Theory: the docs' wide-band page.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ...exceptions import CalibrationWarning, InputError
-from ...model.cone import wrap_phase_rad
-from ...model.uncertainty import fit_parameter_covariance, student_factor
-from ...validation import (
-    check_choice,
-    check_fitted,
-    check_positive,
-)
-from ..checks.misfit import misfit_report
+from ...exceptions import InputError
+from ...units import frequency_text
+from ...validation import check_choice, check_positive
 from ..contract.base import BaseCalibrator
-from ..contract.flags import SPAN_MARGIN_STD, ReadingFlag
-from ..contract.records import ReadingInputs, Readout
 from ..contract.summary import FitValue
 from ..files.document import state_array, state_float
-from ..files.registry import calibrator_class
 from ..fitting.steps import (
     SweepFitMixin,
     check_ports,
@@ -52,17 +32,9 @@ from ..fitting.steps import (
     rms,
 )
 from ..fitting.sweep import FitContext, Sweep
-from ..models.delay_search import frequency_text
+from ..models.band_reading import band_phase_rad
 from ..models.learned_fit import RETRIEVALS, fit_learned_map, port_noise_std_w
-from ..models.wideband_fit import (
-    BandModel,
-    band_frequency_hz,
-    band_object_derivatives,
-    band_objects,
-    check_monotonic,
-    fit_band,
-    map_coefficients,
-)
+from ..models.wideband_fit import BandModel, check_monotonic, fit_band, map_coefficients
 from ..models.wideband_orders import (
     MAX_MAP_ORDER,
     MAX_PHASE_ORDER,
@@ -73,32 +45,12 @@ from ..models.wideband_orders import (
     select_orders,
     window_count,
 )
-from .figures import (
-    FRINGE_HALF_WIDTH_FSR,
-    band_fringe_panel,
-    near,
-    pseudo_inverse,
-    unit_power_samples,
-)
-from .wideband_reading import (
-    band_crlb_hz,
-    band_frequency_variance_hz2,
-    band_off_model,
-    band_phase_rad,
-    residual_phase_by_window,
-)
-from .wideband_report import (
-    PHASE_COEFFICIENT_NAMES,
-    band_figures,
-    band_tables,
-    orders_text,
-    residual_phase_text,
-)
+from .wideband_checks import BandChecksMixin
+from .wideband_reading import ORDER_MARGIN_FSR, BandReadingMixin
+from .wideband_report import PHASE_COEFFICIENT_NAMES, BandReportMixin
 
 __all__ = ["ORDER_MARGIN_FSR", "WidebandCalibrator"]
 
-#: the frequency found may lie this share of the local FSR from the coarse value unflagged
-ORDER_MARGIN_FSR = 0.25
 #: readings within one design FSR of the middle start the fit: at least this many
 MIN_CENTRAL_READINGS = 16
 #: phase order of the growth of the fit when the order is to be chosen
@@ -124,7 +76,9 @@ class BandContext(FitContext):
     fit: object = None
 
 
-class WidebandCalibrator(SweepFitMixin, BaseCalibrator):
+class WidebandCalibrator(
+    BandReadingMixin, BandReportMixin, BandChecksMixin, SweepFitMixin, BaseCalibrator
+):
     """Learned calibration of a band of many FSRs (module docstring).
 
     Parameters
@@ -391,210 +345,6 @@ class WidebandCalibrator(SweepFitMixin, BaseCalibrator):
         columns = (self.parameter_covariance_.shape[0] - self.phase_order_) // self.n_ports_
         return columns > 3 * (self.map_order_ + 1)
 
-    def _sweep_design(self, ctx: BandContext) -> tuple[np.ndarray, np.ndarray]:
-        """The sweep's design columns (N, q) and their derivatives (P, N, q) by ``b``."""
-        frequency_hz, scale, affine = ctx.sweep.frequency_hz, ctx.sweep.scale, ctx.affine
-        y = self.band_model_.normalized(frequency_hz)
-        phase = self.band_model_.phase_rad(frequency_hz)
-        objects = band_objects(y, phase, scale, self.map_order_, affine)
-        derivatives = band_object_derivatives(
-            y, phase, scale, self.map_order_, affine, self.phase_order_
-        )
-        return objects, derivatives
-
-    def _design_matrix(self, affine: bool) -> np.ndarray:
-        """The least-squares coefficients as a map (n, q): ``A_j`` blocks, then offsets."""
-        blocks = self.map_coefficients_.transpose(0, 2, 1).reshape(-1, self.n_ports_)
-        if affine:
-            blocks = np.vstack([blocks, self.offset_w_])
-        return blocks.T
-
-    def _set_covariance(self, ctx: BandContext) -> None:
-        objects, derivatives = self._sweep_design(ctx)
-        self.parameter_covariance_ = fit_parameter_covariance(
-            objects,
-            derivatives,
-            self._design_matrix(ctx.affine),
-            self.port_noise_std_w_,
-            weighted=False,
-        )
-
-    def _misfit_report(self, ctx: BandContext):
-        """The fit diagnostics on the band model; a phase the polynomial left, even in
-        frequency (``dispersion``), is remedied by a higher phase order here."""
-        report = self._band_misfit_report(ctx)
-        if "dispersion" not in report.causes:
-            return report
-        remedy = (
-            f"set a higher phase_order (this fit has {self.phase_order_}), or sweep more FSRs "
-            "so that cross-validation can choose the orders"
-        )
-        notes = tuple(
-            CalibrationWarning(
-                str(note).replace(note.remedy, remedy), cause=note.cause, remedy=remedy
-            )
-            if note.cause == "dispersion"
-            else note
-            for note in report.warnings
-        )
-        return dataclasses.replace(report, warnings=notes)
-
-    def _band_misfit_report(self, ctx: BandContext):
-        objects, _ = self._sweep_design(ctx)
-        powers, frequency_hz, scale = ctx.sweep.powers_w, ctx.sweep.frequency_hz, ctx.sweep.scale
-        y = self.band_model_.normalized(frequency_hz)
-        offsets = offset_std = None
-        if ctx.affine:
-            columns = 3 * (self.map_order_ + 1) + 1
-            variances = np.diag(self.parameter_covariance_)[: self.n_ports_ * columns]
-            offsets = self.offset_w_
-            offset_std = np.sqrt(variances.reshape(self.n_ports_, columns)[:, -1])
-        return misfit_report(
-            powers,
-            frequency_hz,
-            self.center_hz_,
-            self.delay_s_,
-            self.band_model_.maps_at(frequency_hz),
-            scale=scale,
-            offset_w=offsets,
-            offset_std_w=offset_std,
-            dark_given=self.dark_w_ is not None,
-            weighted_retrieval=self.retrieval == "ml",
-            phase_rad=self.band_model_.phase_rad(frequency_hz),
-            design=objects,
-            phase_derivatives=np.power.outer(y, np.arange(1, self.phase_order_ + 1)).T,
-        )
-
-    def _residual_phase_by_window(self, ctx: BandContext, readings) -> list[dict]:
-        """Retrieved minus model phase (rad) of the sweep's offset-corrected readings, by
-        FSR window: what the fit left across the band."""
-        frequency_hz = ctx.sweep.frequency_hz
-        maps = self.band_model_.maps_at(frequency_hz)
-        residual = wrap_phase_rad(
-            self._retrieve(readings, maps) - self.band_model_.phase_rad(frequency_hz)
-        )
-        return residual_phase_by_window(frequency_hz, residual, self.span_hz_[0], self.fsr_hz_)
-
-    def _band_record(self, ctx: BandContext, residual_phase: list) -> dict:
-        """``diagnostics_["wideband"]``: the orders and how they were chosen, the phase
-        coefficients with their standard errors, the residual phase per FSR window."""
-        std = np.sqrt(np.diag(self.parameter_covariance_)[-self.phase_order_ :])
-        return {
-            "phase_order": self.phase_order_,
-            "map_order": self.map_order_,
-            "n_parameters": self.n_parameters_,
-            "orders": ctx.orders.record(),
-            "phase_coefficients_s": self.phase_coefficients_.tolist(),
-            "phase_coefficients_std_s": (std * self._seconds_per_rad()).tolist(),
-            "residual_phase": residual_phase,
-        }
-
-    # ------------------------------------------------------------------ retrieval
-    def _retrieve(self, readings, maps) -> np.ndarray:
-        """Phase (rad) of each reading under its own map, by the retrieval set."""
-        return band_phase_rad(readings, maps, self.retrieval, self.port_noise_std_w_)
-
-    def _frequency_checked(self, readings, coarse_hz):
-        """:func:`band_frequency_hz` of validated, offset-corrected readings."""
-        return band_frequency_hz(self.band_model_, readings, coarse_hz, self._retrieve)
-
-    def _coarse_inside(self, coarse_hz: np.ndarray) -> np.ndarray:
-        """Whether each coarse frequency lies within half an FSR of the calibrated band."""
-        low, high = self.span_hz_
-        margin = 0.5 * self.fsr_hz_
-        return (coarse_hz >= low - margin) & (coarse_hz <= high + margin)
-
-    def _coverage(self, inputs: ReadingInputs):
-        low, high = self.span_hz_
-        return (
-            self._coarse_inside(inputs.coarse_hz),
-            f"more than half an FSR outside the calibrated band {low / 1e12:.6f} to "
-            f"{high / 1e12:.6f} THz: the calibration has no map there",
-        )
-
-    def _frequency_hz(self, readings, inputs: ReadingInputs) -> np.ndarray:
-        """Absolute frequency (Hz): of the frequencies the reading's phase allows, the one
-        nearest its coarse value."""
-        return self._frequency_checked(readings, inputs.coarse_hz)[0]
-
-    def _phase_rad(self, readings, inputs: ReadingInputs) -> np.ndarray:
-        """The retrieved phase under each reading's map: the model phase ``t(f)`` of the
-        frequency found, wrapped."""
-        return self._frequency_checked(readings, inputs.coarse_hz)[1]
-
-    def model_phase_rad(self, frequency_hz) -> np.ndarray:
-        """The model phase ``t(f)`` (rad, wrapped to (-pi, pi]) at frequencies (Hz): what
-        :meth:`phase` returns for a reading at ``f`` without noise."""
-        check_fitted(self)
-        return wrap_phase_rad(self.band_model_.phase_rad(frequency_hz))
-
-    def fsr_hz_at(self, frequency_hz) -> np.ndarray:
-        """The local FSR ``2 pi / (dt / df)`` (Hz) at frequencies (Hz)."""
-        check_fitted(self)
-        return 2.0 * np.pi / self.band_model_.phase_slope_rad_per_hz(frequency_hz)
-
-    def _frequency_std(self, readings, inputs: ReadingInputs, include_calibration: bool):
-        """The delta method through the retrieval used with each reading's own map, plus the
-        spread the covariance of every fitted number gives, with the Student factor."""
-        read = self._frequency_checked(readings, inputs.coarse_hz)
-        return self._frequency_std_of(readings, *read, include_calibration)
-
-    def _frequency_std_of(
-        self, readings, frequency, phase, maps, include_calibration=True, noise_scale=1.0
-    ):
-        """Standard deviation (Hz) of readings already read: their frequency (Hz), phase
-        (rad) and maps, as :func:`band_frequency_hz` returns them; with a detector noise
-        ``noise_scale`` times the calibrated one (the calibration's part unchanged)."""
-        variance = band_frequency_variance_hz2(
-            self.band_model_,
-            readings,
-            frequency,
-            phase,
-            maps,
-            retrieval=self.retrieval,
-            noise_std_w=noise_scale * self.port_noise_std_w_,
-            covariance=self.parameter_covariance_ if include_calibration else None,
-            affine=self._affine(),
-        )
-        if self.noise_dof_ <= 2:
-            return np.full(readings.shape[0], np.inf)
-        return np.sqrt(variance) * student_factor(self.noise_dof_)
-
-    def _crlb(self, readings, inputs: ReadingInputs, frequency_hz) -> np.ndarray:
-        """The bound under each reading's map and the port noise, at the frequency read or
-        at ``frequency_hz`` (its model phase)."""
-        if frequency_hz is None:
-            frequency, phase, _ = self._frequency_checked(readings, inputs.coarse_hz)
-        else:
-            frequency, phase = frequency_hz, self.band_model_.phase_rad(frequency_hz)
-        return band_crlb_hz(self.band_model_, readings, frequency, phase, self.port_noise_std_w_)
-
-    def _model_flags(self, readings, inputs: ReadingInputs) -> np.ndarray:
-        return self._readout(readings, inputs).flags
-
-    def _readout(self, readings, inputs: ReadingInputs) -> Readout:
-        """One reading of the band model gives the frequency, its standard deviation and the
-        flags: ``OUTSIDE_SPAN`` (outside the band by more than ``SPAN_MARGIN_STD``
-        standard deviations), ``ORDER_AMBIGUOUS`` (more than ``ORDER_MARGIN_FSR`` of the
-        local FSR from the coarse value), ``OFF_MODEL``."""
-        coarse = inputs.coarse_hz
-        frequency, phase, maps = self._frequency_checked(readings, coarse)
-        std = self._frequency_std_of(readings, frequency, phase, maps)
-        margin = SPAN_MARGIN_STD * std
-        low, high = self.span_hz_
-        flags = np.where(
-            (frequency < low - margin) | (frequency > high + margin),
-            np.int64(ReadingFlag.OUTSIDE_SPAN),
-            np.int64(0),
-        )
-        local_fsr = 2.0 * np.pi / self.band_model_.phase_slope_rad_per_hz(frequency)
-        flags[np.abs(frequency - coarse) > ORDER_MARGIN_FSR * local_fsr] |= (
-            ReadingFlag.ORDER_AMBIGUOUS
-        )
-        off_model = band_off_model(readings, maps, self.port_noise_std_w_, self.noise_dof_)
-        flags[off_model] |= ReadingFlag.OFF_MODEL
-        return Readout(frequency, std, flags, {}, phase)
-
     # ------------------------------------------------------------------ reporting
     def _fsr_std_hz(self) -> float | None:
         """``FSR^2 sigma(c_1)`` (Hz)."""
@@ -622,60 +372,6 @@ class WidebandCalibrator(SweepFitMixin, BaseCalibrator):
                 PHASE_COEFFICIENT_NAMES.get(order, f"phase coefficient c{order}"),
             )
         return values
-
-    def summary(self):
-        """The fit report, with the candidate orders scored and the residual phase."""
-        report = super().summary()
-        record = (self.diagnostics_ or {}).get("wideband")
-        if not record:
-            return report
-        notes = [text for text in (orders_text(record), residual_phase_text(record)) if text]
-        return dataclasses.replace(
-            report,
-            tables=(*report.tables, *band_tables(record)),
-            notes=(*report.notes, *notes),
-        )
-
-    def comparison(self, port_phases_rad=None):
-        """The learned calibration set per FSR with the same settings: the other way to
-        cover a band (what one model of the band buys)."""
-        window = calibrator_class("learned")(
-            fsr_hz=self.fsr_hz, fsr_tolerance=self.fsr_tolerance, retrieval=self.retrieval
-        )
-        return calibrator_class("calibration_set")(self.fsr_hz, self.fsr_tolerance, window=window)
-
-    def fringe_panels(self, frequency_hz, powers_w, monitor_w=None, temperature_k=None):
-        """The sweep within ``FRINGE_HALF_WIDTH_FSR`` of the reading nearest the middle of
-        the band (the sweep may have a gap there) under the band model."""
-        frequency = np.asarray(frequency_hz, dtype=float)
-        anchor = frequency[np.argmin(np.abs(frequency - self.center_hz_))]
-        panel = band_fringe_panel(
-            self.band_model_,
-            frequency,
-            np.asarray(powers_w, dtype=float),
-            monitor_w=None if monitor_w is None else np.asarray(monitor_w, dtype=float),
-            rows=near(frequency, anchor, self.fsr_hz_),
-            noise_std_w=self.noise_std_w_,
-            title=f"readings within {FRINGE_HALF_WIDTH_FSR:g} FSR of the one nearest the "
-            "middle of the band",
-        )
-        return (panel,)
-
-    def object_samples(self, powers_w, frequency_hz, temperature_k=None):
-        """Each reading under the map at the frequency it is read at (the truth as its
-        coarse frequency)."""
-        truth = np.asarray(frequency_hz, dtype=float)
-        powers = np.asarray(powers_w, dtype=float)
-        frequency = self.predict(powers, coarse_hz=truth)
-        inverses = pseudo_inverse(self.band_model_.maps_at(frequency))
-        return unit_power_samples(inverses, powers, self.phase(powers, coarse_hz=truth))
-
-    def report_figures(self, noise_std_hz=None):
-        record = (self.diagnostics_ or {}).get("wideband")
-        if not record:
-            return ()
-        noise_rad = None if noise_std_hz is None else 2.0 * np.pi * noise_std_hz / self.fsr_hz_
-        return band_figures(record, self.center_hz_, noise_rad)
 
     # ------------------------------------------------------------------ files
     def _state(self) -> dict:

@@ -1,156 +1,141 @@
-"""What a fitted wide-band model says of each reading: its phase, uncertainty and bound.
+"""How a wide-band calibration reads: each reading under its own map, its fringe order
+from its coarse frequency.
 
-Every reading has its own map ``A(f)`` (:class:`~wavemeter.calibration.models.wideband_fit.BandModel`),
-so the single-map formulas of :mod:`wavemeter.model` are applied with a stack of maps:
-
-* the phase by the pseudo-inverse or the cone maximum likelihood under each reading's map;
-* the frequency variance by the delta method (:mod:`wavemeter.model.uncertainty`): the
-  reading noise through the retrieval's gradient, ``df / dt = 1 / (dt / df)`` at the
-  reading's frequency, plus the calibration's own covariance along
-  ``df / dA_j = -(g (x) L_j(y) x) df/dt`` and ``df / db_i = -y^i df/dt``;
-* the Cramer-Rao bound under each reading's map and the port noise;
-* the off-model test of the flags (:func:`~wavemeter.calibration.contract.flags.off_model_threshold`);
-* the residual phase of the sweep per FSR window, for the diagnostics.
-
-:class:`~wavemeter.calibration.methods.wideband.WidebandCalibrator` answers with these functions.
+:class:`BandReadingMixin` retrieves the phase under the map at the reading's frequency
+(pseudo-inverse or cone maximum likelihood), the frequency of that phase nearest the
+coarse value, the standard deviation by the delta method with every fitted number's
+covariance, the Cramer-Rao bound, and the flags (``OUTSIDE_SPAN``, ``ORDER_AMBIGUOUS``,
+``OFF_MODEL``); a coarse value more than half an FSR outside the band has no map.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ...model.cone import cone_vectors
-from ...model.limits import crlb_frequency_std
-from ...model.retrieval import cone_ml_phase_rad, pinv_phase_rad, source_power_ratio, stacked_pinv
-from ...model.uncertainty import (
-    calibration_variance_hz2,
-    map_frequency_gradient_hz,
-    ml_phase_gradient,
-    phase_std_rad,
-    pinv_phase_gradient,
+from ...model.cone import wrap_phase_rad
+from ...model.uncertainty import student_factor
+from ...validation import check_fitted
+from ..contract.flags import SPAN_MARGIN_STD, ReadingFlag
+from ..contract.records import ReadingInputs, Readout
+from ..models.band_reading import (
+    band_crlb_hz,
+    band_frequency_variance_hz2,
+    band_off_model,
+    band_phase_rad,
 )
-from ..contract.flags import off_model_threshold
-from ..models.wideband_fit import BandModel, band_objects
-from ..models.wideband_orders import fsr_windows
+from ..models.wideband_fit import band_frequency_hz
 
-__all__ = [
-    "band_crlb_hz",
-    "band_frequency_variance_hz2",
-    "band_off_model",
-    "band_phase_gradient",
-    "band_phase_rad",
-    "residual_phase_by_window",
-]
+__all__ = ["ORDER_MARGIN_FSR", "BandReadingMixin"]
+
+#: the frequency found may lie this share of the local FSR from the coarse value unflagged
+ORDER_MARGIN_FSR = 0.25
 
 
-def band_phase_rad(readings, maps, retrieval: str, noise_std_w) -> np.ndarray:
-    """Phase (rad) of each reading (N, n) under its own map (N, n, 3): the pseudo-inverse's
-    (``retrieval="pinv"``) or the cone maximum likelihood weighted by ``noise_std_w``."""
-    if retrieval == "ml":
-        return cone_ml_phase_rad(readings, maps, noise_std_w=noise_std_w)
-    return pinv_phase_rad(readings, stacked_pinv(maps))
+class BandReadingMixin:
+    """The reading side of :class:`~wavemeter.calibration.methods.wideband.WidebandCalibrator`
+    (module docstring)."""
 
+    def _retrieve(self, readings, maps) -> np.ndarray:
+        """Phase (rad) of each reading under its own map, by the retrieval set."""
+        return band_phase_rad(readings, maps, self.retrieval, self.port_noise_std_w_)
 
-def band_phase_gradient(readings, maps, phase_rad, retrieval: str, noise_std_w) -> np.ndarray:
-    """``dt / dp`` (N, n) (rad/W) of the retrieval used, under each reading's map."""
-    if retrieval == "ml":
-        power = source_power_ratio(readings, maps, phase_rad, noise_std_w)
-        return ml_phase_gradient(maps, phase_rad, power, noise_std_w)
-    return pinv_phase_gradient(readings, stacked_pinv(maps))
+    def _frequency_checked(self, readings, coarse_hz):
+        """:func:`band_frequency_hz` of validated, offset-corrected readings."""
+        return band_frequency_hz(self.band_model_, readings, coarse_hz, self._retrieve)
 
+    def _coarse_inside(self, coarse_hz: np.ndarray) -> np.ndarray:
+        """Whether each coarse frequency lies within half an FSR of the calibrated band."""
+        low, high = self.span_hz_
+        margin = 0.5 * self.fsr_hz_
+        return (coarse_hz >= low - margin) & (coarse_hz <= high + margin)
 
-def band_frequency_variance_hz2(
-    model: BandModel,
-    readings,
-    frequency_hz,
-    phase_rad,
-    maps,
-    *,
-    retrieval: str,
-    noise_std_w,
-    covariance=None,
-    affine: bool = False,
-) -> np.ndarray:
-    """Variance (Hz^2) of each reading's frequency, by the delta method (module docstring).
-
-    Parameters
-    ----------
-    model : BandModel
-    readings : ndarray, shape (N, n)
-        Offset-corrected readings (W).
-    frequency_hz, phase_rad : ndarray, shape (N,)
-        The frequency read (Hz) and the phase retrieved (rad).
-    maps : ndarray, shape (N, n, 3)
-        The map of each reading (W).
-    retrieval : {"pinv", "ml"}
-    noise_std_w : ndarray, shape (n,)
-        Detector noise per port (W).
-    covariance : None or ndarray
-        Covariance of the map coefficients (and offsets, with ``affine``) and the phase
-        coefficients; None: the reading noise alone.
-    affine : bool
-        The covariance holds a column of offsets per port.
-
-    Returns
-    -------
-    ndarray, shape (N,), Hz^2
-    """
-    gradient = band_phase_gradient(readings, maps, phase_rad, retrieval, noise_std_w)
-    per_rad = 1.0 / model.phase_slope_rad_per_hz(frequency_hz)
-    variance = (phase_std_rad(gradient, noise_std_w) * per_rad) ** 2
-    if covariance is None:
-        return variance
-    power = source_power_ratio(readings, maps, phase_rad, noise_std_w)
-    y = model.normalized(frequency_hz)
-    map_order = model.map_coefficients_w.shape[0] - 1
-    objects = band_objects(y, phase_rad, power, map_order, affine)
-    orders = np.arange(1, model.phase_coefficients_rad.size + 1)
-    along_phase = -np.power.outer(y, orders) * per_rad[:, None]
-    return variance + calibration_variance_hz2(
-        map_frequency_gradient_hz(gradient, objects, per_rad), along_phase, covariance
-    )
-
-
-def band_crlb_hz(model: BandModel, readings, frequency_hz, phase_rad, noise_std_w) -> np.ndarray:
-    """Cramer-Rao bound (Hz) of each reading at ``frequency_hz`` and ``phase_rad`` under the
-    map there and the port noise, its source power free."""
-    maps = model.maps_at(frequency_hz)
-    power = source_power_ratio(readings, maps, phase_rad, noise_std_w)
-    bound = crlb_frequency_std(maps, phase_rad, power, noise_std_w, 2.0 * np.pi)
-    return bound / model.phase_slope_rad_per_hz(frequency_hz)
-
-
-def band_cone_distance(readings, maps, noise_std_w) -> np.ndarray:
-    """Each reading's weighted squared distance ``sum_j r_j^2 / s_j^2`` to its map's cone
-    (maximum-likelihood phase and power; ``n - 2`` degrees of freedom under the model)."""
-    phase = cone_ml_phase_rad(readings, maps, noise_std_w=noise_std_w)
-    power = source_power_ratio(readings, maps, phase, noise_std_w)
-    image = np.einsum("knc,kc->kn", maps, cone_vectors(phase, power))
-    residual = (readings - image) / noise_std_w
-    return np.einsum("ij,ij->i", residual, residual)
-
-
-def band_off_model(readings, maps, noise_std_w, noise_dof: float) -> np.ndarray:
-    """Whether each reading's weighted squared distance to its map's cone is improbable
-    (``OFF_MODEL``)."""
-    distance = band_cone_distance(readings, maps, noise_std_w)
-    return distance > off_model_threshold(readings.shape[1], noise_dof)
-
-
-def residual_phase_by_window(frequency_hz, residual_rad, low_hz: float, fsr_hz: float) -> list:
-    """Mean and RMS of a residual phase (rad) per FSR window, JSON-ready:
-    ``[{"center_hz", "readings", "mean_rad", "rms_rad"}, ...]`` from low to high."""
-    windows = fsr_windows(frequency_hz, low_hz, fsr_hz)
-    rows = []
-    for window in np.unique(windows):
-        members = windows == window
-        values = residual_rad[members]
-        rows.append(
-            {
-                "center_hz": float(frequency_hz[members].mean()),
-                "readings": int(members.sum()),
-                "mean_rad": float(values.mean()),
-                "rms_rad": float(np.sqrt(np.mean(values**2))),
-            }
+    def _coverage(self, inputs: ReadingInputs):
+        low, high = self.span_hz_
+        return (
+            self._coarse_inside(inputs.coarse_hz),
+            f"more than half an FSR outside the calibrated band {low / 1e12:.6f} to "
+            f"{high / 1e12:.6f} THz: the calibration has no map there",
         )
-    return rows
+
+    def _frequency_hz(self, readings, inputs: ReadingInputs) -> np.ndarray:
+        """Absolute frequency (Hz): of the frequencies the reading's phase allows, the one
+        nearest its coarse value."""
+        return self._frequency_checked(readings, inputs.coarse_hz)[0]
+
+    def _phase_rad(self, readings, inputs: ReadingInputs) -> np.ndarray:
+        """The retrieved phase under each reading's map: the model phase ``t(f)`` of the
+        frequency found, wrapped."""
+        return self._frequency_checked(readings, inputs.coarse_hz)[1]
+
+    def model_phase_rad(self, frequency_hz) -> np.ndarray:
+        """The model phase ``t(f)`` (rad, wrapped to (-pi, pi]) at frequencies (Hz): what
+        :meth:`phase` returns for a reading at ``f`` without noise."""
+        check_fitted(self)
+        return wrap_phase_rad(self.band_model_.phase_rad(frequency_hz))
+
+    def fsr_hz_at(self, frequency_hz) -> np.ndarray:
+        """The local FSR ``2 pi / (dt / df)`` (Hz) at frequencies (Hz)."""
+        check_fitted(self)
+        return 2.0 * np.pi / self.band_model_.phase_slope_rad_per_hz(frequency_hz)
+
+    def _frequency_std(self, readings, inputs: ReadingInputs, include_calibration: bool):
+        """The delta method through the retrieval used with each reading's own map, plus the
+        spread the covariance of every fitted number gives, with the Student factor."""
+        read = self._frequency_checked(readings, inputs.coarse_hz)
+        return self._frequency_std_of(readings, *read, include_calibration)
+
+    def _frequency_std_of(
+        self, readings, frequency, phase, maps, include_calibration=True, noise_scale=1.0
+    ):
+        """Standard deviation (Hz) of readings already read: their frequency (Hz), phase
+        (rad) and maps, as :func:`band_frequency_hz` returns them; with a detector noise
+        ``noise_scale`` times the calibrated one (the calibration's part unchanged)."""
+        variance = band_frequency_variance_hz2(
+            self.band_model_,
+            readings,
+            frequency,
+            phase,
+            maps,
+            retrieval=self.retrieval,
+            noise_std_w=noise_scale * self.port_noise_std_w_,
+            covariance=self.parameter_covariance_ if include_calibration else None,
+            affine=self._affine(),
+        )
+        if self.noise_dof_ <= 2:
+            return np.full(readings.shape[0], np.inf)
+        return np.sqrt(variance) * student_factor(self.noise_dof_)
+
+    def _crlb(self, readings, inputs: ReadingInputs, frequency_hz) -> np.ndarray:
+        """The bound under each reading's map and the port noise, at the frequency read or
+        at ``frequency_hz`` (its model phase)."""
+        if frequency_hz is None:
+            frequency, phase, _ = self._frequency_checked(readings, inputs.coarse_hz)
+        else:
+            frequency, phase = frequency_hz, self.band_model_.phase_rad(frequency_hz)
+        return band_crlb_hz(self.band_model_, readings, frequency, phase, self.port_noise_std_w_)
+
+    def _model_flags(self, readings, inputs: ReadingInputs) -> np.ndarray:
+        return self._readout(readings, inputs).flags
+
+    def _readout(self, readings, inputs: ReadingInputs) -> Readout:
+        """One reading of the band model gives the frequency, its standard deviation and the
+        flags: ``OUTSIDE_SPAN`` (outside the band by more than ``SPAN_MARGIN_STD``
+        standard deviations), ``ORDER_AMBIGUOUS`` (more than ``ORDER_MARGIN_FSR`` of the
+        local FSR from the coarse value), ``OFF_MODEL``."""
+        coarse = inputs.coarse_hz
+        frequency, phase, maps = self._frequency_checked(readings, coarse)
+        std = self._frequency_std_of(readings, frequency, phase, maps)
+        margin = SPAN_MARGIN_STD * std
+        low, high = self.span_hz_
+        flags = np.where(
+            (frequency < low - margin) | (frequency > high + margin),
+            np.int64(ReadingFlag.OUTSIDE_SPAN),
+            np.int64(0),
+        )
+        local_fsr = 2.0 * np.pi / self.band_model_.phase_slope_rad_per_hz(frequency)
+        flags[np.abs(frequency - coarse) > ORDER_MARGIN_FSR * local_fsr] |= (
+            ReadingFlag.ORDER_AMBIGUOUS
+        )
+        off_model = band_off_model(readings, maps, self.port_noise_std_w_, self.noise_dof_)
+        flags[off_model] |= ReadingFlag.OFF_MODEL
+        return Readout(frequency, std, flags, {}, phase)

@@ -1,18 +1,30 @@
 """What a wide-band calibration declares for its report, from ``diagnostics_["wideband"]``.
 
 The candidate orders scored by cross-validation (a table and a figure), the residual phase
-across the band per FSR window (a figure and a sentence), and the names of the phase
-coefficients.
+across the band per FSR window (a figure and a sentence), the names of the phase
+coefficients, and :class:`BandReportMixin`: the comparison (the learned set per FSR), the
+fringes and object samples under the band model.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
 from ..contract.figures import FigureData, Series
 from ..contract.summary import Table
+from ..files.registry import calibrator_class
+from .figures import (
+    FRINGE_HALF_WIDTH_FSR,
+    band_fringe_panel,
+    near,
+    pseudo_inverse,
+    unit_power_samples,
+)
 
 __all__ = [
+    "BandReportMixin",
     "PHASE_COEFFICIENT_NAMES",
     "band_figures",
     "band_tables",
@@ -128,3 +140,61 @@ def band_figures(record: dict, center_hz: float, noise_std_rad: float | None) ->
         x_origin=center_hz,
     )
     return choice, phase
+
+
+class BandReportMixin:
+    """Report declarations of a wide-band calibration (module docstring)."""
+
+    def summary(self):
+        """The fit report, with the candidate orders scored and the residual phase."""
+        report = super().summary()
+        record = (self.diagnostics_ or {}).get("wideband")
+        if not record:
+            return report
+        notes = [text for text in (orders_text(record), residual_phase_text(record)) if text]
+        return dataclasses.replace(
+            report,
+            tables=(*report.tables, *band_tables(record)),
+            notes=(*report.notes, *notes),
+        )
+
+    def comparison(self, port_phases_rad=None):
+        """The learned calibration set per FSR with the same settings: the other way to
+        cover a band (what one model of the band buys)."""
+        window = calibrator_class("learned")(
+            fsr_hz=self.fsr_hz, fsr_tolerance=self.fsr_tolerance, retrieval=self.retrieval
+        )
+        return calibrator_class("calibration_set")(self.fsr_hz, self.fsr_tolerance, window=window)
+
+    def fringe_panels(self, frequency_hz, powers_w, monitor_w=None, temperature_k=None):
+        """The sweep within ``FRINGE_HALF_WIDTH_FSR`` of the reading nearest the middle of
+        the band (the sweep may have a gap there) under the band model."""
+        frequency = np.asarray(frequency_hz, dtype=float)
+        anchor = frequency[np.argmin(np.abs(frequency - self.center_hz_))]
+        panel = band_fringe_panel(
+            self.band_model_,
+            frequency,
+            np.asarray(powers_w, dtype=float),
+            monitor_w=None if monitor_w is None else np.asarray(monitor_w, dtype=float),
+            rows=near(frequency, anchor, self.fsr_hz_),
+            noise_std_w=self.noise_std_w_,
+            title=f"readings within {FRINGE_HALF_WIDTH_FSR:g} FSR of the one nearest the "
+            "middle of the band",
+        )
+        return (panel,)
+
+    def object_samples(self, powers_w, frequency_hz, temperature_k=None):
+        """Each reading under the map at the frequency it is read at (the truth as its
+        coarse frequency)."""
+        truth = np.asarray(frequency_hz, dtype=float)
+        powers = np.asarray(powers_w, dtype=float)
+        frequency = self.predict(powers, coarse_hz=truth)
+        inverses = pseudo_inverse(self.band_model_.maps_at(frequency))
+        return unit_power_samples(inverses, powers, self.phase(powers, coarse_hz=truth))
+
+    def report_figures(self, noise_std_hz=None):
+        record = (self.diagnostics_ or {}).get("wideband")
+        if not record:
+            return ()
+        noise_rad = None if noise_std_hz is None else 2.0 * np.pi * noise_std_hz / self.fsr_hz_
+        return band_figures(record, self.center_hz_, noise_rad)

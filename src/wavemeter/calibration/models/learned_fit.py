@@ -21,7 +21,8 @@ from ...model.cone import phase_to_frequency_hz
 from ...validation import MIN_SAMPLES
 from .delay_search import DelaySearchResult
 from .linear_map import map_cost, object_vectors
-from .moments import FringeMoments, largest_search_delay_s, search_moment_delay
+from .moment_search import search_moment_delay
+from .moments import FringeMoments, largest_search_delay_s
 
 __all__ = [
     "AFFINE_MIN_POWER_SPREAD",
@@ -111,7 +112,8 @@ class LearnedFit:
         Delay ``tau`` at the minimum of ``J`` (s).
     delay_std_s : float or None
         Its standard error (s): ``sqrt(s^2 / G)`` with ``s`` the noise estimate and ``G``
-        the Gauss-Newton curvature (:func:`wavemeter.calibration.models.linear_map.delay_information`),
+        the Gauss-Newton curvature
+        (:func:`wavemeter.calibration.models.linear_map.delay_information`),
         i.e. ``var(tau) = 2 s^2 / (N J''(tau))``.
     map_ : ndarray, shape (n, 3) or (n, 4)
         Least-squares map at ``delay_s`` (W); with ``affine`` a fourth column of offsets.

@@ -1,64 +1,26 @@
 """The learned map's cost ``J(tau)`` from binned moments of the sweep: one pass over the data.
 
-For a trial delay ``tau`` the learned fit (:mod:`wavemeter.calibration.models.linear_map`) needs
-only the normal equations of the object vectors ``x_i = m_i [cos t_i, sin t_i, sqrt 2]``
-(with a fourth entry 1 when affine), ``t_i = 2 pi (f_i - f0) tau``:
-``Rxx = sum_i x_i x_i^T`` and ``Rxp = sum_i x_i p_i^T``, with ``sum_i |p_i|^2``. Writing
-``cos t = (e^{it} + e^{-it}) / 2`` and ``sin t = (e^{it} - e^{-it}) / (2 i)``, every entry
-is the real part of a combination of the sums
-
-    Z_w(k, tau) = sum_i w_i exp(i k t_i),   k = -2..2,  Z_w(-k) = conj Z_w(k),
-
-for the weights ``w = m^2`` (``Rxx``), ``w = m p_j`` (``Rxp``) and ``w = m`` (the offset
-column); the delay derivative of the objects, ``D_i = dx_i / dtau = 2 pi (f_i - f0) m_i
-[-sin t_i, cos t_i, 0]``, needs the same sums with one and two more factors ``(f_i - f0)``.
-
-**Moments.** The frequencies are binned on an absolute grid of width ``d`` (bin ``b``
-holds ``f`` with ``floor(f / d) = b``, centre ``c_b = (b + 1/2) d``; the same for every
-chunk, so that chunks and separate accumulations merge by adding). Per bin the moments
-``M_b[q, w] = sum_{i in b} w_i eta_i^q`` of the scaled offsets ``eta_i = (f_i - c_b) / h``,
-``h = d / 2``, ``|eta_i| <= 1`` (to the rounding of ``f / d``), are accumulated for
-``q = 0..Q+2``. With
-``a_b = c_b - f0`` and ``theta = 2 pi tau``,
-
-    Z_w(k, tau) = sum_b e^{i k theta a_b} sum_{q=0}^{Q} (i k theta h)^q / q! M_b[q, w]
-
-and ``sum_i w_i (f_i - f0)^r e^{i k t_i}`` (``r = 1, 2``) follows from
-``(f_i - f0)^r = sum_s C(r, s) a_b^(r-s) h^s eta_i^s``, i.e. from the moments shifted by
-``s``. A delay costs ``O(bins Q)``, whatever the number of samples.
-
-**Truncation bound.** With ``|k| <= 2``, ``|eta_i| <= 1`` and ``|tau| <= tau_max`` the
-series is evaluated at ``|k theta h eta_i| <= rho = 2 pi tau_max d``; the neglected terms
-of every bin are bounded by
-``sum_i |w_i| rho^(Q+1) / (Q+1)! / (1 - rho / (Q+2))``; ``Q`` (:func:`taylor_order`) is the
-smallest order that makes this factor at most the unit roundoff ``2^-53``, so the series is
-exact to rounding for every ``|tau| <= max_delay_s``. The default bin width makes
-``rho = TAYLOR_RADIUS`` (0.1) at ``max_delay_s``, i.e. ``d = 0.1 / (2 pi tau_max)``, about
-1/63 of an FSR, and ``Q = 9``.
-
-**Precision.** ``J = (sum |p|^2 - tr(Rxp^T Rxx^-1 Rxp)) / N`` cancels: its absolute error
-is a few ``2^-53 sum |p|^2 / N``, i.e. ``1e-10`` to ``1e-9`` of ``J`` at Table 1 noise
-(fringes 2000 times the noise).
-That is ample for scanning and bracketing a minimum, but not for locating it to better
-than about ``1e-8`` relative. The derivative ``J'(tau) = -2 tr(B^T (D^T P - D^T X B)) / N``
-(``B = Rxx^-1 Rxp``, the envelope theorem: the map is profiled out) has no such
-cancellation at its root, so :func:`search_moment_delay` scans and brackets with ``J``
-(:func:`~wavemeter.calibration.models.delay_search.search_delay`, its contract unchanged) and then
-finds the root of ``J'`` to the delay tolerance.
+:class:`FringeMoments` bins the sweep's frequencies on an absolute grid and keeps, per bin,
+the moments of the scaled offsets weighted by the monitored power and the readings; any
+chunks, in any order, merge by adding. From them the normal equations of the learned fit,
+``J``, its delay derivative, the map and the covariance's products come at any trial delay
+in a time that does not grow with the number of readings, exact to rounding for every
+delay searched (a Taylor series whose order bounds the truncation below ``2^-53``).
+Theory (the moments, the truncation bound, the precision of ``J``): the docs' page on
+large sweeps. The search on them: :mod:`~wavemeter.calibration.models.moment_search`.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import numbers
 
 import numpy as np
-from scipy import linalg, optimize
 
 from ...exceptions import InputError
 from ...validation import check_frequency, check_monitor, check_positive, reading_array
-from .delay_search import EDGE_POINTS, MIN_GRID_POINTS, DelaySearchResult, search_delay
+from .delay_search import EDGE_POINTS, MIN_GRID_POINTS
+from .moment_equations import MomentEquationsMixin
 
 __all__ = [
     "FringeMoments",
@@ -66,7 +28,6 @@ __all__ = [
     "TAYLOR_RADIUS",
     "binning_pays",
     "largest_search_delay_s",
-    "search_moment_delay",
     "taylor_order",
 ]
 
@@ -80,11 +41,6 @@ MAX_TAYLOR_RADIUS = 1.0
 MIN_BIN_SAMPLES = 4
 #: readings binned at a time (bounds the temporaries of :meth:`FringeMoments.add`)
 BLOCK_ROWS = 1 << 16
-#: cone columns of the object vector as combinations of ``e^{i k t}``, ``k = -1, 0, 1``
-_CONE = np.array([[0.5, 0.0, 0.5], [0.5j, 0.0, -0.5j], [0.0, np.sqrt(2.0), 0.0]])
-_HARMONICS = np.array([-1, 0, 1])
-#: ``d / dtau`` of those columns, per unit of ``(f - f0)``: ``2 pi i k``
-_CONE_SLOPE = _CONE * (2j * np.pi * _HARMONICS)
 
 
 def taylor_order(radius: float) -> int:
@@ -135,18 +91,7 @@ def _runs(keys: np.ndarray) -> np.ndarray:
     return np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
 
 
-def _solve(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """``gram^-1 rhs`` for a symmetric positive (semi)definite ``gram``, columns equilibrated
-    (any monitor unit), rank-revealing (LAPACK ``gelsy``) like the direct fit."""
-    norm = np.sqrt(np.diag(gram))
-    norm[norm == 0] = 1.0
-    solution, *_ = linalg.lstsq(
-        gram / np.outer(norm, norm), rhs / norm[:, None], lapack_driver="gelsy", check_finite=False
-    )
-    return solution / norm[:, None]
-
-
-class FringeMoments:
+class FringeMoments(MomentEquationsMixin):
     """Binned Taylor moments of a calibration sweep: ``J(tau)``, ``J'(tau)`` and the map.
 
     Accumulate readings with :meth:`add` (any number of chunks, any order) or
@@ -436,209 +381,3 @@ class FringeMoments:
             sums[power, 2:] = positive
             sums[power, :2] = np.conj(positive[:0:-1])
         return sums
-
-    def _normal(self, sums: np.ndarray, affine: bool) -> tuple[np.ndarray, np.ndarray]:
-        """``Rxx`` (k, k) and ``Rxp`` (k, n) from :meth:`harmonic_sums` ``[0]``."""
-        ports = self._ports
-        gram = np.zeros((4, 4) if affine else (3, 3))
-        cross = np.zeros((gram.shape[0], ports))
-        gram[:3, :3] = _pair(_CONE, _CONE, sums[:, 0])
-        cross[:3] = (_CONE @ sums[_HARMONICS + 2, 1 : ports + 1]).real
-        if affine:
-            gram[:3, 3] = gram[3, :3] = (_CONE @ sums[_HARMONICS + 2, ports + 1]).real
-            gram[3, 3] = self._samples
-            cross[3] = self._sum_powers
-        return gram, cross
-
-    def _slopes(self, sums: np.ndarray, affine: bool) -> tuple[np.ndarray, np.ndarray]:
-        """``D^T X`` (k, k) and ``D^T P`` (k, n) from :meth:`harmonic_sums` ``[1]``."""
-        ports = self._ports
-        columns = 4 if affine else 3
-        slope = np.zeros((columns, columns))
-        cross = np.zeros((columns, ports))
-        slope[:3, :3] = _pair(_CONE_SLOPE, _CONE, sums[:, 0])
-        cross[:3] = (_CONE_SLOPE @ sums[_HARMONICS + 2, 1 : ports + 1]).real
-        if affine:
-            slope[:3, 3] = (_CONE_SLOPE @ sums[_HARMONICS + 2, ports + 1]).real
-        return slope, cross
-
-    def cost(self, delay_s: float, affine: bool = False) -> float:
-        """Learned-map cost ``J = min_A mean ||p - A x||^2`` (W^2) at ``delay_s`` (s).
-
-        Equals :func:`~wavemeter.calibration.models.linear_map.map_cost` to a few ``2^-53``
-        ``sum |p|^2 / N``; clipped at 0 (rounding can make it negative on noiseless data).
-        """
-        gram, cross = self._normal(self.harmonic_sums(delay_s, 0)[0], affine)
-        solution = _solve(gram, cross)
-        return max(float(self._power2 - np.einsum("ij,ij->", cross, solution)) / self._samples, 0.0)
-
-    def cost_derivative(self, delay_s: float, affine: bool = False) -> float:
-        """``dJ / dtau`` (W^2/s) at ``delay_s`` (s), the map profiled out (envelope theorem).
-
-        ``-2 tr(B^T (D^T P - D^T X B)) / N`` with ``B = Rxx^-1 Rxp``; no cancellation at the
-        minimum of ``J``, where it changes sign.
-        """
-        sums = self.harmonic_sums(delay_s, 1)
-        gram, cross = self._normal(sums[0], affine)
-        slope, slope_cross = self._slopes(sums[1], affine)
-        solution = _solve(gram, cross)
-        residual = slope_cross - slope @ solution
-        return -2.0 * float(np.einsum("ij,ij->", solution, residual)) / self._samples
-
-    def map_at(self, delay_s: float, affine: bool = False) -> np.ndarray:
-        """Least-squares map ``A = Rxp^T Rxx^-1`` (n, 3), or (n, 4) with ``affine`` (W)."""
-        gram, cross = self._normal(self.harmonic_sums(delay_s, 0)[0], affine)
-        return _solve(gram, cross).T
-
-    def unfitted_cost(self, affine: bool = False) -> float:
-        """Cost ``J`` (W^2) of the model with no fringe: the cone axis (and offsets) alone.
-
-        As :func:`~wavemeter.calibration.models.linear_map.unfitted_cost`.
-        """
-        gram, cross = self._normal(self.harmonic_sums(0.0, 0)[0], affine)
-        keep = [2, 3] if affine else [2]
-        solution = _solve(gram[np.ix_(keep, keep)], cross[keep])
-        return float(self._power2 - np.einsum("ij,ij->", cross[keep], solution)) / self._samples
-
-    def object_gram(self, delay_s: float, affine: bool = False):
-        """The object matrix ``X`` and its delay derivative ``D`` through their products.
-
-        Parameters
-        ----------
-        delay_s : float
-            Delay (s).
-        affine : bool
-            With the column of ones (per-port offsets), whose derivative is 0.
-
-        Returns
-        -------
-        xx, dx, dd : ndarray, shape (k, k)
-            ``X^T X``, ``D^T X`` and ``D^T D`` (``k`` = 3, or 4 with ``affine``), in the
-            units of the scale squared times 1, 1/s and 1/s^2.
-        """
-        sums = self.harmonic_sums(delay_s, 2)
-        gram, _ = self._normal(sums[0], affine)
-        slope, _ = self._slopes(sums[1], affine)
-        curvature = np.zeros_like(gram)
-        curvature[:3, :3] = _pair(_CONE_SLOPE, _CONE_SLOPE, sums[2][:, 0])
-        return gram, slope, curvature
-
-    def port_residual_w2(self, delay_s: float, map_: np.ndarray) -> np.ndarray:
-        """Each port's summed squared residual ``sum_i (p_ij - A_j x_i)^2`` (W^2) under a map.
-
-        ``sum p_j^2 - 2 A_j (Rxp)_j + A_j Rxx A_j^T``: it cancels like :meth:`cost` (an
-        absolute error of a few ``2^-53 sum p_j^2``); clipped at 0.
-
-        Parameters
-        ----------
-        delay_s : float
-            Delay (s).
-        map_ : ndarray, shape (n, 3) or (n, 4)
-            Map (W) for the scale as given; a fourth column makes it affine.
-
-        Returns
-        -------
-        ndarray, shape (n,)
-        """
-        solution = np.asarray(map_, dtype=float).T
-        gram, cross = self._normal(self.harmonic_sums(delay_s, 0)[0], solution.shape[0] == 4)
-        energy = (
-            self._port_power2
-            - 2.0 * np.einsum("ij,ij->j", solution, cross)
-            + np.einsum("ij,ij->j", solution, gram @ solution)
-        )
-        return np.maximum(energy, 0.0)
-
-    def delay_information(self, delay_s: float, map_: np.ndarray) -> float:
-        """Gauss-Newton curvature ``G`` (W^2/s^2) of the summed squared residual in the delay.
-
-        As :func:`~wavemeter.calibration.models.linear_map.delay_information`:
-        ``G = ||(I - Pi_X) D A^T||_F^2 = tr(B^T D^T D B) - tr(V^T Rxx^-1 V)``, ``B = A^T``,
-        ``V = X^T D B``.
-
-        Parameters
-        ----------
-        delay_s : float
-            Delay (s).
-        map_ : ndarray, shape (n, 3) or (n, 4)
-            Map at that delay (W) for the scale as given; a fourth column makes it affine.
-        """
-        solution = np.asarray(map_, dtype=float).T
-        gram, slope, curvature = self.object_gram(delay_s, solution.shape[0] == 4)
-        projected = slope.T @ solution
-        return float(
-            np.einsum("ij,ij->", solution, curvature @ solution)
-            - np.einsum("ij,ij->", projected, _solve(gram, projected))
-        )
-
-
-def _pair(left: np.ndarray, right: np.ndarray, sums: np.ndarray) -> np.ndarray:
-    """``Re sum_{k1, k2} left[a, k1] right[b, k2] Z(k1 + k2)`` for ``Z(k)``, ``k = -2..2``."""
-    hankel = sums[_HARMONICS[:, None] + _HARMONICS[None, :] + 2]
-    return (left @ hankel @ right.T).real
-
-
-def search_moment_delay(
-    moments: FringeMoments,
-    *,
-    fsr_hz: float,
-    fsr_tolerance: float,
-    method: str = "golden",
-    xtol: float = 1e-12,
-    affine: bool = False,
-) -> DelaySearchResult:
-    """:func:`~wavemeter.calibration.models.delay_search.search_delay` on the moments' ``J``, then
-    the root of ``J'`` between the best scan point's neighbours, inside the bracket.
-
-    The scan, the edge descent, the refinement, the fringe-power check and the bracket
-    decision are :func:`~wavemeter.calibration.models.delay_search.search_delay`'s. Its refined
-    delay is precise to about ``1e-8`` only (``J`` cancels); ``J'`` changing sign between
-    the scan neighbours of the best point (clipped to the closed bracket) is then solved
-    by Brent's method to ``xtol`` (relative). Without a sign change there the refined
-    delay stands.
-
-    Parameters
-    ----------
-    moments : FringeMoments
-        The sweep, accumulated to a ``max_delay_s`` of at least
-        :func:`largest_search_delay_s`.
-    fsr_hz, fsr_tolerance, method, xtol
-        As for :func:`~wavemeter.calibration.models.delay_search.search_delay`.
-    affine : bool
-        Fit per-port offsets too.
-
-    Returns
-    -------
-    DelaySearchResult
-        ``delay_s`` the root, ``cost`` the moments' ``J`` there, ``evaluations`` counting
-        the derivative evaluations too; the scan as :func:`search_delay` made it.
-    """
-    result = search_delay(
-        lambda delay_s: moments.cost(delay_s, affine),
-        fsr_hz=fsr_hz,
-        fsr_tolerance=fsr_tolerance,
-        span_hz=moments.span_hz,
-        method=method,
-        xtol=xtol,
-        unfitted_cost=moments.unfitted_cost(affine),
-    )
-    design_delay = 1.0 / fsr_hz
-    best = int(np.argmin(result.grid_cost))
-    u_lo = max(result.grid_delay_s[best - 1] / design_delay, 1.0 / (1.0 + fsr_tolerance))
-    u_hi = min(result.grid_delay_s[best + 1] / design_delay, 1.0 / (1.0 - fsr_tolerance))
-
-    def slope(u: float) -> float:
-        return moments.cost_derivative(u * design_delay, affine)
-
-    if not slope(u_lo) < 0.0 < slope(u_hi):
-        return dataclasses.replace(result, evaluations=result.evaluations + 2)
-    u_root, info = optimize.brentq(
-        slope, u_lo, u_hi, xtol=xtol, rtol=4 * np.finfo(float).eps, full_output=True
-    )
-    delay = u_root * design_delay
-    return dataclasses.replace(
-        result,
-        delay_s=delay,
-        cost=moments.cost(delay, affine),
-        evaluations=result.evaluations + 3 + info.function_calls,
-    )

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, stats
 
-from ..checks.residual_tests import TEST_P_VALUE
+from ...stats.nested_tests import TEST_P_VALUE
 from .wideband_fit import (
     BandFit,
     BandModel,

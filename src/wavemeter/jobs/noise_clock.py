@@ -1,13 +1,14 @@
-"""The time stamps of a record of readings, checked chunk by chunk for uniform sampling.
+"""The sampling rate of a record from its time column, checked chunk by chunk.
 
-A noise analysis needs uniformly sampled readings. :class:`Clock` takes the time column of
-each chunk in turn: its steps are checked against the median step of the first chunk (a
-step back, a gap of over ``GAP_FACTOR`` times it, or a relative deviation over
-``TIME_JITTER_TOLERANCE`` is an error naming the row), and the rate is the mean step's
-inverse, ``(N - 1) / (t_last - t_first)``: the average rate the analysis assumes (with
-every step within 1e-3 of the median, the two agree to that). The column's unit comes
-from its name (``time_s``, ``t_ms``, ``'Time (us)'``, :func:`time_unit_s`); a name without
-one is in seconds.
+The time column's unit comes from its name (``time_s``, ``t_ms``, ``'Time (us)'``; a name
+without one is in seconds: :func:`time_unit_s`). Its steps are checked chunk by chunk
+against the median step of the first chunk (:class:`Clock`: a gap, a step over
+``GAP_FACTOR`` times it, or a relative deviation over ``TIME_JITTER_TOLERANCE`` is an
+error naming the row), and the rate is the mean step's inverse, ``(N - 1) / (t_last -
+t_first)``: the average rate the analysis assumes (with every step within 1e-3 of the
+median, the two agree to that). Given both a rate and a time column,
+:func:`~wavemeter.jobs.noise.measure_series` requires them to agree within
+``TIME_JITTER_TOLERANCE``.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from ..exceptions import InputError
 from ..io.columns import split_unit
 from ..units import TIME_UNITS, seconds_per_unit
 
-__all__ = ["Clock", "time_unit_s", "TIME_JITTER_TOLERANCE", "GAP_FACTOR"]
+__all__ = ["TIME_JITTER_TOLERANCE", "GAP_FACTOR", "time_unit_s", "Clock"]
 
 #: largest relative deviation of a time step from the median step (also: of a given rate
 #: from the time column's)

@@ -1,0 +1,284 @@
+"""Naming the cause of a misfit: the causes, their warnings and their remedies.
+
+From the tests on the residual (:mod:`.residual_tests`) the residual gets at most one of
+``power_drift``, ``phase_drift``, ``dispersion`` and ``other_misfit`` (the candidate with
+the largest excess energy, ties named phase, power, other); the checks of the map and the
+sweep add ``detector_offset``, ``partial_span``, ``unequal_noise`` and ``ill_conditioned``.
+Each is a :class:`~wavemeter.exceptions.CalibrationWarning` whose ``cause`` is one of
+:data:`CAUSES`, with what was seen (its numbers) and what to do (:data:`REMEDIES`). The
+rules are in ``docs/theory-drafts/misfit.md`` ("Naming the cause", "Checks of the map and
+the sweep").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+from ...exceptions import CalibrationWarning
+from ...stats.nested_tests import TEST_P_VALUE, ResidualTest
+from .residual_tests import DISPERSION_MIN_SPAN_FSR, Structure, rms
+
+__all__ = [
+    "CAUSES",
+    "REMEDIES",
+    "WIDE_SWEEP_REMEDY",
+    "EXPLAINED_FRACTION",
+    "TIE_FRACTION",
+    "TIE_Z",
+    "MIN_OFFSET_Z",
+    "SPAN_TOLERANCE",
+    "UNEQUAL_NOISE_RATIO",
+    "MAX_PINV_VARIANCE_RATIO",
+    "misfit_warning",
+    "offset_warning",
+    "unequal_noise",
+    "partial_span_warning",
+    "ill_conditioned_warning",
+]
+
+#: the causes a :class:`~wavemeter.exceptions.CalibrationWarning` of this module names
+CAUSES = (
+    "power_drift",
+    "detector_offset",
+    "phase_drift",
+    "dispersion",
+    "partial_span",
+    "unequal_noise",
+    "ill_conditioned",
+    "other_misfit",
+)
+#: share of the smooth structure a cause must explain to be named
+EXPLAINED_FRACTION = 0.5
+#: causes explaining within this fraction, and TIE_Z noise standard deviations, of the
+#: best are a tie (named phase, power, other)
+TIE_FRACTION = 0.02
+TIE_Z = 2.0
+#: significance (standard errors) of a fitted offset that warns
+MIN_OFFSET_Z = 5.0
+#: a sweep shorter than 1 - SPAN_TOLERANCE FSR is partial
+SPAN_TOLERANCE = 0.05
+#: port noises differing by more than this factor (and significantly) are unequal
+UNEQUAL_NOISE_RATIO = 1.3
+#: pseudo-inverse phase variance over the Cramer-Rao bound's that is ill-conditioned
+MAX_PINV_VARIANCE_RATIO = 1.2**2
+
+#: the first remedy of a misfit no cause explains on a sweep of several FSRs
+WIDE_SWEEP_REMEDY = (
+    "over a sweep of several FSRs the couplers and photodiodes change with the wavelength: "
+    "calibrate the band with WidebandCalibrator (a map smooth in frequency), or per FSR "
+    "(CalibrationSet)"
+)
+
+REMEDIES = {
+    "power_drift": (
+        "record the source power with a power monitor during the sweep (power_monitor_w), "
+        "or stabilise the source"
+    ),
+    "detector_offset": (
+        "pass dark readings taken with the source off (dark_w), so that the offsets are "
+        "subtracted rather than fitted"
+    ),
+    "phase_drift": (
+        "stabilise the chip temperature, or log it with every reading for a thermal "
+        "calibration; a linear temperature ramp over a one-way sweep cannot be seen here "
+        "(it is absorbed into the FSR)"
+    ),
+    "dispersion": (
+        "calibrate the band with WidebandCalibrator (a phase polynomial and a map smooth in "
+        "frequency, orders chosen by cross-validation), or per FSR (CalibrationSet)"
+    ),
+    "partial_span": "calibrate over at least one FSR",
+    "unequal_noise": 'use the maximum-likelihood retrieval (retrieval="ml"), which weights '
+    "the ports by their noise",
+    "ill_conditioned": 'use the maximum-likelihood retrieval (retrieval="ml"), which reaches '
+    "the Cramer-Rao bound for any map",
+    "other_misfit": (
+        "inspect the residual in the calibration diagnostics; check the detectors for "
+        "nonlinearity or saturation and the setup for stray light, back-reflections or a "
+        "wandering background"
+    ),
+}
+
+
+def _excess(test: ResidualTest | None) -> float:
+    """Excess energy of a failed test, 0 for one that passed or was not made."""
+    return test.excess if test is not None and test.failed else 0.0
+
+
+def _cause(structure: Structure) -> str:
+    """The alternative that explains the residual best (``docs/theory-drafts/misfit.md``)."""
+    if not structure.smooth_failed:
+        scatter = structure.scatter
+        return "power_drift" if scatter.power_excess >= scatter.phase_excess else "phase_drift"
+    phase, dispersion = _excess(structure.phase), _excess(structure.dispersion)
+    explained = {  # in the order ties are named
+        "phase_drift": max(phase, dispersion),
+        "power_drift": _excess(structure.power),
+        "other_misfit": structure.harmonics.excess,
+    }
+    best = max(explained.values())
+    if best <= 0.0 or best < EXPLAINED_FRACTION * structure.smooth.excess:
+        return "other_misfit"
+    cause = next(name for name, value in explained.items() if _ties(value, best))
+    if cause == "phase_drift" and dispersion > 0.0 and _ties(dispersion, phase):
+        return "dispersion"
+    return cause
+
+
+def _ties(value: float, best: float) -> bool:
+    """Whether ``value`` explains as much as ``best`` within the tolerance of a tie."""
+    return best - value <= TIE_FRACTION * best + TIE_Z * np.sqrt(max(best, 0.0))
+
+
+def _port_list(names, mask) -> str:
+    return ", ".join(name for name, flag in zip(names, mask, strict=True) if flag)
+
+
+def _warning(cause: str, seen: str, remedy: str | None = None) -> CalibrationWarning:
+    remedy = REMEDIES[cause] if remedy is None else remedy
+    return CalibrationWarning(f"{seen}; {remedy}", cause=cause, remedy=remedy)
+
+
+def _power_clause(error: np.ndarray) -> str:
+    return (
+        f"a relative source-power error of {100 * rms(error):.3g} % RMS "
+        f"({100 * np.abs(error).max():.3g} % peak)"
+    )
+
+
+def _phase_clause(error: np.ndarray, delay_s: float) -> str:
+    per_rad_mhz = 1e-6 / (2.0 * np.pi * delay_s)
+    return (
+        f"a phase error of {rms(error):.3g} rad RMS ({rms(error) * per_rad_mhz:.3g} MHz, "
+        f"{np.abs(error).max():.3g} rad peak)"
+    )
+
+
+def misfit_warning(structure, names, ratio, lag1, harmonic_power, span, delay, model_free):
+    """The one warning that names the misfit, or None when every residual test passes."""
+    if not structure.failed:
+        return None
+    cause = _cause(structure)
+    residual = f"lag-1 autocorrelation of the residual up to {lag1.max():.2f}"
+    if model_free:
+        high = ratio >= min(ratio.max(), 1.0 + 0.5 * (ratio.max() - 1.0))
+        residual = (
+            f"residual up to {ratio.max():.3g}x the model-free noise "
+            f"({_port_list(names, high)}), {residual}"
+        )
+    power, phase, scatter = structure.power, structure.phase, structure.scatter
+    # a drift of power and one of phase that leave the same residual (a sweep of ~1 FSR)
+    tie = _ties(power.excess, phase.excess)
+    if not structure.smooth_failed:
+        direction, error = (
+            ("power", f"{100 * scatter.power_rms:.3g} % RMS of relative source-power noise")
+            if cause == "power_drift"
+            else ("phase", f"{scatter.phase_rms_rad:.3g} rad RMS of phase noise")
+        )
+        seen = (
+            f"the readings scatter along the fringe's {direction} direction more than across "
+            f"it: {error} from reading to reading, beyond the detector noise (p-value "
+            f"{min(scatter.power_p, scatter.phase_p):.2g}; {residual})"
+        )
+    elif cause == "power_drift":
+        seen = (
+            f"the source power drifts along the sweep: {_power_clause(structure.power_error)} "
+            f"remains in the residual after the fit ({residual}); without a power monitor "
+            "part of a drift is absorbed into the map and the FSR"
+        )
+    elif cause == "phase_drift":
+        seen = (
+            f"the fringe phase drifts along the sweep: "
+            f"{_phase_clause(structure.phase_error_rad, delay)} that is not a polynomial "
+            f"in frequency remains in the residual ({residual})"
+        )
+        if tie and power.failed:
+            seen += (
+                f"; on this sweep {_power_clause(structure.power_error)} would leave the "
+                "same residual: if the source power was not monitored, suspect it too"
+            )
+    elif cause == "dispersion":
+        seen = (
+            f"the fringe phase is not linear in frequency over the {span:.3g} FSR sweep: "
+            f"{_phase_clause(structure.dispersion_rad, delay)} even in f - f0 remains in "
+            f"the residual, as group-delay dispersion gives ({residual}); the FSR changes "
+            "across the sweep"
+        )
+    else:
+        seen = (
+            f"the residual departs from white noise in a way no listed cause explains "
+            f"({residual}; harmonics 2-3 of the fringe phase up to "
+            f"{harmonic_power.max():.3g}x their noise level)"
+        )
+        if span > DISPERSION_MIN_SPAN_FSR:
+            # over many FSRs the couplers and photodiodes change with the wavelength
+            return _warning(cause, seen, f"{WIDE_SWEEP_REMEDY}; else {REMEDIES[cause]}")
+    return _warning(cause, seen)
+
+
+def offset_warning(offsets, offset_std, readings, names):
+    """``detector_offset`` when a fitted offset exceeds ``MIN_OFFSET_Z`` standard errors."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.abs(offsets) / offset_std
+    z = np.where(offset_std > 0, z, np.where(offsets != 0, np.inf, 0.0))
+    significant = z > MIN_OFFSET_Z
+    if not significant.any():
+        return None
+    mean = np.abs(readings.mean(axis=0))
+    parts = [
+        f"{names[j]} {offsets[j]:+.3g} W ({100 * offsets[j] / mean[j]:+.3g} % of its mean "
+        f"reading, {z[j]:.3g} standard errors)"
+        for j in np.flatnonzero(significant)
+    ]
+    return _warning(
+        "detector_offset",
+        f"the readings carry offsets independent of the source power: {'; '.join(parts)}; "
+        "they were fitted from the power variation the monitor shows",
+    )
+
+
+def unequal_noise(noise, dof, names):
+    """``unequal_noise`` warning (or None) and the test's p-value."""
+    ports = noise.size
+    factor = float(noise.max() / noise.min())
+    # two noise variances on nu degrees of freedom each: their ratio is F(nu, nu)
+    p_value = float(min(1.0, ports * (ports - 1) * stats.f.sf(factor**2, dof, dof)))
+    if factor <= UNEQUAL_NOISE_RATIO or p_value >= TEST_P_VALUE:
+        return None, p_value
+    levels = ", ".join(f"{name} {level:.3g} W" for name, level in zip(names, noise, strict=True))
+    return (
+        _warning(
+            "unequal_noise",
+            f"the ports' noise differs by a factor {factor:.3g} ({levels}; p-value "
+            f"{p_value:.2g}): the pseudo-inverse retrieval weights them equally",
+        ),
+        p_value,
+    )
+
+
+def partial_span_warning(span: float, delay: float) -> CalibrationWarning | None:
+    """``partial_span`` when the sweep covers less than ``1 - SPAN_TOLERANCE`` of the fitted
+    FSR (``span`` in FSRs, ``delay`` the fitted delay in s), else None."""
+    if span < 1.0 - SPAN_TOLERANCE:
+        return _warning(
+            "partial_span",
+            f"the sweep covers {span:.3g} of the fitted FSR ({1e-9 / delay:.6g} GHz): the "
+            "map is learned from part of the fringe and readings outside the span are "
+            "extrapolated",
+        )
+    return None
+
+
+def ill_conditioned_warning(variance_ratio: float, condition: float) -> CalibrationWarning | None:
+    """``ill_conditioned`` when the pseudo-inverse's phase variance exceeds the Cramer-Rao
+    bound's by more than ``MAX_PINV_VARIANCE_RATIO`` (``condition`` the map's condition
+    number, for the message), else None."""
+    if variance_ratio > MAX_PINV_VARIANCE_RATIO:
+        return _warning(
+            "ill_conditioned",
+            f"the pseudo-inverse retrieval's phase variance is {variance_ratio:.3g}x the "
+            f"Cramer-Rao bound's over the sweep (allowed {MAX_PINV_VARIANCE_RATIO:.3g}x; "
+            f"map condition number {condition:.3g})",
+        )
+    return None

@@ -1,0 +1,127 @@
+"""The wide-band model on its own sweep: the covariance of every fitted number and the
+fit diagnostics on the band model.
+
+:class:`BandChecksMixin` gives :class:`~wavemeter.calibration.methods.wideband.WidebandCalibrator`
+the parameter covariance (map coefficients, offsets and phase coefficients), the misfit
+report of :mod:`~wavemeter.calibration.checks.misfit` on the band model (whose
+``dispersion`` remedy is a higher phase order), the residual phase per FSR window and the
+``diagnostics_["wideband"]`` record.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ...exceptions import CalibrationWarning
+from ...model.cone import wrap_phase_rad
+from ...model.uncertainty import fit_parameter_covariance
+from ..checks.misfit import misfit_report
+from ..models.band_reading import residual_phase_by_window
+from ..models.wideband_fit import band_object_derivatives, band_objects
+
+__all__ = ["BandChecksMixin"]
+
+
+class BandChecksMixin:
+    """The band model judged on its sweep (module docstring); the fit's context carries
+    the sweep and whether offsets were fitted."""
+
+    def _sweep_design(self, ctx) -> tuple[np.ndarray, np.ndarray]:
+        """The sweep's design columns (N, q) and their derivatives (P, N, q) by ``b``."""
+        frequency_hz, scale, affine = ctx.sweep.frequency_hz, ctx.sweep.scale, ctx.affine
+        y = self.band_model_.normalized(frequency_hz)
+        phase = self.band_model_.phase_rad(frequency_hz)
+        objects = band_objects(y, phase, scale, self.map_order_, affine)
+        derivatives = band_object_derivatives(
+            y, phase, scale, self.map_order_, affine, self.phase_order_
+        )
+        return objects, derivatives
+
+    def _design_matrix(self, affine: bool) -> np.ndarray:
+        """The least-squares coefficients as a map (n, q): ``A_j`` blocks, then offsets."""
+        blocks = self.map_coefficients_.transpose(0, 2, 1).reshape(-1, self.n_ports_)
+        if affine:
+            blocks = np.vstack([blocks, self.offset_w_])
+        return blocks.T
+
+    def _set_covariance(self, ctx) -> None:
+        objects, derivatives = self._sweep_design(ctx)
+        self.parameter_covariance_ = fit_parameter_covariance(
+            objects,
+            derivatives,
+            self._design_matrix(ctx.affine),
+            self.port_noise_std_w_,
+            weighted=False,
+        )
+
+    def _misfit_report(self, ctx):
+        """The fit diagnostics on the band model; a phase the polynomial left, even in
+        frequency (``dispersion``), is remedied by a higher phase order here."""
+        report = self._band_misfit_report(ctx)
+        if "dispersion" not in report.causes:
+            return report
+        remedy = (
+            f"set a higher phase_order (this fit has {self.phase_order_}), or sweep more FSRs "
+            "so that cross-validation can choose the orders"
+        )
+        notes = tuple(
+            CalibrationWarning(
+                str(note).replace(note.remedy, remedy), cause=note.cause, remedy=remedy
+            )
+            if note.cause == "dispersion"
+            else note
+            for note in report.warnings
+        )
+        return dataclasses.replace(report, warnings=notes)
+
+    def _band_misfit_report(self, ctx):
+        objects, _ = self._sweep_design(ctx)
+        powers, frequency_hz, scale = ctx.sweep.powers_w, ctx.sweep.frequency_hz, ctx.sweep.scale
+        y = self.band_model_.normalized(frequency_hz)
+        offsets = offset_std = None
+        if ctx.affine:
+            columns = 3 * (self.map_order_ + 1) + 1
+            variances = np.diag(self.parameter_covariance_)[: self.n_ports_ * columns]
+            offsets = self.offset_w_
+            offset_std = np.sqrt(variances.reshape(self.n_ports_, columns)[:, -1])
+        return misfit_report(
+            powers,
+            frequency_hz,
+            self.center_hz_,
+            self.delay_s_,
+            self.band_model_.maps_at(frequency_hz),
+            scale=scale,
+            offset_w=offsets,
+            offset_std_w=offset_std,
+            dark_given=self.dark_w_ is not None,
+            weighted_retrieval=self.retrieval == "ml",
+            phase_rad=self.band_model_.phase_rad(frequency_hz),
+            design=objects,
+            phase_derivatives=np.power.outer(y, np.arange(1, self.phase_order_ + 1)).T,
+        )
+
+    def _residual_phase_by_window(self, ctx, readings) -> list[dict]:
+        """Retrieved minus model phase (rad) of the sweep's offset-corrected readings, by
+        FSR window: what the fit left across the band."""
+        frequency_hz = ctx.sweep.frequency_hz
+        maps = self.band_model_.maps_at(frequency_hz)
+        residual = wrap_phase_rad(
+            self._retrieve(readings, maps) - self.band_model_.phase_rad(frequency_hz)
+        )
+        return residual_phase_by_window(frequency_hz, residual, self.span_hz_[0], self.fsr_hz_)
+
+    def _band_record(self, ctx, residual_phase: list) -> dict:
+        """``diagnostics_["wideband"]``: the orders and how they were chosen, the phase
+        coefficients with their standard errors, the residual phase per FSR window."""
+        std = np.sqrt(np.diag(self.parameter_covariance_)[-self.phase_order_ :])
+        return {
+            "phase_order": self.phase_order_,
+            "map_order": self.map_order_,
+            "n_parameters": self.n_parameters_,
+            "orders": ctx.orders.record(),
+            "phase_coefficients_s": self.phase_coefficients_.tolist(),
+            "phase_coefficients_std_s": (std * self._seconds_per_rad()).tolist(),
+            "residual_phase": residual_phase,
+        }
