@@ -75,7 +75,8 @@ METHOD = click.option(
     "conventional (the ideal map), thermal (the learned map with the chip temperature's "
     "effect; sweeps at several temperatures), wideband (one model across a band of many "
     "FSRs; readings then need a coarse frequency), cascade (stages of decreasing FSR: "
-    "absolute frequency), the baselines, and the methods of installed plug-ins.",
+    "absolute frequency), reference_free, the baselines, and the methods of installed "
+    "plug-ins.",
 )
 
 
