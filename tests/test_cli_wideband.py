@@ -134,9 +134,9 @@ def test_the_band_gets_the_dispersion_the_device_has(files, device):
         ("--method wideband --map-order 9", "--map-order", f"from 0 to {MAX_MAP_ORDER}"),
         ("--method wideband --map-order -1", "--map-order", f"from 0 to {MAX_MAP_ORDER}"),
         ("--method wideband --map-order 1.5", "--map-order", f"from 0 to {MAX_MAP_ORDER}"),
-        ("--phase-order 2", "--phase-order", "--method wideband"),
-        ("--method thermal --map-order 1", "--map-order", "--method wideband"),
-        ("--method wideband --per-fsr", "--per-fsr", "--method wideband"),
+        ("--phase-order 2", "--phase-order", "of wideband"),
+        ("--method thermal --map-order 1", "--map-order", "of wideband"),
+        ("--method wideband --per-fsr", "--per-fsr", "method 'wideband' also needs"),
     ],
 )
 def test_bad_order_options_are_refused_before_any_work(

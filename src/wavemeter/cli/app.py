@@ -106,6 +106,7 @@ OPTION_OF_PARAMETER = {
     "allow_invalid": "--drop-invalid",
     "monitor": "--monitor",
     "temperature": "--temperature",
+    "temperature_k": "--temperature-k",
     "temperature_std_k": "--temperature-std-k",
     "coarse": "--coarse",
     "coarse_hz": "--coarse-frequency",
@@ -127,6 +128,10 @@ OPTION_OF_PARAMETER = {
     "max_order_error": "--max-order-error",
     "delimiter": "--delimiter",
     "decimal": "--decimal",
+    "per_fsr": "--per-fsr",
+    "dark_w": "--dark-w",
+    "dark_file": "--dark",
+    "uncertainty": "--uncertainty",
 }
 _OPTION_IN_COMMAND = {
     "simulate": {"x_unit": "--write-axis-unit", "power_unit": "--write-power-unit"},
@@ -155,11 +160,13 @@ def _command_name(argv) -> str | None:
 
 def _option_hint(exc: Exception, message: str, command_name: str | None) -> str:
     """`` (use --force)`` or `` (fsr_tolerance: --fsr-tolerance, fsr_hz: --fsr)``: the
-    options of the running command that set the parameters the error is about."""
+    options of the running command that set the parameters the error is about (those the
+    message does not name already)."""
     if command_name not in COMMANDS:
         return ""
     command = cli.get_command(None, command_name)
-    flags = {flag for param in command.params for flag in getattr(param, "opts", ())}
+    commands = [command, *getattr(command, "commands", {}).values()]  # a group's too
+    flags = {flag for each in commands for param in each.params for flag in param.opts}
     parameter = getattr(exc, "parameter", None)
     found = {
         name: match.start()
@@ -174,6 +181,7 @@ def _option_hint(exc: Exception, message: str, command_name: str | None) -> str:
         f"{name}: {options[name]}" if name in named else f"use {options[name]}"
         for name in wanted
         if options.get(name) in flags
+        and not re.search(rf"(?<![\w-]){re.escape(options[name])}(?![\w-])", message)
     ]
     return f" ({', '.join(parts)})" if parts else ""
 

@@ -103,6 +103,26 @@ def _sweep_files(value) -> str:
     return str(value)
 
 
+def _options_text(record) -> str:
+    """What ``calibrate_options`` adds to the settings line: the method, per FSR or not,
+    the columns asked for, invalid rows, the dark readings and the temperatures given."""
+    if not isinstance(record, dict):
+        return str(record)
+    request = record.get("request") if isinstance(record.get("request"), dict) else {}
+    asked = ", ".join(f"{key} {value}" for key, value in request.items() if value)
+    dark = record.get("dark_file") or record.get("dark_w")
+    parts = [
+        f"method {record.get('method')}",
+        f"per FSR {'yes' if record.get('per_fsr') else 'no'}",
+        f"columns {asked or 'found by name'}",
+        f"invalid rows {'skipped' if record.get('drop_invalid') else 'refused'}",
+        f"dark readings {dark}" if dark else "no dark readings",
+    ]
+    if record.get("temperature_k"):
+        parts.append(f"temperatures given {_temperatures_text(record['temperature_k'])}")
+    return "; ".join(parts)
+
+
 def metadata_lines(metadata: dict) -> list[str]:
     """Every entry of a calibration file's metadata: where the sweep came from and how
     its columns were read, then any other notes."""
@@ -147,6 +167,13 @@ def metadata_lines(metadata: dict) -> list[str]:
         lines.append(_line("temperature", f"{span[0]:.6g} to {span[1]:.6g} K ({source})"))
     else:
         lines.append(_line("temperature", "not recorded"))
+    crlb = metadata.get("crlb_rms_hz")
+    if _is_number(crlb):
+        lines.append(_line("sweep CRLB", f"{crlb / 1e6:.5g} MHz RMS (the Cramer-Rao bound)"))
+        shown.add("crlb_rms_hz")
+    if "calibrate_options" in metadata:
+        lines.append(_line("options", _options_text(metadata["calibrate_options"])))
+        shown.add("calibrate_options")
     for key, value in metadata.items():
         if key not in shown:
             lines.append(_line(str(key), value))

@@ -175,6 +175,7 @@ def _measure_one(calibration, cal_path, data, out_path, file_format, settings, *
         calibration,
         stream,
         out_path,
+        request=request,
         file_format=file_format,
         coarse_hz=settings["coarse_hz"],
         temperature_k=settings["temperature_k"],

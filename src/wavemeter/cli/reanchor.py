@@ -141,10 +141,12 @@ def reanchor(calibration_file, readings, out_path, frequency_hz, temperature_k, 
     content = read_calibration(calibration_file)
     calibration = content.calibrator
     if "reanchor" not in calibration.capabilities:
+        from ..jobs.calibrator import methods_offering
+
         raise InputError(
             f"{calibration_file}: a {calibration.method_label} calibration cannot be "
-            "re-anchored; re-anchoring needs a learned calibration (single or per FSR) or a "
-            "thermal one"
+            "re-anchored (no 'reanchor' among its capabilities); the methods that can: "
+            f"{', '.join(methods_offering('reanchor'))}"
         )
     check_temperature_options(
         calibration, calibration_file, column=options["temperature_column"], given=temperature_k

@@ -25,16 +25,16 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration.contract.flags import ReadingFlag
-from ..exceptions import InputError, WavemeterError
+from ..exceptions import WavemeterError
 from ..io import ColumnRequest, ReadingStream, iter_readings, table_writer
 from ..io.streaming import CHUNK_ROWS
 from ..units import SPEED_OF_LIGHT_M_S
+from .readings import check_reading_options, check_readings
 
 __all__ = [
     "measure_file",
     "MeasureSummary",
     "ChunkMeasurement",
-    "check_stream",
     "MEASURE_CHUNK_ROWS",
 ]
 
@@ -101,7 +101,8 @@ def measure_file(
     readings : str, Path or ReadingStream
         The readings file (``"-"``: standard input), or one opened with
         :func:`~wavemeter.io.iter_readings` (not yet iterated; ``request``, ``chunk_rows``
-        and ``drop_invalid`` are then those it was opened with).
+        and ``drop_invalid`` are then those it was opened with, ``request`` given only to
+        say whether the ports were chosen).
     out_path : str or Path
         The output file (``"-"``: standard output), written atomically.
     request : ColumnRequest, optional
@@ -133,17 +134,15 @@ def measure_file(
     Raises
     ------
     InputError
-        For what :func:`~wavemeter.io.iter_readings` refuses, ports other than the
-        calibration's, a missing temperature or coarse frequency, ``uncertainty`` asked
-        of a calibration that gives none; no output is written then.
+        For what :func:`~wavemeter.io.iter_readings` refuses, and what the checks of
+        :mod:`wavemeter.jobs.readings` refuse (ports other than the calibration's, a
+        missing temperature or coarse frequency, an input it does not use,
+        ``uncertainty`` asked of a calibration that gives none); no output is written then.
     """
+    check_reading_options(
+        calibration, coarse_hz=coarse_hz, temperature_k=temperature_k, uncertainty=uncertainty
+    )
     offered = "frequency_std" in calibration.capabilities
-    if uncertainty and not offered:
-        raise InputError(
-            f"uncertainty needs a learned calibration (single or per FSR), not a "
-            f"{calibration.method_label} calibration",
-            parameter="uncertainty",
-        )
     uncertainty = offered if uncertainty is None else uncertainty
     thermal = "temperature_k" in calibration.requires
     if isinstance(readings, ReadingStream):
@@ -156,7 +155,13 @@ def measure_file(
             allow_invalid=drop_invalid,
             find_temperature=thermal and temperature_k is None,
         )
-    check_stream(calibration, stream, coarse_hz, temperature_k)
+    check_readings(
+        calibration,
+        stream,
+        coarse_hz=coarse_hz,
+        temperature_k=temperature_k,
+        ports_given=request is not None and request.ports is not None,
+    )
     summary = MeasureSummary(source=stream.source, out_path=Path(out_path))
     measured = ChunkMeasurement(calibration, uncertainty, coarse_hz, temperature_k)
     counts = np.zeros(len(ReadingFlag), dtype=np.int64)
@@ -185,42 +190,6 @@ def measure_file(
         bit.name: int(count) for bit, count in zip(ReadingFlag, counts, strict=True) if count
     }
     return summary
-
-
-def check_stream(calibration, stream: ReadingStream, coarse_hz, temperature_k) -> None:
-    """The file gives what the calibration needs: its ports, a temperature, a coarse
-    frequency (the command line checks these first, with its own options in the
-    messages)."""
-    if len(stream.port_names) != calibration.n_ports_:
-        raise InputError(
-            f"{stream.source} has {len(stream.port_names)} ports "
-            f"({', '.join(stream.port_names)}) but the calibration has "
-            f"{calibration.n_ports_} ({', '.join(calibration.port_names_)}); choose the "
-            "port columns in the calibration's order (ports)",
-            parameter="ports",
-        )
-    if "temperature_k" in calibration.requires:
-        if temperature_k is None and stream.temperature_column is None:
-            raise InputError(
-                f"a {calibration.method_label} calibration needs the chip temperature of each "
-                f"reading, and {stream.source} has no temperature column; name it "
-                "(temperature) or give one temperature for the file (temperature_k)",
-                parameter="temperature_k",
-            )
-    if "coarse_hz" in calibration.requires:
-        if coarse_hz is None and stream.coarse_column is None:
-            raise InputError(
-                f"a {calibration.method_label} calibration needs a coarse frequency of each "
-                f"reading; {stream.source} has no coarse column: name it (coarse) or give "
-                "one for the file (coarse_hz)",
-                parameter="coarse_hz",
-            )
-    elif calibration.absolute_frequency and (coarse_hz is not None or stream.coarse_column):
-        raise InputError(
-            f"a {calibration.method_label} calibration reads the absolute frequency: it "
-            "takes no coarse frequency (coarse_hz)",
-            parameter="coarse_hz",
-        )
 
 
 class ChunkMeasurement:

@@ -40,9 +40,10 @@ from ..exceptions import InputError
 from ..io import ColumnRequest, ReadingStream, iter_readings
 from ..io.streaming import CHUNK_ROWS
 from ..validation import check_positive
-from .measure import ChunkMeasurement, check_stream
+from .measure import ChunkMeasurement
 from .noise_clock import TIME_JITTER_TOLERANCE, Clock
 from .noise_unwrap import Unwrapper
+from .readings import check_reading_options, check_readings
 
 __all__ = [
     "measure_series",
@@ -225,8 +226,16 @@ def measure_series(
             "their time stamps (time_column)",
             parameter="rate_hz",
         )
+    check_reading_options(calibration, coarse_hz=coarse_hz, temperature_k=temperature_k)
     stream = _open(readings, request, chunk_rows, time_column, calibration, temperature_k)
-    check_stream(calibration, stream, coarse_hz, temperature_k)
+    ports_given = request is not None and request.ports is not None
+    check_readings(
+        calibration,
+        stream,
+        coarse_hz=coarse_hz,
+        temperature_k=temperature_k,
+        ports_given=ports_given,
+    )
     offered = "frequency_std" in calibration.capabilities
     measured = ChunkMeasurement(calibration, offered, coarse_hz, temperature_k, phase=False)
     modulo = reads_modulo_fsr(calibration, stream.coarse_column, coarse_hz)

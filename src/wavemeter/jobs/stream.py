@@ -39,7 +39,8 @@ from ..io.source import Source
 from ..io.text_layout import LineCells, column_names, excel_separator
 from ..units import SPEED_OF_LIGHT_M_S
 from .line_reader import LineReader
-from .measure import about_file, check_stream
+from .measure import about_file
+from .readings import check_reading_options, check_readings
 
 __all__ = [
     "stream_lines",
@@ -187,12 +188,20 @@ def stream_lines(
     summary = StreamSummary(source=source)
     numbered = iter(enumerate(lines, start=1))
     thermal = "temperature_k" in calibration.requires
+    check_reading_options(calibration, coarse_hz=coarse_hz, temperature_k=temperature_k)
+    ports_given = request is not None and request.ports is not None
     try:
         with about_file(source):
             header = read_header(numbered, source, request, thermal and temperature_k is None)
             if check is not None:
                 check(header)
-            check_stream(calibration, header, coarse_hz, temperature_k)
+            check_readings(
+                calibration,
+                header,
+                coarse_hz=coarse_hz,
+                temperature_k=temperature_k,
+                ports_given=ports_given,
+            )
         _Stream(calibration, header, out, coarse_hz, temperature_k).run(numbered, summary)
     except KeyboardInterrupt:
         summary.interrupted = True
