@@ -371,3 +371,15 @@ def test_a_stage_whose_model_misses_the_chip_widens_its_uncertainty_by_what_the_
     # 20000 readings: 1/sqrt(2 N) = 0.005; the excess is estimated on 8000 sweep readings
     # whose errors are correlated along the band, so allow a few percent
     assert abs(np.std(z) - 1.0) < 0.05
+
+
+def test_stages_of_unequal_sizes_are_settings_a_file_keeps():
+    """``stage_ports`` of 4 + 3 + 3 columns is a ragged setting: written as nested lists and
+    read back as the tuples the constructor was given."""
+    ports = ((0, 1, 2, 3), (4, 5, 6), (7, 8, 9))
+    calibrator = wm.CascadeCalibrator(stage_ports=ports)
+    written = calibrator.get_params_for_file()
+    assert written["stage_ports"] == [[0, 1, 2, 3], [4, 5, 6], [7, 8, 9]]
+    read = wm.CascadeCalibrator._params_from_file(written)
+    assert read["stage_ports"] == ports
+    assert wm.CascadeCalibrator(**read).get_params() == calibrator.get_params()

@@ -228,12 +228,6 @@ def test_report_of_a_subclass_of_the_learned_calibrator(site, files):
     assert all(f'alt="{name} figure"' in text for name in names) and "toy_ml" in text
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="report/ (not calibration/): report.content._compared re-raises the comparison "
-    "refusal of a calibration without the 'crlb' capability, and report.fringes.plot_panels "
-    "indexes panels[0] when a calibration draws no fringe panels",
-)
 def test_report_of_the_minimal_interface(site, files):
     folder = files["folder"]
     done, page = _report(site, folder, "toy_fixed_delay")

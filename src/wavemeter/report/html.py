@@ -97,7 +97,7 @@ def write_report(
     Returns
     -------
     list of Path
-        The HTML file, then the PNG files.
+        The HTML file, then the PNG files of the figures drawn.
 
     Raises
     ------
@@ -119,11 +119,16 @@ def write_report(
     for path in outputs:
         check_output(path, inputs=list(files.values()), force=force)
     figures, summary = report_content(calibration, sweep, test, port_phases_rad)
-    images = {name: png_bytes(figures[name], dpi) for name in figure_names(calibration)}
+    # the figures the calibration drew (one with no model of the fringes draws none of them)
+    drawn = [name for name in figure_names(calibration) if name in figures]
+    images = {name: png_bytes(figures[name], dpi) for name in drawn}
     page = render_page(calibration, summary, images, files)
-    for path, png in zip(outputs[1:], images.values(), strict=True):
+    written = [outputs[0]] + [
+        outputs[0].with_name(f"{outputs[0].stem}-{name}.png") for name in drawn
+    ]
+    for path, png in zip(written[1:], images.values(), strict=True):
         with atomic_path(path) as temporary:
             temporary.write_bytes(png)
-    with atomic_path(outputs[0]) as temporary:
+    with atomic_path(written[0]) as temporary:
         temporary.write_text(page, encoding="utf-8")
-    return outputs
+    return written
