@@ -33,8 +33,7 @@ def files(tmp_path_factory):
     folder = tmp_path_factory.mktemp("status")
     for command in (
         f"simulate -o {folder / 'set.csv'} --seed 4 --span-fsr 3 --samples 1200 --quiet",
-        f"simulate -o {folder / 'wide.csv'} --seed 4 --span-fsr 4 --samples 400 --test 400 "
-        "--quiet",
+        f"simulate -o {folder / 'wide.csv'} --seed 4 --span-fsr 4 --samples 400 --test 400 --quiet",
         f"calibrate {folder / 'set.csv'} --per-fsr -o {folder / 'set.wmcal.json'} --quiet",
         f"calibrate {folder / 'wide.csv'} -o {folder / 'chip.wmcal.json'} --quiet",
     ):
