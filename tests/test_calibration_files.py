@@ -215,8 +215,8 @@ def test_info_shows_every_setting_and_the_metadata(sweep, tmp_path, capsys):
     for expected in (
         f"wavemeter {wm.__version__} calibration (schema {SCHEMA_VERSION})",
         "method           learned per FSR",
-        "fsr_tolerance=0.15",
-        "'retrieval': 'ml'",
+        "fsr_tolerance 0.15; window learned (",
+        "retrieval ml)",
         "FSR              ",
         " +- ",
         "windows          centre THz",
@@ -224,7 +224,7 @@ def test_info_shows_every_setting_and_the_metadata(sweep, tmp_path, capsys):
         "port columns     P1_dBm, P2_dBm, P3_dBm",
         "monitor column   monitor_mW",
         "temperature      293.15 to 294.05 K (column temp_C)",
-        "dropped_rows     3",
+        "dropped rows     3",
         "warnings         none",
     ):
         assert expected in out, expected

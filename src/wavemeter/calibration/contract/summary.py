@@ -166,8 +166,42 @@ def _frequency_with_error(value: FitValue) -> str:
     return text
 
 
+#: how the misfit report's noise estimates read (``diagnostics_["fit"]["noise_method"]``)
+_NOISE_SOURCES = {
+    "second_difference": "the readings' second differences (model-free)",
+    "residual": "the calibration residual",
+}
+
+
+def _setting_text(name: str, value) -> str:
+    """One setting as people read it: a frequency in its unit, ``default`` for None, lists
+    and nested settings (a set's window) in words, never a Python repr."""
+    if value is None:
+        return "default"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, dict):
+        method = value.get("method")
+        inner = value.get("params") if isinstance(value.get("params"), dict) else {}
+        listed = ", ".join(f"{key} {_setting_text(key, item)}" for key, item in inner.items())
+        return f"{method} ({listed})" if method else listed
+    if isinstance(value, (list, tuple)):
+        return ", ".join(
+            f"({_setting_text(name, item)})"
+            if isinstance(item, (list, tuple))
+            else _setting_text(name, item)
+            for item in value
+        )
+    if isinstance(value, (int, float)) and name.endswith("_hz"):
+        return frequency_text(float(value))
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
 def _settings_text(settings: dict) -> str:
-    return ", ".join(f"{name}={value!r}" for name, value in settings.items())
+    """``fsr_hz 50 GHz; fsr_tolerance 0.2; retrieval pinv``: library names, values in words."""
+    return "; ".join(f"{name} {_setting_text(name, value)}" for name, value in settings.items())
 
 
 def _is_number(value) -> bool:
@@ -205,7 +239,8 @@ def _fit_lines(fit, ports) -> list[str]:
     ]
     method, dof = fit.get("noise_method"), fit.get("noise_dof")
     if isinstance(method, str):
-        lines.append(_line("noise from", f"{method} ({_number(dof)} degrees of freedom)"))
+        source = _NOISE_SOURCES.get(method, method.replace("_", " "))
+        lines.append(_line("noise from", f"{source} ({_number(dof)} degrees of freedom)"))
     if _is_number(fit.get("condition_number")):
         ratio_text = fit.get("pinv_variance_ratio")
         extra = (
