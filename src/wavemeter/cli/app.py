@@ -244,6 +244,7 @@ OPTIONS_OF_CAUSE = {
 #: order; a misfit no cause explains over many FSRs: the wide-band calibration)
 OPTIONS_OF_REMEDY_NAME = {
     "phase_order": "--phase-order",
+    "map_order": "--map-order",
     "WidebandCalibrator": "--method wideband (or --per-fsr)",
 }
 
@@ -254,7 +255,7 @@ def warning_text(warning: Warning) -> str:
     cause = getattr(warning, "cause", "other_misfit")
     remedy = getattr(warning, "remedy", "")
     named = [option for name, option in OPTIONS_OF_REMEDY_NAME.items() if name in remedy]
-    hint = named[0] if named else OPTIONS_OF_CAUSE.get(cause)
+    hint = ", ".join(named) if named else OPTIONS_OF_CAUSE.get(cause)
     return f"[{cause}] {warning}" + (f" (options: {hint})" if hint else "")
 
 

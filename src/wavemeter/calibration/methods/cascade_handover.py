@@ -5,7 +5,7 @@ each hand-over's record on the sweep (FSR ratio, margin in standard deviations, 
 largest ratio the noise allows, predicted and seen wrong orders), refuses a hand-over
 whose wrong-order rate exceeds ``max_order_error``, warns when the sweep saw improbably
 many wrong orders, measures the coarsest stage's edge margin and each stage's error
-beyond its uncertainty, and says what a coarsest stage's misfit means in a cascade.
+beyond its uncertainty, and says what a coarsest stage's misfit costs in a cascade.
 Theory: the docs' cascade page.
 """
 
@@ -29,9 +29,14 @@ HANDOVER_REMEDY = (
     "look for steps in the sweep (a mode hop of the laser, a wavelength reference that "
     "slipped, a stage that drifted) and re-record it"
 )
-#: misfit causes whose residual a map changing with wavelength also leaves on a stage
-#: swept over less than its FSR
-SWEEP_MISFIT_CAUSES = ("power_drift", "detector_offset", "phase_drift", "other_misfit")
+#: misfit causes of the coarsest stage whose cost in a cascade its warning states
+SWEEP_MISFIT_CAUSES = (
+    "power_drift",
+    "detector_offset",
+    "phase_drift",
+    "dispersion",
+    "other_misfit",
+)
 #: p-value below which the wrong orders seen on the sweep contradict the predicted ones
 HANDOVER_P_VALUE = 1e-6
 
@@ -115,19 +120,16 @@ class HandoverChecksMixin:
         return float(np.min(distance / chain.std_hz[0][ends]))
 
     def _coarsest_context(self, note: CalibrationWarning) -> CalibrationWarning:
-        """A misfit of the coarsest stage, with what it means in a cascade: the stage's
-        band is narrower than its FSR, where a map changing with wavelength cannot be told
-        from the phase, and its uncertainties (the model-free noise) carry the misfit into
-        the hand-over margin, not into the answer."""
+        """A misfit of the coarsest stage, with what it means in a cascade: its
+        uncertainties (the model-free noise, the error its sweep showed beyond them) carry
+        the misfit into the hand-over margin, not into the answer."""
         label = stage_label(0, self._design_fsrs_hz()[0])
         if note.cause not in SWEEP_MISFIT_CAUSES or not str(note).startswith(f"{label}:"):
             return note
         margin = self.handovers_[0]["margin_std"]
         context = (
-            "in a cascade the coarsest stage covers less than one of its FSRs, where a map "
-            "changing with wavelength (coupler and detector slopes, which over a sweep look "
-            "like a drift) cannot be told from the phase and leaves a residual of this kind: "
-            "the stage's uncertainties include it, so it costs hand-over margin (now "
+            "in a cascade the coarsest stage's uncertainties include what its sweep shows "
+            "beyond the noise, so this costs hand-over margin (now "
             f"{margin:.3g} standard deviations to stage 2), not the finest stage's accuracy"
         )
         return CalibrationWarning(

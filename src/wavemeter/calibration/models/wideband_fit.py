@@ -233,6 +233,9 @@ class BandFit:
         Model phase of every reading.
     residual_w : ndarray, shape (N, n)
         Readings minus the fitted model (W).
+    gauge : ndarray, shape (n, 3), or None
+        The rotation held out of the map's order-1 coefficient (:func:`fit_band_region`),
+        or None.
     """
 
     coefficients_rad: np.ndarray
@@ -240,6 +243,7 @@ class BandFit:
     cost: float
     phase_rad: np.ndarray
     residual_w: np.ndarray
+    gauge: np.ndarray | None = None
 
 
 def fit_band_region(
@@ -252,6 +256,7 @@ def fit_band_region(
     map_order: int,
     scale=None,
     affine: bool = False,
+    gauge=None,
 ) -> BandFit:
     """Variable-projection fit of the phase coefficients in ``z = (f - f0) / radius``.
 
@@ -271,6 +276,13 @@ def fit_band_region(
         Relative monitored source power per reading.
     affine : bool
         Fit per-port offsets too (a column of ones).
+    gauge : None or ndarray, shape (n, 3)
+        The rotation about the cone axis of a constant map ``A_0`` (``A_0 G``, ``G`` the
+        quarter turn's generator: ``[A_0[:, 1], -A_0[:, 0], 0]``), held out of the map's
+        order-1 coefficient ``A_1`` (``<A_1, A_0 G> = 0``): a map's slope that rotates the
+        fringe is the phase's slope to first order, and a sweep of one or two FSRs cannot
+        tell them apart; the phase then carries all of the fringe's rotation. None: no
+        constraint (``map_order`` >= 1 when given).
 
     Returns
     -------
@@ -278,6 +290,20 @@ def fit_band_region(
     """
     z = (frequency_hz - center_hz) / radius_hz
     order = len(start_rad)
+    constraint = None
+    if gauge is not None:
+        rows = 3 * (map_order + 1) + (1 if affine else 0)
+        constraint = np.zeros((rows, powers.shape[1]))
+        constraint[3:6] = np.asarray(gauge, dtype=float).T
+
+    def held(factor, right):
+        """Least squares ``(X'X)^-1 right`` under the constraint (one Lagrange multiplier
+        shared by the ports)."""
+        matrix = linalg.cho_solve(factor, right, check_finite=False)
+        if constraint is None:
+            return matrix
+        moved = linalg.cho_solve(factor, constraint, check_finite=False)
+        return matrix - moved * (np.vdot(constraint, matrix) / np.vdot(constraint, moved))
 
     solved: dict[bytes, tuple] = {}
 
@@ -288,7 +314,7 @@ def fit_band_region(
             phase = band_phase_rad(z, coefficients)
             objects = band_objects(z, phase, scale, map_order, affine)
             factor = normal_factor(objects)
-            matrix = linalg.cho_solve(factor, objects.T @ powers, check_finite=False)
+            matrix = held(factor, objects.T @ powers)
             solved.clear()
             solved[key] = (phase, objects, factor, matrix)
         return solved[key]
@@ -303,7 +329,7 @@ def fit_band_region(
         columns = []
         for derivative in moved:
             image = derivative @ matrix
-            inside = objects @ linalg.cho_solve(factor, objects.T @ image, check_finite=False)
+            inside = objects @ held(factor, objects.T @ image)
             columns.append(-(image - inside).ravel())
         return np.column_stack(columns)
 
@@ -319,6 +345,7 @@ def fit_band_region(
         cost=float(np.einsum("ij,ij->", error, error) / powers.shape[0]),
         phase_rad=phase,
         residual_w=error,
+        gauge=None if constraint is None else constraint[3:6].T.copy(),
     )
 
 

@@ -23,7 +23,9 @@ rejects the smaller model (:func:`raise_orders`): a nested F test of the next ph
 and of the next map order (the residual whitened by each port's noise), taken below
 ``TEST_P_VALUE``, the diagnostics' own level. A map of order ``J`` can rotate each FSR
 window it has a coefficient for, which is a phase: ``J`` stays below the number of windows
-minus one, so that the windows still tell the phase.
+minus one, so that the windows still tell the phase; order 1 is always allowed (a map's
+slope rotates the fringe only to first order, and the fringe's curvature tells the two
+apart: a sweep of one or two FSRs over couplers that change with wavelength needs it).
 """
 
 from __future__ import annotations
@@ -149,8 +151,8 @@ class OrderSelection:
 
 def highest_map_order(windows: int) -> int:
     """The highest map order a sweep over ``windows`` FSR windows can tell from the phase
-    (``windows - 2``, at least 0, at most ``MAX_MAP_ORDER``)."""
-    return int(min(MAX_MAP_ORDER, max(windows - 2, 0)))
+    (``windows - 2``, at least 1, at most ``MAX_MAP_ORDER``)."""
+    return int(min(MAX_MAP_ORDER, max(windows - 2, 1)))
 
 
 def _folds(windows: np.ndarray) -> np.ndarray:
@@ -350,9 +352,13 @@ def raise_orders(
     fit : BandFit
         The fit at those orders on every reading.
     """
-    highest_map = highest_map_order(window_count(frequency_hz, fsr_hz))
+    windows = window_count(frequency_hz, fsr_hz)
+    highest_map = highest_map_order(windows)
     ports = powers.shape[1]
     y = (frequency_hz - center_hz) / half_span_hz
+    # on one or two FSR windows a map's slope that rotates the fringe is the phase's slope:
+    # it is held out (the rotation of the constant map at the start's phase)
+    gauge = _rotation(powers, y, coefficients_rad, scale, affine) if windows <= 2 else None
 
     def fitted(orders, start):
         return fit_band_region(
@@ -364,6 +370,7 @@ def raise_orders(
             map_order=orders[1],
             scale=scale,
             affine=affine,
+            gauge=gauge if orders[1] >= 1 else None,
         )
 
     current = (selection.phase_order, selection.map_order)
@@ -439,6 +446,14 @@ def _nested_p_value(fit: BandFit, lowered, noise, ports, small, large, affine) -
     dof = fit.residual_w.size - parameter_count(ports, *large, affine)
     statistic = max(lowered, 0.0) / added / (max(energy, np.finfo(float).tiny) / dof)
     return float(stats.f.sf(statistic, added, dof))
+
+
+def _rotation(powers, y, coefficients_rad, scale, affine: bool) -> np.ndarray:
+    """``A_0 G`` (n, 3): the rotation about the cone axis of the constant map fitted at the
+    phase coefficients (rad, in ``y``)."""
+    objects = band_objects(y, band_phase_rad(y, coefficients_rad), scale, 0, affine)
+    constant = least_squares_map(objects, powers)[:3].T
+    return np.column_stack([constant[:, 1], -constant[:, 0], np.zeros(constant.shape[0])])
 
 
 def _map_order_fit(fit: BandFit, powers, y, scale, map_order: int, affine: bool) -> BandFit:
