@@ -24,6 +24,7 @@ from ..checks.misfit import MisfitReport, misfit_report
 from ..contract.base import BaseCalibrator
 from ..contract.records import ReadingInputs
 from ..contract.summary import FitValue
+from ..files import fields
 from ..files.document import state_array, state_float
 from ..fitting.steps import (
     SweepFitMixin,
@@ -148,6 +149,16 @@ class Calibrator(
     nonlinear_parameters: ClassVar[int] = 1
     #: most readings the checks and diagnostics see (:mod:`~wavemeter.calibration.models.subsample`)
     diagnostic_samples: ClassVar[int] = DIAGNOSTIC_SAMPLES
+    #: what each number of the file's state may hold (:mod:`~wavemeter.calibration.files.fields`)
+    state_rules = fields.rule_table(
+        {
+            "map": fields.MAP_RULE,
+            "delay_s": fields.DELAY_RULE,
+            "delay_std_s": fields.DELAY_STD_RULE,
+            **fields.NOISE_MODEL_RULES,
+            "parameter_covariance": fields.CovarianceRule(tail=(("the delay", "delay_s", 1.0),)),
+        }
+    )
 
     def __init__(
         self,
@@ -421,8 +432,6 @@ class Calibrator(
                     f"field 'parameter_covariance' must be square of size {sizes[0]} or "
                     f"{sizes[1]}, got shape {self.parameter_covariance_.shape}"
                 )
-            if np.any(self.port_noise_std_w_ <= 0):
-                raise ValueError("field 'port_noise_std_w' must hold positive numbers (W)")
         else:
             # schema 1: one pooled noise, its degrees of freedom, no parameter covariance
             self.port_noise_std_w_ = np.full(ports, self.noise_std_w_)
