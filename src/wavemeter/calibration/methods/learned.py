@@ -358,13 +358,22 @@ class Calibrator(
             A deep copy with the corrected ``map_`` (and ``delay_s_``, ``fsr_hz_``,
             ``delay_std_s_``) and ``diagnostics_["reanchor"]``: ``phase_shift_rad``,
             ``phase_shift_std_rad``, ``delay_change_s`` (None when kept),
-            ``delay_change_std_s``, ``lines_hz``, ``readings``.
+            ``delay_change_std_s``, ``lines_hz``, ``readings``, ``reference_check`` (how
+            each line's readings scattered against the calibration's noise).
 
         Raises
         ------
         InputError
             Naming ``powers``, ``frequency_hz`` or ``temperature_k`` for readings or values
-            that are missing, not finite or of the wrong shape.
+            that are missing, not finite or of the wrong shape; ``frequency_hz`` when the
+            readings of a line scatter far beyond the calibration's noise (not readings of
+            that line: :mod:`~wavemeter.calibration.models.reference_check`).
+
+        Warns
+        -----
+        CalibrationWarning
+            (cause ``"reference_scatter"``) When a line scatters more than the calibration's
+            noise, short of that; the warning is kept in the copy's ``diagnostics_``.
         """
         check_fitted(self)
         raw, frequency, _ = check_reference_readings(
@@ -380,6 +389,7 @@ class Calibrator(
             self.delay_s_,
             delay_std_s=self.delay_std_s_,
             reading_phase_std_rad=reading_std * (2.0 * np.pi / self.fsr_hz_),
+            noise_dof=self.noise_dof_,
         )
         return reanchored_copy(self, fit)
 
