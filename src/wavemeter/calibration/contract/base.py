@@ -23,6 +23,16 @@ import numpy as np
 from ...exceptions import InputError, WavemeterError
 from ...validation import check_fitted, check_positive
 from ..files.document import save_calibration, state_array
+from ..files.fields import (
+    NOISE_RELATIVE,
+    OFFSET_RULE,
+    SPREAD_RELATIVE,
+    FieldRule,
+    RecordRule,
+    ScaleRule,
+    largest_magnitude,
+    rule_table,
+)
 from ..files.registry import register
 from .figures import FigureData, FringePanel
 from .params import ParamsMixin
@@ -105,6 +115,37 @@ class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
     #: the comparison method is expected to misfit this method's sweeps (sweeps at several
     #: temperatures, over many FSRs): its warnings belong to the report, not to the user
     comparison_misfits_expected: ClassVar[bool] = False
+    #: what each number of the file's ``state`` may hold: field path -> rule (or rules),
+    #: added to or replaced by subclasses (:mod:`wavemeter.calibration.files.fields`)
+    state_rules: ClassVar[Mapping[str, object]] = rule_table({})
+    #: what each number of the file's ``reading_model`` may hold; the sweep's highest total
+    #: power is the power scale of a class whose state sets none
+    reading_model_rules: ClassVar[Mapping[str, object]] = rule_table(
+        {
+            "dark_w": OFFSET_RULE,
+            "offset_w": OFFSET_RULE,
+            "total_power_range_w": (
+                ScaleRule(
+                    "the sweep's lowest and highest total power",
+                    largest_magnitude,
+                    "the sweep's highest total power",
+                ),
+                FieldRule(
+                    "the sweep's lowest and highest total power",
+                    "W",
+                    NOISE_RELATIVE[0],
+                    SPREAD_RELATIVE,
+                    scale="power_w",
+                    open_low=True,
+                ),
+            ),
+        }
+    )
+    #: the records of ``diagnostics_`` a report presents (the common ones' presentation is
+    #: tolerant: only the ports' list must be one)
+    diagnostics_rules: ClassVar[Mapping[str, object]] = rule_table(
+        {"ports": RecordRule("the ports' records", "list")}
+    )
     #: learned attributes common to every calibrator, saved by every calibration file
     common_attributes: ClassVar[tuple[str, ...]] = (
         "fsr_hz_",
@@ -301,7 +342,8 @@ class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
             low, high = state_array(state, "total_power_range_w", (2,))
             if not 0 < low <= high:
                 raise InputError(
-                    f"field 'total_power_range_w' must be 0 < low <= high (W), got {[low, high]}"
+                    "field 'total_power_range_w' must be 0 < low <= high (W), got "
+                    f"{[float(low), float(high)]}"
                 )
             self.total_power_range_w_ = (float(low), float(high))
 

@@ -256,6 +256,60 @@ def _fit_lines(fit, ports) -> list[str]:
     return lines
 
 
+#: the verdicts of a re-anchoring's reference check, the least worrying first
+_CHECK_ORDER = ("untested", "ok", "warned", "refused")
+
+
+def _check_text(check: dict) -> str:
+    """A reference check in words: its verdict and the reported line's scatter."""
+    verdict = check.get("verdict") if check.get("verdict") in _CHECK_ORDER else "?"
+    lines = [line for line in check.get("lines") or [] if isinstance(line, dict)]
+    tested = [line for line in lines if _is_number(line.get("p_value"))]
+    if verdict == "untested" or not tested:
+        return f"{verdict}: no line with two readings"
+    line = min(tested, key=lambda item: item["p_value"])
+    return (
+        f"{verdict}: scatter {_number(line.get('scatter_ratio'))} times the calibration's "
+        f"noise ({_number(line.get('observed_scatter_rad'))} rad, expected "
+        f"{_number(line.get('expected_scatter_rad'))} rad), p = {_number(check.get('p_value'))} "
+        f"over {len(tested)} line(s)"
+    )
+
+
+def _reanchor_lines(record) -> list[str]:
+    """Lines for a re-anchoring record: the shift, and how the reference readings scattered
+    (the worst window's for a set); tolerant of records read from files."""
+    if not isinstance(record, dict):
+        return []
+    windows = record.get("windows")
+    records = [item for item in windows if isinstance(item, dict)] if windows else [record]
+    lines_hz = record.get("lines_hz")
+    count = len(lines_hz) if isinstance(lines_hz, list) else "?"
+    readings = record.get("readings")
+    on = f"{count} line(s), {readings if isinstance(readings, int) else '?'} readings"
+    if windows:
+        text = f"{len(records)} windows on {on}"
+    else:
+        text = (
+            f"phase shift {_number(record.get('phase_shift_rad'))} rad (std "
+            f"{_number(record.get('phase_shift_std_rad'))} rad) on {on}"
+        )
+    lines = [_line("re-anchored", text)]
+    checks = [item.get("reference_check") for item in records]
+    checks = [check for check in checks if isinstance(check, dict)]
+    if checks:
+        worst = max(
+            checks,
+            key=lambda check: (
+                _CHECK_ORDER.index(check.get("verdict"))
+                if check.get("verdict") in _CHECK_ORDER
+                else 0
+            ),
+        )
+        lines.append(_line("reference check", _check_text(worst)))
+    return lines
+
+
 def _diagnostics_lines(diagnostics: dict) -> list[str]:
     """Lines for a diagnostics record; tolerant of records read from older or foreign files."""
     lines = []
@@ -276,6 +330,7 @@ def _diagnostics_lines(diagnostics: dict) -> list[str]:
             )
         )
     lines += _fit_lines(diagnostics.get("fit"), ports)
+    lines += _reanchor_lines(diagnostics.get("reanchor"))
     notes = diagnostics.get("warnings")
     for note in notes if isinstance(notes, list) else []:
         if isinstance(note, dict):

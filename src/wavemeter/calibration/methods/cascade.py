@@ -30,12 +30,13 @@ from ...validation import (
 )
 from ..contract.base import BaseCalibrator, Part
 from ..contract.summary import FitValue
+from ..files import fields
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
 from ..models.band_reading import band_cone_distance
 from .cascade_chain import ChainReadingMixin
-from .cascade_handover import HandoverChecksMixin, stage_label
+from .cascade_handover import HandoverChecksMixin, handover_rules, stage_label
 from .cascade_params import design_fsrs_hz, stage_columns
-from .cascade_report import cascade_tables, order_error_check
+from .cascade_report import CASCADE_RECORD_RULES, cascade_tables, order_error_check
 from .learned import RETRIEVALS
 from .wideband import WidebandCalibrator
 
@@ -105,6 +106,30 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
     method = "cascade"
     absolute_frequency = True
     capabilities = frozenset({"frequency_std", "crlb", "power_monitor"})
+    #: the stages' numbers are checked as each stage's file (:func:`calibrator_from_fields`)
+    state_rules = fields.rule_table(
+        {
+            "stage_ports.*": fields.FieldRule(
+                "a port's index", "", 0, 1, scale="last_port", integer=True
+            ),
+            "edge_margin_std": fields.FieldRule(
+                "the smallest margin to the band's edges",
+                "std",
+                -fields.MAX_MARGIN_STD,
+                fields.MAX_MARGIN_STD,
+            ),
+            # a chi-square median (0.45 for 3 ports) times the square of a noise scale
+            # within 1e-6 to 1e3
+            "cone_distance_median": fields.FieldRule(
+                "a stage's median distance from its cone", "", 1e-12, 1e6
+            ),
+            "model_error_hz": fields.FieldRule(
+                "a stage's error beyond its uncertainty", "Hz", 0.0, 1.0, scale="band_hz"
+            ),
+            **handover_rules("handovers"),
+        }
+    )
+    diagnostics_rules = CASCADE_RECORD_RULES
 
     def __init__(
         self,
@@ -443,8 +468,13 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
         self.handovers_ = handovers
         self.edge_margin_std_ = state_float(state, "edge_margin_std")
         self.cone_distance_median_ = state_array(state, "cone_distance_median", (len(design),))
-        if np.any(self.cone_distance_median_ <= 0):
-            raise InputError("field 'cone_distance_median' must hold positive numbers")
         self.model_error_hz_ = state_array(state, "model_error_hz", (len(design),))
-        if np.any(self.model_error_hz_ < 0):
-            raise InputError("field 'model_error_hz' must hold numbers >= 0 (Hz)")
+
+    def _check_state(self) -> None:
+        super()._check_state()
+        record = (self.diagnostics_ or {}).get("cascade")
+        if record and len(record["stages"]) != len(self.stages_):
+            raise InputError(
+                f"field 'diagnostics.cascade.stages' must list the {len(self.stages_)} stages, "
+                f"got {len(record['stages'])}"
+            )

@@ -19,9 +19,10 @@ from scipy import special, stats
 from ...exceptions import CalibrationWarning, InputError
 from ...model.orders import handover_error_rate
 from ...units import frequency_text
+from ..files.fields import MAX_FSR_RATIO, MAX_MARGIN_STD, record_number
 from .cascade_reading import NOISE_P_VALUE, CascadeReading
 
-__all__ = ["HANDOVER_CAUSE", "HandoverChecksMixin", "stage_label"]
+__all__ = ["HANDOVER_CAUSE", "HandoverChecksMixin", "handover_rules", "stage_label"]
 
 #: the cause of a warning that the sweep saw more wrong orders than the rates predict
 HANDOVER_CAUSE = "order_handover"
@@ -39,6 +40,33 @@ SWEEP_MISFIT_CAUSES = (
 )
 #: p-value below which the wrong orders seen on the sweep contradict the predicted ones
 HANDOVER_P_VALUE = 1e-6
+
+
+#: most stages a cascade's record may name
+MAX_STAGES = 100
+#: the numbers of a hand-over's record: key, what, unit, low, high, whole, scale (of the
+#: bounds: the band for a standard deviation, the sweep's readings for a count)
+_HANDOVER_NUMBERS = (
+    ("from_stage", "the coarser stage", "", 1, MAX_STAGES, True, None),
+    ("to_stage", "the finer stage", "", 2, MAX_STAGES, True, None),
+    ("ratio", "the FSR ratio", "", 1.0, MAX_FSR_RATIO, False, None),
+    ("median_std_hz", "the median standard deviation", "Hz", 0.0, 1.0, False, "band_hz"),
+    ("margin_std", "the median margin", "std", -MAX_MARGIN_STD, MAX_MARGIN_STD, False, None),
+    ("worst_margin_std", "the least margin", "std", -MAX_MARGIN_STD, MAX_MARGIN_STD, False, None),
+    ("largest_usable_ratio", "the largest usable ratio", "", 0.0, MAX_MARGIN_STD, False, None),
+    ("predicted_rate", "the predicted wrong-order rate", "", 0.0, 1.0, False, None),
+    ("expected_wrong", "the wrong orders expected", "", 0.0, 1.0, False, "samples"),
+    ("wrong_on_sweep", "the wrong orders seen on the sweep", "", 0, 1.0, True, "samples"),
+)
+
+
+def handover_rules(prefix: str) -> dict:
+    """What each number of the hand-overs' records under ``prefix`` may hold (a calibration
+    file's rules, :mod:`~wavemeter.calibration.files.fields`)."""
+    return {
+        f"{prefix}.*.{key}": record_number(what, unit, low, high, integer, scale)
+        for key, what, unit, low, high, integer, scale in _HANDOVER_NUMBERS
+    }
 
 
 def stage_label(index: int, fsr_hz: float) -> str:

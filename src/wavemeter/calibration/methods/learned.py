@@ -24,6 +24,7 @@ from ..checks.misfit import MisfitReport, misfit_report
 from ..contract.base import BaseCalibrator
 from ..contract.records import ReadingInputs
 from ..contract.summary import FitValue
+from ..files import fields
 from ..files.document import state_array, state_float
 from ..fitting.steps import (
     SweepFitMixin,
@@ -153,6 +154,16 @@ class Calibrator(
     nonlinear_parameters: ClassVar[int] = 1
     #: most readings the checks and diagnostics see (:mod:`~wavemeter.calibration.models.subsample`)
     diagnostic_samples: ClassVar[int] = DIAGNOSTIC_SAMPLES
+    #: what each number of the file's state may hold (:mod:`~wavemeter.calibration.files.fields`)
+    state_rules = fields.rule_table(
+        {
+            "map": fields.MAP_RULE,
+            "delay_s": fields.DELAY_RULE,
+            "delay_std_s": fields.DELAY_STD_RULE,
+            **fields.NOISE_MODEL_RULES,
+            "parameter_covariance": fields.CovarianceRule(tail=(("the delay", "delay_s", 1.0),)),
+        }
+    )
 
     def __init__(
         self,
@@ -353,13 +364,22 @@ class Calibrator(
             A deep copy with the corrected ``map_`` (and ``delay_s_``, ``fsr_hz_``,
             ``delay_std_s_``) and ``diagnostics_["reanchor"]``: ``phase_shift_rad``,
             ``phase_shift_std_rad``, ``delay_change_s`` (None when kept),
-            ``delay_change_std_s``, ``lines_hz``, ``readings``.
+            ``delay_change_std_s``, ``lines_hz``, ``readings``, ``reference_check`` (how
+            each line's readings scattered against the calibration's noise).
 
         Raises
         ------
         InputError
             Naming ``powers``, ``frequency_hz`` or ``temperature_k`` for readings or values
-            that are missing, not finite or of the wrong shape.
+            that are missing, not finite or of the wrong shape; ``frequency_hz`` when the
+            readings of a line scatter far beyond the calibration's noise (not readings of
+            that line: :mod:`~wavemeter.calibration.models.reference_check`).
+
+        Warns
+        -----
+        CalibrationWarning
+            (cause ``"reference_scatter"``) When a line scatters more than the calibration's
+            noise, short of that; the warning is kept in the copy's ``diagnostics_``.
         """
         check_fitted(self)
         raw, frequency, _ = check_reference_readings(
@@ -375,6 +395,7 @@ class Calibrator(
             self.delay_s_,
             delay_std_s=self.delay_std_s_,
             reading_phase_std_rad=reading_std * (2.0 * np.pi / self.fsr_hz_),
+            noise_dof=self.noise_dof_,
         )
         return reanchored_copy(self, fit)
 
@@ -428,8 +449,6 @@ class Calibrator(
                     f"field 'parameter_covariance' must be square of size {sizes[0]} or "
                     f"{sizes[1]}, got shape {self.parameter_covariance_.shape}"
                 )
-            if np.any(self.port_noise_std_w_ <= 0):
-                raise ValueError("field 'port_noise_std_w' must hold positive numbers (W)")
         else:
             # schema 1: one pooled noise, its degrees of freedom, no parameter covariance
             self.port_noise_std_w_ = np.full(ports, self.noise_std_w_)

@@ -39,6 +39,7 @@ from ..contract.base import BaseCalibrator
 from ..contract.params import clone
 from ..contract.records import ReadingInputs
 from ..contract.summary import FitValue
+from ..files import fields
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
 from ..files.registry import calibrator_class
 from .learned import Calibrator
@@ -94,6 +95,16 @@ class CalibrationSet(WindowReadingMixin, BaseCalibrator):
 
     method = "calibration_set"
     requires = frozenset({"coarse_hz"})
+    #: the windows' numbers are checked as each window's file (:func:`calibrator_from_fields`)
+    state_rules = fields.rule_table(
+        {
+            "delay_s": fields.DELAY_RULE,
+            "delay_std_s": fields.DELAY_STD_RULE,
+            "window_edges_hz": fields.FieldRule(
+                "a window edge", "Hz", 0.0, 2 * fields.CENTER_RANGE_HZ[1], open_low=True
+            ),
+        }
+    )
 
     def __init__(self, fsr_hz: float = 50e9, fsr_tolerance: float = 0.2, window=None):
         self.fsr_hz = fsr_hz
@@ -163,11 +174,17 @@ class CalibrationSet(WindowReadingMixin, BaseCalibrator):
                 else {"port_phases_rad": phases},
             }
         if not isinstance(window, dict) or not isinstance(window.get("params"), dict):
-            raise InputError(f"window must be an object with method and params, got {window!r}")
+            raise InputError(
+                f"window must be an object with method and params, got {fields.shown(window)}"
+            )
         window_class = calibrator_class(window.get("method"))
         if window_class is None or window_class is cls:
-            raise InputError(f"unknown window calibration method {window.get('method')!r}")
-        params["window"] = window_class(**window_class._params_from_file(window["params"]))
+            raise InputError(
+                f"unknown window calibration method {fields.shown(window.get('method'))}"
+            )
+        settings = window_class._params_from_file(window["params"])
+        fields.check_setting_types(window_class, settings)
+        params["window"] = window_class(**settings)
         return params
 
     # ------------------------------------------------------------------ fitting

@@ -50,6 +50,7 @@ from ..models.thermal_fit import (
     thermal_phase_rad,
 )
 from .learned import Calibrator, LearnedContext
+from .thermal_fields import THERMAL_DIAGNOSTICS_RULES, THERMAL_STATE_RULES
 from .thermal_reading import ThermalReadingMixin
 
 __all__ = ["RATE_BUDGET_K", "ThermalCalibrator", "ThermalContext"]
@@ -118,6 +119,9 @@ class ThermalCalibrator(ThermalReadingMixin, Calibrator):
     nonlinear_parameters: ClassVar[int] = 3
     #: the phase follows the temperature too: predicted step by step
     plain_delay_phase: ClassVar[bool] = False
+    #: what each number of the file may hold (:mod:`~wavemeter.calibration.files.fields`)
+    state_rules = THERMAL_STATE_RULES
+    diagnostics_rules = THERMAL_DIAGNOSTICS_RULES
 
     def __init__(
         self,
@@ -453,17 +457,18 @@ class ThermalCalibrator(ThermalReadingMixin, Calibrator):
         }
 
     def _set_state(self, state: dict) -> None:
-        if "parameter_covariance" not in state:
-            raise InputError("a thermal calibration file must hold 'parameter_covariance'")
+        if "parameter_covariance" not in state or "port_noise_std_w" not in state:
+            raise InputError(
+                "a thermal calibration file must hold 'port_noise_std_w' and 'parameter_covariance'"
+            )
         super()._set_state(state)
         self.thermal_phase_rad_per_k_ = state_float(state, "thermal_phase_rad_per_k")
         self.thermal_delay_per_k_ = state_float(state, "thermal_delay_per_k")
-        self.reference_temperature_k_ = state_float(
-            state, "reference_temperature_k", minimum=0.0, open_minimum=True
-        )
+        self.reference_temperature_k_ = state_float(state, "reference_temperature_k")
         low, high = state_array(state, "temperature_range_k", (2,))
-        if not 0 < low <= high:
+        if not low <= high:
             raise InputError(
-                f"field 'temperature_range_k' must be 0 < low <= high (K), got {[low, high]}"
+                f"field 'temperature_range_k' must be [low, high] (K), got "
+                f"{[float(low), float(high)]}"
             )
         self.temperature_range_k_ = (float(low), float(high))

@@ -17,6 +17,9 @@ with ``t_measured`` the phase the calibration retrieves. The rules:
   number ``k`` -- the spread of the readings when ``k >= LINE_SPREAD_MIN_READINGS``,
   otherwise the mean of the model's per-reading phase variances (the calibrator's
   ``frequency_std_hz`` without the calibration part, in rad);
+* **the check**: the readings of each line must scatter like one line at the calibration's
+  noise (:mod:`~wavemeter.calibration.models.reference_check`): refused, warned or
+  recorded before the fit;
 * **the fit**: weighted least squares (weights ``1 / variance``) of the wrapped phase
   differences ``t_measured - 2 pi (f - f0) tau``, unwrapped about their weighted circular
   mean, on ``delta`` alone or on ``delta`` and ``tau' - tau``;
@@ -42,6 +45,7 @@ from scipy.spatial.transform import Rotation
 from ...exceptions import InputError
 from ...model.cone import delay_phase_rad, wrap_phase_rad
 from ...validation import check_per_reading, check_powers
+from .reference_check import ReferenceCheck, check_reference_scatter, reference_warning
 
 __all__ = [
     "LINE_SPREAD_MIN_READINGS",
@@ -81,6 +85,9 @@ class ReanchorFit:
         The distinct line frequencies (Hz), increasing.
     readings : int
         Number of readings used.
+    reference_check : ReferenceCheck or None
+        How the readings of each line scattered against the calibration's noise; None
+        without readings or a model noise.
     """
 
     phase_shift_rad: float
@@ -90,9 +97,11 @@ class ReanchorFit:
     covariance: np.ndarray
     lines_hz: tuple[float, ...]
     readings: int
+    reference_check: ReferenceCheck | None = None
 
     def record(self) -> dict:
         """The JSON-ready entry ``diagnostics_["reanchor"]``."""
+        check = self.reference_check
         return {
             "phase_shift_rad": self.phase_shift_rad,
             "phase_shift_std_rad": self.phase_shift_std_rad,
@@ -100,6 +109,7 @@ class ReanchorFit:
             "delay_change_std_s": self.delay_change_std_s,
             "lines_hz": list(self.lines_hz),
             "readings": self.readings,
+            "reference_check": None if check is None else check.record(),
         }
 
 
@@ -211,8 +221,10 @@ def fit_reanchor(
     *,
     delay_std_s: float | None,
     reading_phase_std_rad=None,
+    noise_dof: float | None = None,
 ) -> ReanchorFit:
-    """Bias phase shift (and delay change) that reference lines ask of a calibration.
+    """Bias phase shift (and delay change) that reference lines ask of a calibration, once
+    their readings scatter like lines (:func:`check_reference_scatter`).
 
     Parameters
     ----------
@@ -229,13 +241,31 @@ def fit_reanchor(
         one (never when None).
     reading_phase_std_rad : None or array_like, shape (N,)
         The model's phase standard deviation of each reading (rad); see :func:`line_phases`.
+        Without it the readings' scatter is not checked.
+    noise_dof : float or None
+        Degrees of freedom of the calibration's noise estimate, for the check.
 
     Returns
     -------
     ReanchorFit
+
+    Raises
+    ------
+    InputError
+        When the readings of a line scatter far beyond the calibration's noise: not
+        readings of the lines given (:mod:`~wavemeter.calibration.models.reference_check`).
+
+    Warns
+    -----
+    CalibrationWarning
+        (cause ``"reference_scatter"``) When a line scatters more than the noise, short of
+        that.
     """
     phase = np.asarray(phase_rad, dtype=float)
     frequency = np.asarray(frequency_hz, dtype=float)
+    check = None
+    if reading_phase_std_rad is not None:
+        check = check_reference_scatter(phase, frequency, reading_phase_std_rad, noise_dof)
     lines, mean, variance = line_phases(phase, frequency, reading_phase_std_rad)
     difference = wrap_phase_rad(mean - delay_phase_rad(lines, center_hz, delay_s))
     weight = 1.0 / variance
@@ -266,6 +296,7 @@ def fit_reanchor(
         covariance=covariance,
         lines_hz=tuple(float(line) for line in lines),
         readings=int(frequency.size),
+        reference_check=check,
     )
 
 
@@ -330,7 +361,8 @@ def reanchored_copy(calibrator, fit: ReanchorFit, record: dict | None = None):
         A fitted calibrator with ``map_`` (n, 3), ``_set_map`` and ``delay_s_``; untouched.
     fit : ReanchorFit
     record : None or dict
-        JSON-ready ``diagnostics_["reanchor"]`` of the copy; default ``fit.record()``.
+        JSON-ready ``diagnostics_["reanchor"]`` of the copy; default ``fit.record()``. A
+        reference check that warned adds its warning to ``diagnostics_["warnings"]``.
 
     Returns
     -------
@@ -352,9 +384,14 @@ def reanchored_copy(calibrator, fit: ReanchorFit, record: dict | None = None):
         corrected.parameter_covariance_ = reanchored_covariance(
             covariance, corrected.map_, fit, getattr(calibrator, "nonlinear_parameters", 1)
         )
-    corrected.diagnostics_ = {
+    diagnostics = {
         **(corrected.diagnostics_ or {}),
         "reanchor": fit.record() if record is None else record,
     }
+    if fit.reference_check is not None and fit.reference_check.verdict == "warned":
+        notes = diagnostics.get("warnings")
+        notes = list(notes) if isinstance(notes, list) else []
+        diagnostics["warnings"] = [*notes, reference_warning(fit.reference_check).record()]
+    corrected.diagnostics_ = diagnostics
     corrected._check_state()
     return corrected

@@ -12,6 +12,7 @@ import numpy as np
 
 from ....exceptions import InputError
 from ....model.couplers import equally_spaced_phases_rad, orthonormal_map
+from ...files import fields
 from ...files.document import state_array
 from ..figures import MapSamplesMixin
 from ._labels import LabelLockedCalibrator, phase_locking
@@ -42,6 +43,10 @@ class ConventionalCalibrator(MapSamplesMixin, LabelLockedCalibrator):
     """
 
     method = "conventional"
+    #: the ideal map's columns are unit vectors: no power scale
+    state_rules = fields.rule_table(
+        {"map": fields.FieldRule("an entry of the ideal map", "", high=1.0, magnitude=True)}
+    )
 
     def __init__(self, fsr_hz: float = 50e9, port_phases_rad=None):
         self.fsr_hz = fsr_hz

@@ -23,6 +23,7 @@ from scipy import linalg
 from ....exceptions import InputError
 from ...contract.base import BaseCalibrator
 from ...contract.summary import FitValue
+from ...files import fields
 from ...files.document import state_array, state_float
 from ...fitting.steps import SweepFitMixin
 from ...models.delay_search import DEFAULT_FSR_TOLERANCE
@@ -59,6 +60,21 @@ class ExtendedConventionalCalibrator(ComparedWithLearnedMixin, SweepFitMixin, Ba
     """
 
     method = "extended_conventional"
+    #: the largest fringe amplitude is the power scale
+    state_rules = fields.rule_table(
+        {
+            "amplitudes_w": (
+                fields.ScaleRule(
+                    "a fringe amplitude", fields.largest_magnitude, "the largest fringe amplitude"
+                ),
+                fields.FieldRule("a fringe amplitude", "W", 0.0, 1.0, scale="power_w"),
+            ),
+            "offsets_w": fields.OFFSET_RULE,
+            "port_phases_rad": fields.ANGLE_RULE,
+            "delay_s": fields.DELAY_RULE,
+            "delay_std_s": fields.DELAY_STD_RULE,
+        }
+    )
 
     def __init__(self, fsr_hz: float = 50e9):
         self.fsr_hz = fsr_hz
@@ -117,8 +133,6 @@ class ExtendedConventionalCalibrator(ComparedWithLearnedMixin, SweepFitMixin, Ba
             state_array(state, key, (self.n_ports_,))
             for key in ("offsets_w", "amplitudes_w", "port_phases_rad")
         ]
-        if np.any(fringes[1] < 0):
-            raise InputError(f"field 'amplitudes_w' must be >= 0, got {fringes[1].tolist()}")
         self.delay_s_ = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
         # files of 0.1 have no standard error of the delay
         self.delay_std_s_ = (

@@ -44,8 +44,9 @@ from scipy import linalg, optimize
 from ....exceptions import InputError
 from ....model.couplers import mmi_matrix, port_phases_rad
 from ....validation import as_rng, check_positive
-from ...contract.base import BaseCalibrator
+from ...contract.base import MAX_MAP_CONDITION, BaseCalibrator
 from ...contract.summary import FitValue
+from ...files import fields
 from ...files.document import state_array, state_float
 from ...fitting.steps import SweepFitMixin
 from ._compared import ComparedWithLearnedMixin
@@ -68,8 +69,9 @@ class NonlinearFitWarning(RuntimeWarning):
     """The nonlinear least-squares fit stopped without meeting its tolerances."""
 
 
-#: largest scattering magnitude a calibration file may hold: products of two stay finite
-MAX_MAGNITUDE = 1e150
+#: largest scattering magnitude a calibration file may hold: ``(m_a + m_b)^2`` is a port's
+#: share of the total power, near 1 at most; 10 allows 400 times that
+MAX_MAGNITUDE = 10.0
 
 
 def design_parameters(ports: int, fsr_hz: float = 50e9, inputs=(0, 2)) -> np.ndarray:
@@ -190,6 +192,17 @@ class NonlinearFitCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibr
     """
 
     method = "nonlinear_fit"
+    #: the model is per unit of total power: the power scale is the sweep's (reading model)
+    state_rules = fields.rule_table(
+        {
+            "magnitudes": fields.FieldRule("a scattering magnitude", "", 0.0, MAX_MAGNITUDE),
+            "port_phases_rad": fields.ANGLE_RULE,
+            "delay_s": fields.DELAY_RULE,
+            "fit_status": fields.FieldRule("the solver's status", "", -1, 4, integer=True),
+            "nfev": fields.FieldRule("the model evaluations", "", 0, 1e9, integer=True),
+            "cost_w2": fields.COST_RULE,
+        }
+    )
 
     def __init__(self, fsr_hz: float = 50e9, initial=None, max_nfev: int = 1000):
         self.fsr_hz = fsr_hz
@@ -308,11 +321,6 @@ class NonlinearFitCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibr
     def _set_state(self, state: dict) -> None:
         n = self.n_ports_
         magnitudes = state_array(state, "magnitudes", (n, 2))
-        if np.any(magnitudes < 0) or np.any(magnitudes > MAX_MAGNITUDE):
-            raise InputError(
-                f"field 'magnitudes' must lie in [0, {MAX_MAGNITUDE:g}] (their products are the "
-                f"port powers, finite in float64), got {magnitudes.tolist()}"
-            )
         phases = state_array(state, "port_phases_rad", (n,))
         delay = state_float(state, "delay_s", minimum=0.0, open_minimum=True)
         converged, message = state.get("converged"), state.get("fit_message")
@@ -322,10 +330,20 @@ class NonlinearFitCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibr
             )
         self._set_parameters(magnitudes, phases, delay)
         self.converged_ = converged
-        self.fit_status_ = int(state_float(state, "fit_status", minimum=-1, maximum=4))
+        self.fit_status_ = int(state_float(state, "fit_status"))
         self.fit_message_ = message
-        self.nfev_ = int(state_float(state, "nfev", minimum=0))
+        self.nfev_ = int(state_float(state, "nfev"))
         self.cost_ = state_float(state, "cost_w2", minimum=0.0)
+
+    def _check_state(self) -> None:
+        super()._check_state()
+        singular = np.linalg.svd(self.fringe_matrix_, compute_uv=False)
+        if not (singular[-1] > 0 and singular[0] / singular[-1] < MAX_MAP_CONDITION):
+            raise InputError(
+                "fields 'magnitudes' and 'port_phases_rad' must give two independent fringes "
+                f"(condition number below {MAX_MAP_CONDITION:g}), got singular values "
+                f"{singular.tolist()}"
+            )
 
 
 @dataclass(frozen=True)

@@ -28,9 +28,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ....exceptions import InputError
+from ...files import fields
 from ...files.document import state_array
 from ._labels import LabelLockedCalibrator
-from .ellipse import MIN_ELLIPSE_POINTS, FringeEllipse, ellipse_phase, fit_ellipse
+from .ellipse import MIN_ELLIPSE_POINTS, FringeEllipse, ellipse_phase, ellipse_rules, fit_ellipse
 
 __all__ = ["PlaneEllipse", "PlaneEllipseCalibrator", "fit_plane_ellipse", "plane_ellipse_phase"]
 
@@ -75,7 +76,7 @@ class PlaneEllipse:
         ports: ``basis`` orthonormal, ``normal`` a unit vector orthogonal to it with
         ``normal . origin > 0``."""
         if not isinstance(state, dict):
-            raise InputError(f"a plane ellipse must be an object, got {type(state).__name__}")
+            raise InputError(f"field 'plane_ellipse' must be an object, got {fields.shown(state)}")
         origin = state_array(state, "origin", (ports,))
         basis = state_array(state, "basis", (ports, 2))
         normal = state_array(state, "normal", (ports,))
@@ -196,6 +197,21 @@ class PlaneEllipseCalibrator(LabelLockedCalibrator):
     """
 
     method = "plane_ellipse"
+    #: the mean reading's norm is the power scale; the frame is of unit vectors
+    state_rules = fields.rule_table(
+        {
+            "plane_ellipse.origin": fields.ScaleRule(
+                "the plane's origin", fields.vector_norm, "the mean reading's norm"
+            ),
+            "plane_ellipse.basis": fields.FieldRule(
+                "a unit vector's entry", "", high=1.0, magnitude=True
+            ),
+            "plane_ellipse.normal": fields.FieldRule(
+                "a unit vector's entry", "", high=1.0, magnitude=True
+            ),
+            **ellipse_rules("plane_ellipse.ellipse"),
+        }
+    )
 
     def __init__(self, fsr_hz: float = 50e9):
         self.fsr_hz = fsr_hz
