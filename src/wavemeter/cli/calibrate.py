@@ -6,28 +6,20 @@ fit is an error: nothing is written and the exit code is 3.
 
 A method that needs the chip temperature of each reading (``"temperature_k"`` in its
 calibrator's ``requires``: ``--method thermal``) is fitted on one or more sweep files,
-concatenated in the order given (each file's rows in their own order), with the
-temperature from each file's temperature column or ``--temperature-k`` once per file. The
-files must have the same ports and all or none a power monitor. The other methods take one
-sweep file: they model one chip state, and several files would be one sweep only if they
-were recorded as one.
+concatenated in the order given, with the temperature from each file's temperature column
+or ``--temperature-k`` once per file; the files must have the same ports and all or none a
+power monitor. The other methods take one sweep file (one chip state).
 
-``--method wideband`` fits one model across a band of many FSRs (a phase polynomial and a
-map smooth in frequency); ``--phase-order`` and ``--map-order`` fix its orders, which are
-otherwise chosen by cross-validation on held-out FSRs. They belong to that method alone.
-
-``--method cascade`` calibrates interferometer stages of decreasing FSR from one sweep over
-the band (``--fsr`` lists their design FSRs, coarsest first): absolute frequency with no
-coarse input, each reading with the probability of a wrong fringe order. The sweep's port
-columns, in order, are the readings' columns; ``--stage-ports`` gives each stage its
-columns by position (default: consecutive blocks of equal size) and ``--max-order-error``
-the wrong-order probability above which a reading is flagged and a hand-over is refused.
-Both belong to that method alone, and so does a list of FSRs.
+Options that belong to one method alone: ``--phase-order`` and ``--map-order`` (fixed
+orders of ``--method wideband``, otherwise chosen by cross-validation), a list of FSRs,
+``--stage-ports`` and ``--max-order-error`` (``--method cascade``: stages of decreasing
+FSR, coarsest first, from one sweep over the band).
 
 The learned method (without ``--per-fsr``) reads its sweep in chunks, with a progress bar,
-in memory bounded by the chunk whatever the file's length
-(:func:`wavemeter.jobs.calibrate.fit_sweep_chunks`): the calibration is the one a whole
-read gives. The other methods, and ``--per-fsr``, read the whole sweep into memory.
+in memory bounded by the chunk (:func:`wavemeter.jobs.calibrate.fit_sweep_chunks`): the
+calibration is the one a whole read gives. The other methods read the whole sweep. What
+each option does: the command reference and the user guide's sweep, temperature,
+wide-band and cascade pages.
 """
 
 from __future__ import annotations

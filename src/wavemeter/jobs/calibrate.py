@@ -1,30 +1,23 @@
 """Calibrating one device from its sweep file: the job a fleet runs once per device.
 
-:func:`calibrate_file` reads a sweep file, fits the calibrator its options name (looked up
-in the registry of calibration methods), optionally saves the calibration atomically, and
-returns a :class:`DeviceResult` with the numbers a fleet's summary shows: the fitted FSR,
-the detector noise estimate, the RMS frequency error of the calibration on its own sweep,
-and how far that is from the Cramer-Rao bound. :func:`calibrate_device` does the same for
-a fleet: bad input (:class:`~wavemeter.exceptions.WavemeterError`, ``OSError``) becomes a
-result with ``status="error"`` and the message, so that one broken file does not stop the
-others; anything else is a bug and is raised.
+:func:`calibrate_file` reads a sweep file, fits the calibrator its options name (a
+registered tag), optionally saves the calibration atomically, and returns a
+:class:`DeviceResult` with the numbers a fleet's summary shows: the fitted FSR, the
+detector noise, the RMS frequency error on the sweep and its ratio to the Cramer-Rao
+bound. :func:`calibrate_device` does the same for a fleet: bad input
+(:class:`~wavemeter.exceptions.WavemeterError`, ``OSError``) becomes a result with
+``status="error"`` and the message, so that one broken file does not stop the others.
 
-The options are a documented subset of ``wavemeter calibrate``'s: ``method`` (a
-registered calibration tag: ``"learned"``, ``"conventional"``, ``"wideband"``, ...),
-``fsr_hz``, ``fsr_tolerance``, ``retrieval``, the columns (``request``), ``drop_invalid``,
-and further settings of the method's calibrator by name. No dark readings, no per-FSR
-sets of windows, no thermal sweeps at several temperatures (a calibrator that needs the
-chip temperature takes it from the file's temperature column).
-
-The calibration's metadata keep the sweep's columns, the options (``calibrate_options``,
-JSON-ready: a fleet compares them to decide whether a saved calibration is the one it
-would make) and the RMS Cramer-Rao bound on the sweep (``crlb_rms_hz``), so that
-:func:`saved_result` rebuilds the same result from the saved file alone.
+The options are a documented subset of ``wavemeter calibrate``'s (``method``, ``fsr_hz``,
+``fsr_tolerance``, ``retrieval``, the columns, ``drop_invalid`` and the calibrator's own
+settings by name): no dark readings, no per-FSR sets, no thermal sweeps at several
+temperatures. The calibration's metadata keep the columns, the options
+(``calibrate_options``) and the RMS bound (``crlb_rms_hz``), so that :func:`saved_result`
+rebuilds the same result from the saved file alone.
 
 :func:`fit_sweep_chunks` fits a learned calibration on a sweep file read in chunks
-(:meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks`), in memory bounded by the
-chunk whatever the file's length: what ``wavemeter calibrate`` does for the learned method.
-The other methods, and :func:`calibrate_file`, read the whole sweep.
+(:meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks`), in memory bounded
+by the chunk: what ``wavemeter calibrate`` does for the learned method.
 """
 
 from __future__ import annotations
@@ -450,10 +443,11 @@ def fit_sweep_chunks(
 ) -> SweepRead:
     """Fit a learned calibrator on a sweep read in chunks, in memory bounded by the chunk.
 
-    Each chunk's valid rows go to :meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks`
-    (its moments and its diagnostic sample) and are dropped: the calibration is the one
-    ``fit`` gives on the valid rows read whole (bit for bit up to ``diagnostic_samples``
-    readings, to rounding beyond).
+    Each chunk's valid rows go to
+    :meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks` (its moments and
+    its diagnostic sample) and are dropped: the calibration is the one ``fit`` gives on the
+    valid rows read whole (bit for bit up to ``diagnostic_samples`` readings, to rounding
+    beyond).
 
     Parameters
     ----------

@@ -6,8 +6,9 @@ column), then turns every data line into an output line the moment it arrives, w
 flushed before the next line is read: ``frequency_hz,wavelength_nm,frequency_std_hz``, for
 a cascade ``order_error_probability``, then ``flags``, floats at full precision (the
 shortest text that reads back to the same float64, as the table writer writes them). Each
-reading goes through the calibration's :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.stream`,
-so it gets the numbers ``predict``, ``frequency_std_hz`` and ``flags`` give it.
+reading goes through the calibration's
+:meth:`~wavemeter.calibration.contract.base.BaseCalibrator.stream`, so it gets the numbers
+``predict``, ``frequency_std_hz`` and ``flags`` give it.
 
 A line that is no reading (another number of cells than the header, text where a number
 should be) or an invalid one (NaN, a power-meter sentinel, no light, as in files) is written

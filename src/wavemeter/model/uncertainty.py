@@ -1,39 +1,19 @@
 """Per-reading uncertainty of the retrieved phase and frequency, by the delta method.
 
-A reading ``p = P A u(t) + e`` (``u(t) = [cos t, sin t, sqrt 2]``, white noise ``e`` of
-standard deviation ``sigma_j`` on port ``j``, weights ``W = diag(1 / sigma_j^2)``) gives a
-phase ``t_hat(p; A)``. To first order in the reading's noise ``e`` and in the error ``dA`` of
-the calibrated map, with ``g = d t_hat / d p`` (n,) and ``x`` the reading's object vector,
+To first order in a reading's noise ``e`` and in the error ``dA`` of the calibrated map,
+the retrieved phase moves by ``g . e - g . (dA x)``, ``g = d t_hat / d p`` (n,):
 
-    d t_hat = g . e - g . (dA x),
+* :func:`pinv_phase_gradient`, :func:`ml_phase_gradient`: ``g`` for the pseudo-inverse and
+  the maximum-likelihood retrievals (the latter's variance is the Cramer-Rao bound);
+* :func:`phase_std_rad`: the reading noise's part, ``sqrt(sum_j g_j^2 sigma_j^2)``;
+* :func:`fit_parameter_covariance`: the covariance of the calibration's map and delay;
+* :func:`calibration_frequency_variance_hz2`: the calibration's part of a reading's
+  frequency variance, which adds to the reading noise's;
+* :func:`student_factor`: the inflation ``sqrt(dof / (dof - 2))`` for a noise estimated on
+  ``dof`` degrees of freedom.
 
-because a map error ``dA`` moves the model of the reading by ``dA x``, which the estimator
-reads as the noise ``-dA x``. Then:
-
-* Reading noise: ``var t_hat = sum_j g_j^2 sigma_j^2`` (:func:`phase_std_rad`).
-* Pseudo-inverse retrieval, ``t = atan2(x_2, x_1)`` with ``x = A+ p``:
-  ``g = (x_1 r_2 - x_2 r_1) / (x_1^2 + x_2^2)``, ``r_1``, ``r_2`` the first two rows of
-  ``A+`` (:func:`pinv_phase_gradient`).
-* Maximum-likelihood retrieval, the weighted least-squares fit of ``(t, P)``: with the
-  model's derivatives ``a_t = P A u'(t)`` and ``a_P = A u(t)``, the ``t`` row of
-  ``(J' W J)^-1 J' W`` (``J = [a_t, a_P]``) is ``g = W a_perp / (a_perp' W a_perp)``,
-  ``a_perp = a_t - a_P (a_t' W a_P) / (a_P' W a_P)`` (the part of ``a_t`` the power cannot
-  absorb). Its variance ``1 / (a_perp' W a_perp)`` is the inverse Fisher information: the
-  Cramer-Rao bound of :func:`wavemeter.model.limits.crlb_frequency_std`
-  (:func:`ml_phase_gradient`).
-* Calibration: the least-squares fit of ``theta = [vec(A) (row-major), tau]`` to a sweep
-  ``powers ~ X(tau) A'`` (``X`` the (N, k) object vectors, ``k = 3``, or 4 with a column of
-  ones for per-port offsets) has, to first order, the covariance ``C = F^-1`` with the
-  Fisher matrix ``F = J' W J`` of the residual Jacobian ``d r_j / d A_jm = -X_m``,
-  ``d r_j / d tau = -D A_j`` (``D = dX / d tau``) (:func:`fit_parameter_covariance`).
-  The frequency ``f = f0 + t / (2 pi tau)`` of a reading then moves by
-  ``df = -g . (dA x) / (2 pi tau) - t d tau / (2 pi tau^2)``, so its variance from the
-  calibration is ``grad' C grad`` with ``grad = [-(g_j x_m) / (2 pi tau), -t / (2 pi
-  tau^2)]`` (:func:`calibration_frequency_variance_hz2`). It adds to the reading-noise
-  variance ``(std t / (2 pi tau))^2``.
-* A noise ``sigma`` estimated from a residual with ``dof`` degrees of freedom makes
-  ``z = error / std`` Student-t distributed: its standard deviation is
-  ``sqrt(dof / (dof - 2))``, the factor :func:`student_factor` inflates ``std`` by.
+Theory (the derivations): the docs' uncertainty page (``docs/theory/uncertainty.rst``,
+"First order in the noise and the map's error").
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """What a fitted wide-band model says of each reading: its phase, uncertainty and bound.
 
-Every reading has its own map ``A(f)`` (:class:`~wavemeter.calibration.models.wideband_fit.BandModel`),
-so the single-map formulas of :mod:`wavemeter.model` are applied with a stack of maps:
+Every reading has its own map ``A(f)``
+(:class:`~wavemeter.calibration.models.wideband_fit.BandModel`), so the single-map
+formulas of :mod:`wavemeter.model` are applied with a stack of maps:
 
 * the phase by the pseudo-inverse or the cone maximum likelihood under each reading's map;
 * the frequency variance by the delta method (:mod:`wavemeter.model.uncertainty`): the
@@ -9,7 +10,8 @@ so the single-map formulas of :mod:`wavemeter.model` are applied with a stack of
   reading's frequency, plus the calibration's own covariance along
   ``df / dA_j = -(g (x) L_j(y) x) df/dt`` and ``df / db_i = -y^i df/dt``;
 * the Cramer-Rao bound under each reading's map and the port noise;
-* the off-model test of the flags (:func:`~wavemeter.calibration.contract.flags.off_model_threshold`);
+* the off-model test of the flags
+  (:func:`~wavemeter.calibration.contract.flags.off_model_threshold`);
 * the residual phase of the sweep per FSR window, for the diagnostics.
 
 :class:`~wavemeter.calibration.methods.wideband.WidebandCalibrator` answers with these functions.

@@ -1,36 +1,16 @@
 """Kleijn's nonlinear least-squares fit of the physical MZI model (n-port generalisation).
 
-Kleijn, Smit and Leijtens (J. Lightwave Technol., 3x3-MMI wavelength meter) model each
-port as the interference of the two coupler inputs:
-``p_j = S (m_aj^2 + m_bj^2 + 2 m_aj m_bj cos(t - phi_j))`` with ``t = 2 pi (f - f0) tau``,
-where ``m_aj``, ``m_bj`` are the scattering magnitudes from the delayed and the other arm
-to port ``j`` (splitter, coupler and receiver lumped together), ``phi_j`` the port phases
-(the bias phase absorbed) and ``S`` the source power, taken, as Kleijn did, to be the sum
-of the port powers of each sample. For n = 3: 6 magnitudes, 3 phases and 1 delay.
+Kleijn, Smit and Leijtens (J. Lightwave Technol., 3x3-MMI wavelength meter) model port
+``j`` as ``p_j = S (m_aj^2 + m_bj^2 + 2 m_aj m_bj cos(t - phi_j))``, ``S`` the sum of the
+port powers of each sample. :class:`NonlinearFitCalibrator` fits all ``3 n + 1``
+parameters (magnitudes, port phases, delay) together by Levenberg-Marquardt from the
+design values (:func:`design_parameters`) and inverts the fitted model per sample by
+Newton steps. Where the port sum is not proportional to the source power (a non-ideal
+coupler, unequal receivers) the model is wrong and the fit biased even without noise.
+:func:`convergence_share` counts how often random starts converge (for benchmarks).
 
-All ``3 n + 1`` parameters are fitted together by Levenberg-Marquardt
-(:func:`scipy.optimize.least_squares`) from the design values: ideal magnitudes
-``1 / sqrt(2 n)`` (an ideal splitter and MMI; then ``S`` equals the source power), the
-design port phases of an ideal MMI fed at ``inputs`` and the design delay ``1 / fsr_hz``.
-The residuals are normalised by the mean of ``S``.
-
-Retrieval inverts the fitted model per sample: with ``r = p / S - c`` (``c_j = m_aj^2 +
-m_bj^2``) and ``B = [a cos phi, a sin phi]`` (``a_j = 2 m_aj m_bj``), ``t`` minimises
-``|r - B [cos t, sin t]|^2``, started at ``atan2`` of the unconstrained solution ``B+ r``
-and refined by Newton steps.
-
-The sum of port powers is proportional to the source power only when the fringes of the
-ports cancel in the sum (an ideal coupler and equal receivers); otherwise the model is
-wrong by the ripple of the sum and the fit is biased even without noise.
-
-Convergence study (for benchmarks)::
-
-    convergence_share(powers, frequency_hz, *, fsr_hz=50e9, starts=100, spread=0.2,
-                      max_nfev=1000, rng=None, cost_rtol=0.01) -> ConvergenceShare
-
-fits from ``starts`` random starting points around the design values (magnitudes and
-delay scaled by ``1 + U(-spread, spread)``, phases shifted by ``pi U(-spread, spread)``)
-and counts those that converge to the best solution found.
+Theory (the model, the retrieval, the convergence study): the docs' baselines page
+(``docs/theory/baselines.rst``, "Kleijn's nonlinear fit").
 """
 
 from __future__ import annotations
