@@ -167,6 +167,16 @@ def design_cascade(
         wider than the band; no cascade of at most :data:`MAX_STAGES` stages meets the
         rate (``parameter="wrong_order_rate"``; the message gives the best rate reached and
         what would help).
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> design = wm.design_cascade((191e12, 196e12), 50e9, wrong_order_rate=1e-9)
+    >>> print(len(design.fsrs_hz), [round(fsr / 1e9) for fsr in design.fsrs_hz])
+    3 [5999, 548, 50]
+    >>> two = wm.design_cascade((191e12, 196e12), 50e9, stages=2)  # too few stages for the band
+    >>> print([round(fsr / 1e9) for fsr in two.fsrs_hz], two.wrong_order_rate > 1e-9)
+    [5589, 50] True
     """
     band, width = _band(band_hz)
     setting = DesignSetting(

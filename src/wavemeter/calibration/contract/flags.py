@@ -47,7 +47,25 @@ TEMPERATURE_MARGIN_STD = 5.0
 
 
 class ReadingFlag(enum.IntFlag):
-    """Bits of the per-reading quality mask (0: nothing to report)."""
+    """Bits of the per-reading quality mask (0: nothing to report).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> readings = powers[:3].copy()
+    >>> readings[1] = np.nan  # a reading the instrument could not make
+    >>> readings[2] *= 4  # four times the power of the sweep
+    >>> flags = cal.flags(readings)
+    >>> [wm.ReadingFlag(int(bits)) for bits in flags]
+    [<ReadingFlag: 0>, <ReadingFlag.INVALID: 8>, <ReadingFlag.POWER_RANGE: 4>]
+    >>> bool(flags[2] & wm.ReadingFlag.POWER_RANGE)
+    True
+    """
 
     OFF_MODEL = 1
     OUTSIDE_SPAN = 2
