@@ -60,12 +60,30 @@ def cone_vectors(phase_rad, power=1.0) -> np.ndarray:
 
 
 def delay_phase_rad(frequency_hz, center_hz: float, delay_s: float) -> np.ndarray:
-    """Phase ``2 pi (f - f0) tau`` (rad) of a delay ``tau`` relative to ``f0`` (Eq. 26)."""
+    """Phase ``2 pi (f - f0) tau`` (rad) of a delay ``tau`` relative to ``f0`` (Eq. 26).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.model import delay_phase_rad
+    >>> f_hz = 193.4e12 + np.array([0.0, 12.5e9, 50e9])
+    >>> print(delay_phase_rad(f_hz, 193.4e12, 1 / 50e9) / np.pi)  # a quarter and a whole FSR
+    [0.  0.5 2. ]
+    """
     return 2.0 * np.pi * (np.asarray(frequency_hz, dtype=float) - center_hz) * delay_s
 
 
 def wrap_to_period(values, period: float) -> np.ndarray:
-    """Wrap values to [-period/2, period/2): the one wrap of phases and frequency errors."""
+    """Wrap values to [-period/2, period/2): the one wrap of phases and frequency errors.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.model import wrap_to_period
+    >>> error_hz = np.array([3e6, 50e9 - 2e6, -50e9 + 1e6])  # two of them one FSR off
+    >>> print(wrap_to_period(error_hz, 50e9) / 1e6)
+    [ 3. -2.  1.]
+    """
     half = 0.5 * period
     return (np.asarray(values, dtype=float) + half) % period - half
 

@@ -37,6 +37,20 @@ def check_noise_std(name: str, value, ports: int) -> float | np.ndarray:
     Returns
     -------
     float, or ndarray of shape (ports,), W
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> from wavemeter.model import check_noise_std
+    >>> check_noise_std("noise_std_w", 5e-7, ports=3)
+    5e-07
+    >>> print(check_noise_std("noise_std_w", [5e-7, 5e-7, 1e-6], ports=3))
+    [5.e-07 5.e-07 1.e-06]
+    >>> try:
+    ...     check_noise_std("noise_std_w", [5e-7, 5e-7], ports=3)
+    ... except wm.InputError as error:
+    ...     print(error)
+    noise_std_w must be one value or one per port (3), got shape (2,)
     """
     if np.ndim(value) == 0:
         try:

@@ -239,6 +239,30 @@ def cone_ml_phase_rad(
     Returns
     -------
     ndarray, shape (N,), rad, wrapped to [-pi, pi)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.model import cone_ml_phase_rad
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.center_hz + np.linspace(-20e9, 20e9, 500)
+    >>> noise_w = np.array([2e-7, 2e-7, 2e-6])  # the third port ten times noisier
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=noise_w, rng=1)
+    >>> A = device.true_map()  # W per W of source power
+    >>> true = wm.wrap_phase_rad(device.phase_rad(f_hz))
+    >>> ml = cone_ml_phase_rad(powers, A, noise_std_w=noise_w)
+    >>> pinv = wm.retrieve_phase_rad(powers, np.linalg.pinv(A))
+
+    Weighting the ports by their noise reaches the Cramer-Rao bound (a ratio of 1 within
+    the scatter of 500 readings); the pseudo-inverse, which weights them equally, does not:
+
+    >>> bound_rad = wm.crlb_frequency_std(A, true, 1e-3, noise_w, 1.0) * 2 * np.pi
+    >>> for name, phase in (("ml", ml), ("pinv", pinv)):
+    ...     ratio = np.std(wm.wrap_phase_rad(phase - true)) / np.sqrt(np.mean(bound_rad**2))
+    ...     print(f"{name}: {ratio:.1f} times the bound")
+    ml: 1.0 times the bound
+    pinv: 2.1 times the bound
     """
     readings, matrix = _check_inputs(powers, map_)
     if matrix.ndim == 2:
@@ -277,6 +301,20 @@ def source_power_ratio(powers, map_: np.ndarray, phase_rad, noise_std_w=None) ->
     Returns
     -------
     ndarray, shape (N,)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.model import source_power_ratio
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> dimmer = device.powers(f_hz[:3], power_w=0.5e-3, noise_w=5e-7, rng=2)  # half the power
+    >>> ratio = source_power_ratio(dimmer, cal.map_, cal.phase(dimmer))
+    >>> print(np.round(ratio, 2))
+    [0.5 0.5 0.5]
     """
     readings, matrix = _check_inputs(powers, map_)
     weighted_map = noise_weighted_map(matrix, noise_std_w)

@@ -88,6 +88,19 @@ def laser_frequency_hz(
     ndarray, shape (N,), Hz
         To pass as the frequencies of
         :meth:`Interferometer.powers <wavemeter.simulation.Interferometer.powers>`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.simulation import laser_frequency_hz
+    >>> rate_hz, h0 = 1e6, 1e4  # readings at 1 MHz, white FM of 1e4 Hz^2/Hz
+    >>> f_hz = laser_frequency_hz(4096, rate_hz, center_hz=193.4e12, white_fm_hz2_per_hz=h0, rng=1)
+
+    White FM of level h0 gives readings of variance h0 rate / 2 (a 71 kHz std here):
+
+    >>> expected_hz = np.sqrt(h0 * rate_hz / 2)
+    >>> print(f"std {np.std(f_hz) / 1e3:.0f} kHz, expected {expected_hz / 1e3:.0f} kHz")
+    std 70 kHz, expected 71 kHz
     """
     samples = _check_samples(samples)
     rate_hz = check_positive("rate_hz", rate_hz)
