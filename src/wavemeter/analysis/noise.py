@@ -113,6 +113,27 @@ def frequency_noise(
         a rate, FSR, observation time, floor uncertainty or confidence out of range, a
         ``meter_std_hz`` of the wrong shape or with a negative or non-finite value; each
         names its parameter.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import numpy as np
+    >>> from wavemeter.analysis import frequency_noise
+    >>> from wavemeter.simulation import laser_frequency_hz
+    >>> rate_hz, h0 = 10e6, 3e4  # 10 MHz readings of a laser of white FM 3e4 Hz^2/Hz
+    >>> f_hz = laser_frequency_hz(16384, rate_hz, center_hz=193.4e12, white_fm_hz2_per_hz=h0, rng=1)
+    >>> with warnings.catch_warnings(record=True) as caught:  # no meter noise: no floor removed
+    ...     warnings.simplefilter("always")
+    ...     noise = frequency_noise(f_hz, rate_hz)
+
+    White FM of 3e4 Hz^2/Hz is a Lorentzian linewidth of pi h0 = 94 kHz:
+
+    >>> print(f"h0 {noise.white_fm_hz2_per_hz:.2e} +- {noise.white_fm_std_hz2_per_hz:.0e} Hz^2/Hz")
+    h0 2.95e+04 +- 4e+02 Hz^2/Hz
+    >>> [w.message.cause for w in caught]  # the linewidth is then an upper limit
+    ['floor_unknown', 'beta_upper_limit']
+    >>> print(f"Lorentzian {noise.lorentzian_linewidth_hz / 1e3:.0f} kHz")
+    Lorentzian 95 kHz
     """
     raw = check_series(frequency_hz)
     rate_hz = check_positive("rate_hz", rate_hz)

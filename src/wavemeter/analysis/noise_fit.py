@@ -48,7 +48,16 @@ BETA_UPPER_QUANTILE = 0.5 * math.erfc(-UPPER_LIMIT_SIGMAS / math.sqrt(2.0))
 
 
 def beta_separation_line_hz2_per_hz(freqs_hz) -> np.ndarray:
-    """The beta separation line ``8 ln2 f / pi^2`` (Hz^2/Hz) at ``freqs_hz`` (Hz)."""
+    """The beta separation line ``8 ln2 f / pi^2`` (Hz^2/Hz) at ``freqs_hz`` (Hz).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.analysis import beta_separation_line_hz2_per_hz
+    >>> line = beta_separation_line_hz2_per_hz(np.array([1e3, 1e6]))  # 8 ln2 f / pi^2
+    >>> print([f"{value:.1f}" for value in line])  # Hz^2/Hz
+    ['561.8', '561843.9']
+    """
     return BETA_SLOPE * np.asarray(freqs_hz, dtype=float)
 
 

@@ -84,6 +84,15 @@ def power_law_psd_hz2_per_hz(
     Returns
     -------
     ndarray, shape (K,), Hz^2/Hz
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.analysis import power_law_psd_hz2_per_hz
+    >>> freqs_hz = np.array([1e2, 1e4, 1e6])
+    >>> psd = power_law_psd_hz2_per_hz(freqs_hz, white_fm_hz2_per_hz=3e4, flicker_fm_hz2=1e9)
+    >>> print(np.round(psd))  # flicker dominates at low frequency, white FM above 33 kHz
+    [10030000.   130000.    31000.]
     """
     freqs = _positive_vector("freqs_hz", freqs_hz)
     levels = _levels(white_fm_hz2_per_hz, flicker_fm_hz2, random_walk_fm_hz2_per_s)
@@ -223,6 +232,22 @@ def power_law_deviations(
     -------
     dict
         ``{"adev", "mdev", "hdev"}``: arrays (M,), dimensionless.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.analysis import power_law_deviations
+    >>> taus_s = np.array([1e-6, 1e-4])
+    >>> dev = power_law_deviations(taus_s, 193.4e12, white_fm_hz2_per_hz=3e4)
+    >>> sorted(dev)
+    ['adev', 'hdev', 'mdev']
+
+    White FM: AVAR = h0 / (2 tau) / nu0^2, falling as tau^-1/2:
+
+    >>> print([f"{value:.2e}" for value in dev["adev"]])
+    ['6.33e-10', '6.33e-11']
+    >>> print(np.allclose(dev["adev"], np.sqrt(3e4 / (2 * taus_s)) / 193.4e12))
+    True
     """
     taus = _positive_vector("taus_s", taus_s)
     center = check_positive("center_hz", center_hz)
