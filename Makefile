@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint docs bench trust thermal wideband cascade scale noise peers fuzz clean
+.PHONY: demo test lint docs bench trust offmodel thermal wideband cascade scale noise absolute peers fuzz serve-bench clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -47,6 +47,11 @@ bench: $(BIN)/wavemeter
 trust: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/trust.py
 
+# issue 29: OFF_MODEL against the calibration's own distances, old and new rule side by side on
+# simulated devices (clean, with a model error) and the measured fibre coupler (about a minute)
+offmodel: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/offmodel.py
+
 # the thermally compensated calibration of issue 10: ThermalCalibrator against its bound, plain
 # and re-anchored plain calibrations; writes docs/figures/thermal_error_vs_temperature.png
 thermal: $(BIN)/wavemeter
@@ -69,6 +74,16 @@ scale: $(BIN)/wavemeter
 # docs/figures/noise_adev.png
 noise: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/noise.py
+
+# issue 30: wavemeter serve vs stream, latency at 1 kHz with 1 and 3 subscribers (one stopped),
+# CPU per 1 kHz channel, the highest sustained rate with logging (a few minutes)
+serve-bench: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/serve.py
+
+# issue 32: absolute accuracy from a reference cell: plain, axis-corrected and self-calibrated
+# over a simulated cell's band, three laser presets, 3/4/5 ports, three seeds (15-35 min)
+absolute: $(BIN)/wavemeter
+	cd benchmarks && ../$(BIN)/python absolute.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'

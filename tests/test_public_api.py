@@ -43,3 +43,12 @@ def test_import_and_help_load_no_numpy():
         "sys.exit(('numpy' in sys.modules) + 2 * ('scipy' in sys.modules))"
     )
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_dir_lists_the_public_names_and_subpackages_only():
+    import wavemeter as wm
+
+    listed = {name for name in dir(wm) if not name.startswith("__")}
+    public = {name for name in wm.__all__ if not name.startswith("__")}
+    subpackages = {"analysis", "calibration", "fleet", "io", "jobs", "model", "report", "service"}
+    assert public | subpackages | {"simulation"} == listed

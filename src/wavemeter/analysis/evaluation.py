@@ -130,6 +130,8 @@ def _method_figures(calibration, readings, truth, coarse, temperature_k) -> dict
     return {
         "readings": int(np.count_nonzero(read)),
         "unread": flag_counts(found.flags[~read]),
+        "flagged": flag_counts(found.flags),
+        "flagged_readings": int(np.count_nonzero(found.flags)),
         "rms_abs_hz": absolute["rms_hz"],
         "max_abs_hz": absolute["max_hz"],
         "p95_abs_hz": absolute["p95_hz"],
@@ -181,9 +183,11 @@ def evaluate_calibrations(
         set: the range its windows cover), ``outside_span_fraction`` (share of readings
         whose truth lies outside it; a wide band: its sweep span),
         ``gross_error_fraction`` (share of the readings it reads with an absolute error
-        over half an FSR), ``readings`` (how many it reads) and ``unread`` (those it cannot
+        over half an FSR), ``readings`` (how many it reads), ``unread`` (those it cannot
         read, by flag: a coarse value outside the range its maps cover is
-        ``OUTSIDE_SPAN``) and, when a bound is known, ``rms_abs_over_crlb`` and
+        ``OUTSIDE_SPAN``), ``flagged`` (every reading's flags, counted by bit as
+        ``measure`` counts them) and ``flagged_readings`` (readings with any bit) and,
+        when a bound is known, ``rms_abs_over_crlb`` and
         ``rms_mod_fsr_over_crlb``; the error figures are over the readings it reads. At the
         top level: ``samples``; ``coarse_from`` (``"coarse_hz"``, ``"truth"``, or None when
         no calibration needs one); ``crlb_rms_hz`` (RMS of :func:`crlb_per_reading_hz` under

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import click
 
+from ..calibration.contract.flags import flag_summary
 from ..exceptions import InputError
 from ..io import iter_readings
 from ..io.streaming import CHUNK_ROWS
@@ -137,24 +138,6 @@ def checked_calibration(cal_path, coarse_column, coarse_hz, temperature_k, uncer
             "--temperature out"
         )
     return calibration, offered if uncertainty is None else uncertainty
-
-
-def flag_summary(counts: dict[str, int], flagged: int, rows: int) -> str:
-    """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2`` (a reading may have
-    several bits, so the counts can add up to more than the readings flagged).
-
-    Parameters
-    ----------
-    counts : dict of str to int
-        Readings with each flag bit, by bit name (bits no reading has left out).
-    flagged : int
-        Readings with any bit.
-    rows : int
-        Readings measured.
-    """
-    text = f"flagged {flagged} of {rows} readings"
-    listed = ", ".join(f"{name} {count}" for name, count in counts.items())
-    return f"{text}: {listed}" if listed else text
 
 
 def reading_input_options(command):

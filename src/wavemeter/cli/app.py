@@ -51,6 +51,7 @@ COMMANDS = {
     "design": "Choose the fewest cascade stages that read a band at a wrong-order rate.",
     "fleet": "Calibrate many devices (a wafer) in parallel on dask: summary and wafer map.",
     "noise": "Frequency noise, linewidth and Allan deviation of a laser from its readings.",
+    "serve": "The live instrument: publish readings to many clients, log, metrics, dashboard.",
 }
 
 

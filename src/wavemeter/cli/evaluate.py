@@ -12,6 +12,7 @@ from pathlib import Path
 
 import click
 
+from ..calibration.contract.flags import flag_summary
 from ..exceptions import InputError
 from ._common import (
     PORT_PHASES,
@@ -50,7 +51,7 @@ def _other_method(calibration, sweep, options, phases):
 #: or was fitted over several FSRs (a one-FSR sweep stops one step short of the FSR)
 SPAN_OVER_FSR_LIMIT = 1.05
 ERROR_HEADER = ("RMS MHz", "max MHz", "p95 MHz", "p99 MHz", "RMS/CRLB")
-FSR_HEADER = ("RMS mod FSR MHz", "RMS/CRLB", "FSR GHz", "outside span", "gross error")
+FSR_HEADER = ("RMS mod FSR MHz", "RMS/CRLB", "FSR GHz", "truth outside span", "gross error")
 
 
 def _percent(fraction: float) -> str:
@@ -135,6 +136,10 @@ def _print_evaluation(report: dict, calibrations: dict, checks: dict) -> None:
             f"from the calibration residual of {report['crlb_method']}, its map taken as the "
             "true one)",
         )
+    for label, stats in methods.items():
+        if stats["flagged_readings"]:
+            flagged = flag_summary(stats["flagged"], stats["flagged_readings"], report["samples"])
+            say(False, f"{label}: {flagged}")
     for line in _check_lines(checks):
         say(False, line)
     users = _coarse_users(calibrations)

@@ -5,10 +5,23 @@ The command line runs these; they know files (``wavemeter.io``) and calibrations
 (``wavemeter.calibration``), and nothing about the command line.
 """
 
-from .calibrate import DeviceResult, SweepRead, calibrate_device, calibrate_file, fit_sweep_chunks
-from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, measure_file
+from .calibrate import (
+    DeviceResult,
+    SweepRead,
+    calibrate_device,
+    calibrate_file,
+    fit_sweep_chunks,
+)
+from .line_reader import LineReader
+from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, check_stream, measure_file
 from .noise import NoiseSeries, measure_series
-from .stream import StreamSummary, follow_lines, stream_lines
+from .stream import (
+    StreamHeader,
+    StreamSummary,
+    follow_lines,
+    read_header,
+    stream_lines,
+)
 
 __all__ = [
     "measure_file",
@@ -16,7 +29,11 @@ __all__ = [
     "MEASURE_CHUNK_ROWS",
     "stream_lines",
     "follow_lines",
+    "read_header",
+    "LineReader",
+    "StreamHeader",
     "StreamSummary",
+    "check_stream",
     "calibrate_file",
     "calibrate_device",
     "DeviceResult",

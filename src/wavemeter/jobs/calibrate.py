@@ -16,8 +16,8 @@ temperatures. The calibration's metadata keep the columns, the options
 rebuilds the same result from the saved file alone.
 
 :func:`fit_sweep_chunks` fits a learned calibration on a sweep file read in chunks
-(:meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks`), in memory bounded
-by the chunk: what ``wavemeter calibrate`` does for the learned method.
+(:meth:`~wavemeter.calibration.Calibrator.fit_chunks`), in memory bounded by the chunk:
+what ``wavemeter calibrate`` does for the learned method.
 """
 
 from __future__ import annotations
@@ -530,11 +530,10 @@ def fit_sweep_chunks(
 ) -> SweepRead:
     """Fit a learned calibrator on a sweep read in chunks, in memory bounded by the chunk.
 
-    Each chunk's valid rows go to
-    :meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks` (its moments and
-    its diagnostic sample) and are dropped: the calibration is the one ``fit`` gives on the
-    valid rows read whole (bit for bit up to ``diagnostic_samples`` readings, to rounding
-    beyond).
+    Each chunk's valid rows go to :meth:`~wavemeter.calibration.Calibrator.fit_chunks`
+    (its moments and its diagnostic sample) and are dropped: the calibration is the one
+    ``fit`` gives on the valid rows read whole (bit for bit up to ``diagnostic_samples``
+    readings, to rounding beyond).
 
     Parameters
     ----------

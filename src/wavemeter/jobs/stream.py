@@ -6,9 +6,8 @@ column), then turns every data line into an output line the moment it arrives, w
 flushed before the next line is read: ``frequency_hz,wavelength_nm,frequency_std_hz``, for
 a cascade ``order_error_probability``, then ``flags``, floats at full precision (the
 shortest text that reads back to the same float64, as the table writer writes them). Each
-reading goes through the calibration's
-:meth:`~wavemeter.calibration.contract.base.BaseCalibrator.stream`, so it gets the numbers
-``predict``, ``frequency_std_hz`` and ``flags`` give it.
+reading goes through the calibration's :meth:`~wavemeter.calibration.BaseCalibrator.stream`,
+so it gets the numbers ``predict``, ``frequency_std_hz`` and ``flags`` give it.
 
 A line that is no reading (another number of cells than the header, text where a number
 should be) or an invalid one (NaN, a power-meter sentinel, no light, as in files) is written
@@ -39,6 +38,7 @@ from ..io.plan import ColumnPlan, plan_columns
 from ..io.source import Source
 from ..io.text_layout import LineCells, column_names, excel_separator
 from ..units import SPEED_OF_LIGHT_M_S
+from .line_reader import LineReader
 from .measure import about_file, check_stream
 
 __all__ = [
@@ -48,6 +48,7 @@ __all__ = [
     "StreamSummary",
     "STREAM_COLUMNS",
     "MAX_LINE_WARNINGS",
+    "read_header",
 ]
 
 #: the output columns, in order; a calibration's ``reading_outputs`` (a cascade's
@@ -240,7 +241,7 @@ def stream_lines(
     thermal = "temperature_k" in calibration.requires
     try:
         with about_file(source):
-            header = _read_header(numbered, source, request, thermal and temperature_k is None)
+            header = read_header(numbered, source, request, thermal and temperature_k is None)
             if check is not None:
                 check(header)
             check_stream(calibration, header, coarse_hz, temperature_k)
@@ -250,9 +251,30 @@ def stream_lines(
     return summary
 
 
-def _read_header(numbered, source: Path, request, find_temperature: bool) -> StreamHeader:
+def read_header(numbered, source: Path, request, find_temperature: bool) -> StreamHeader:
     """The first line that is not blank or a comment, its columns found as in files (an
-    Excel ``sep=`` first line names the delimiter)."""
+    Excel ``sep=`` first line names the delimiter).
+
+    Parameters
+    ----------
+    numbered : iterator of (int, str)
+        Line numbers (1-based) and lines; consumed up to the header line.
+    source : Path
+        What the input is called in messages.
+    request : ColumnRequest or None
+        Columns chosen by the user (and the delimiter and decimal mark).
+    find_temperature : bool
+        Look for a temperature column by name.
+
+    Returns
+    -------
+    StreamHeader
+
+    Raises
+    ------
+    InputError
+        When the lines end before a header, or its columns cannot be found as in files.
+    """
     request = request or ColumnRequest()
     declared = None
     for number, text in numbered:
@@ -314,8 +336,7 @@ class _Stream:
         self.header = header
         self.out = out
         plan = header.plan
-        self.width = len(header.names)
-        self.fields = [(name, header.names.index(name)) for name in plan.fields]
+        self.cells = LineReader(header)
         self.checks = ColumnChecks()
         self.plain = PlainRowConverter.of(plan)
         self.powers = _Latest()
@@ -382,21 +403,9 @@ class _Stream:
 
     def _read(self, line: str, number: int) -> tuple[tuple, str | None]:
         """The output values of a data line (the flags last), or why it is no valid reading."""
-        try:
-            cells = self.header.cells.split(line)
-        except csv.Error as exc:
-            return (), f"cannot be split into cells ({exc})"
-        if len(cells) == self.width + 1 and not cells[-1].strip():
-            cells.pop()  # a trailing delimiter
-        if len(cells) != self.width:
-            return (), f"{len(cells)} cells, the header has {self.width}"
-        data = {}
-        for name, column in self.fields:
-            cell = cells[column].strip()
-            try:
-                data[name] = self.header.cells.number(cell)
-            except ValueError:
-                return (), f"column {name!r}: {cell[:40]!r} is not a number"
+        data, reason = self.cells.values(line)
+        if reason is not None:
+            return (), reason
         plain = None if self.plain is None else self.plain.convert(data)
         if plain is not None:
             self.powers.value, temperature_k = plain

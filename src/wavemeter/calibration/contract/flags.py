@@ -9,7 +9,9 @@ thresholds below; the calibrators supply the numbers.
 
 The rule behind each bit: the docs' fit-diagnostics page
 (``docs/theory/diagnostics.rst``, "The rules of the reading flags"); what each bit means
-for a user and what to do: the user guide's sweep page ("Flags").
+for a user and what to do: the user guide's sweep page ("Flags"). How ``OFF_MODEL``'s
+distribution is scaled when the sweep shows a model error:
+:mod:`~wavemeter.calibration.contract.off_model`.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from scipy import special
 
 __all__ = [
     "ReadingFlag",
+    "flag_summary",
     "OFF_MODEL_P_VALUE",
     "POWER_RANGE_FACTOR",
     "UNCHECKED_OFFSET_FACTOR",
@@ -130,6 +133,25 @@ def flag_counts(flags) -> dict[str, int]:
     mask = np.asarray(flags, dtype=np.int64)
     counts = {bit.name: int(np.count_nonzero(mask & bit)) for bit in ReadingFlag}
     return {name: count for name, count in counts.items() if count}
+
+
+def flag_summary(counts: dict[str, int], flagged: int, readings: int) -> str:
+    """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2``: the words every command
+    and the report count flags in (a reading may have several bits, so the counts can add
+    up to more than the readings flagged).
+
+    Parameters
+    ----------
+    counts : dict of str to int
+        Readings with each bit, by bit name (:func:`flag_counts`).
+    flagged : int
+        Readings with any bit.
+    readings : int
+        Readings in all.
+    """
+    text = f"flagged {flagged} of {readings} readings"
+    listed = ", ".join(f"{name} {count}" for name, count in counts.items())
+    return f"{text}: {listed}" if listed else text
 
 
 def temperature_flags(

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...exceptions import InputError
+from ...units import OPTICAL_BAND_HZ, WAVELENGTH_UNITS, optical_unit_guess
 from ...validation import (
     MIN_SAMPLES,
     check_dark,
@@ -173,11 +174,29 @@ def checked_sweep(
     raw = check_powers(powers, min_samples=MIN_SAMPLES)
     samples, ports = raw.shape
     frequency = check_frequency(frequency_hz, samples)
+    check_frequency_unit(frequency)
     monitor = check_monitor(power_monitor_w, samples)
     dark = check_dark(dark_w, ports)
     names = checked_port_names(port_names, ports)
     temperature = checked_temperature(temperature_k, samples, temperature_required_by)
     return Sweep(raw if dark is None else raw - dark, frequency, monitor, names, dark, temperature)
+
+
+def check_frequency_unit(frequency_hz: np.ndarray) -> None:
+    """Refuse frequencies that are not optical in Hz but would be in another unit (THz,
+    nm...): a unit slip, named with the unit the values look like."""
+    low, high = OPTICAL_BAND_HZ
+    if low <= frequency_hz.min() and frequency_hz.max() <= high:
+        return
+    unit = optical_unit_guess(frequency_hz)
+    if unit is not None and unit != "Hz":
+        kind = "wavelengths" if unit in WAVELENGTH_UNITS else "frequencies"
+        raise InputError(
+            f"frequency_hz must be in Hz; its values {frequency_hz.min():.6g} to "
+            f"{frequency_hz.max():.6g} look like {kind} in {unit}: convert them to "
+            "frequencies in Hz",
+            parameter="frequency_hz",
+        )
 
 
 @dataclass(eq=False)

@@ -116,6 +116,11 @@ class Calibrator(
         Scan and refinement of ``J(tau)`` (not saved to file).
     calibration_rms_hz_ : float
         RMS frequency error on the calibration sweep itself (Hz).
+    off_model_basis_ : OffModelBasis or None
+        The sweep's distances to the cone and what ``OFF_MODEL`` compares a reading's
+        with: the detector noise, or, where those distances show a model error, the noise
+        scaled to their median (:mod:`~wavemeter.calibration.contract.off_model`). None for
+        a file written by 0.7 or older (the detector-noise test).
     diagnostics_ : dict
         The sweep's own FSR estimate, every port's fringe amplitude and significance, the
         fit diagnostics (:mod:`wavemeter.calibration.checks.misfit`), the readings they saw
@@ -254,8 +259,8 @@ class Calibrator(
 
     def _judged(self, ctx: LearnedContext) -> list:
         """The fit judged on the readings in ``ctx``: the RMS error on them, the misfit
-        report (its model-free noise taken where it finds a misfit), ``diagnostics_``;
-        every warning, in order."""
+        report (its model-free noise taken where it finds a misfit), their distances to
+        the cone (``off_model_basis_``), ``diagnostics_``; every warning, in order."""
         sweep = ctx.sweep
         readings = sweep.powers_w - self.offset_w_
         inputs = ReadingInputs(temperature_k=sweep.temperature_k)
@@ -268,6 +273,7 @@ class Calibrator(
         if noise is not None:  # weight and state uncertainties with the model-free noise
             self.port_noise_std_w_, self.noise_dof_ = noise
             self._set_covariance(ctx)
+        self._judge_distances(self._ml_cone_distance(readings))
         self.diagnostics_, notes = diagnostics_record(
             ctx, misfit, method=self._method_record(ctx), notes=self._fit_notes(ctx)
         )
@@ -417,6 +423,7 @@ class Calibrator(
             "port_noise_std_w": self.port_noise_std_w_.tolist(),
             "noise_dof": self.noise_dof_,
             "parameter_covariance": self.parameter_covariance_.tolist(),
+            **self._off_model_state(),
         }
 
     def _set_state(self, state: dict) -> None:
@@ -450,3 +457,4 @@ class Calibrator(
             self.port_noise_std_w_ = np.full(ports, self.noise_std_w_)
             self.noise_dof_ = max(self.n_samples_ * ports - 3.0 * ports - 1.0, 3.0)
             self.parameter_covariance_ = None
+        self._set_off_model_state(state)

@@ -32,7 +32,7 @@ from ..fitting.steps import (
     rms,
 )
 from ..fitting.sweep import FitContext, Sweep
-from ..models.band_reading import band_phase_rad
+from ..models.band_reading import band_cone_distance, band_phase_rad
 from ..models.learned_fit import RETRIEVALS, fit_learned_map, port_noise_std_w
 from ..models.wideband_fit import BandModel, check_monotonic, fit_band, map_coefficients
 from ..models.wideband_orders import (
@@ -127,8 +127,9 @@ class WidebandCalibrator(
         gives the local FSR.
     offset_w_ : ndarray, shape (n,)
         Fitted per-port offsets (W); zeros unless fitted.
-    port_noise_std_w_, noise_std_w_, noise_dof_, parameter_covariance_
-        As for :class:`~wavemeter.calibration.methods.learned.Calibrator`; the covariance holds the
+    port_noise_std_w_, noise_std_w_, noise_dof_, parameter_covariance_, off_model_basis_
+        As for :class:`~wavemeter.calibration.methods.learned.Calibrator` (the sweep's cone
+        distances each under the map at its frequency); the covariance holds the
         map coefficients (row-major over ports, then the design columns) and ``b``.
     diagnostics_ : dict
         As the learned calibrator's, plus ``"wideband"``: orders, how they were chosen
@@ -221,6 +222,8 @@ class WidebandCalibrator(
         if noise is not None:  # weight and state uncertainties with the model-free noise
             self.port_noise_std_w_, self.noise_dof_ = noise
             self._set_covariance(ctx)
+        maps = self.band_model_.maps_at(sweep.frequency_hz)
+        self._judge_distances(band_cone_distance(readings, maps, self.port_noise_std_w_))
         record = self._band_record(ctx, self._residual_phase_by_window(ctx, readings))
         self.diagnostics_, notes = diagnostics_record(ctx, misfit, method={"wideband": record})
         return notes
@@ -408,6 +411,7 @@ class WidebandCalibrator(
             "port_noise_std_w": self.port_noise_std_w_.tolist(),
             "noise_dof": self.noise_dof_,
             "parameter_covariance": self.parameter_covariance_.tolist(),
+            **self._off_model_state(),
         }
 
     def _set_state(self, state: dict) -> None:
@@ -441,3 +445,4 @@ class WidebandCalibrator(
                 f"got shape {self.parameter_covariance_.shape}"
             )
         self.n_parameters_ = parameter_count(ports, phase_order, map_order, self._affine())
+        self._set_off_model_state(state)

@@ -139,8 +139,8 @@ class LearnedFit:
     delay_std_s : float or None
         Its standard error (s): ``sqrt(s^2 / G)`` with ``s`` the noise estimate and ``G``
         the Gauss-Newton curvature
-        (:func:`wavemeter.calibration.models.linear_map.delay_information`), i.e.
-        ``var(tau) = 2 s^2 / (N J''(tau))``.
+        (:func:`wavemeter.calibration.models.linear_map.delay_information`),
+        i.e. ``var(tau) = 2 s^2 / (N J''(tau))``.
     map_ : ndarray, shape (n, 3) or (n, 4)
         Least-squares map at ``delay_s`` (W); with ``affine`` a fourth column of offsets.
     cost : float

@@ -247,9 +247,9 @@ class SweepSample:
 
 class CheckedChunks:
     """Chunks ``(frequency_hz, powers, power_monitor_w or None)`` of a sweep (as
-    :meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks` takes them), each
-    checked as ``fit`` checks a sweep and dark-subtracted, empty ones left out; ``dark``
-    (the checked ``dark_w``) once the first chunk gave the port count."""
+    :meth:`~wavemeter.calibration.Calibrator.fit_chunks` takes them), each checked as
+    ``fit`` checks a sweep and dark-subtracted, empty ones left out; ``dark`` (the checked
+    ``dark_w``) once the first chunk gave the port count."""
 
     def __init__(self, chunks, dark_w):
         self._chunks = chunks
