@@ -245,7 +245,28 @@ def measure_file(
 def check_stream(calibration, stream: ReadingStream, coarse_hz, temperature_k) -> None:
     """The file gives what the calibration needs: its ports, a temperature, a coarse
     frequency (the command line checks these first, with its own options in the
-    messages)."""
+    messages).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from wavemeter.io import iter_readings, write_table
+    >>> from wavemeter.jobs import check_stream
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> path = Path(tempfile.mkdtemp()) / "readings.csv"
+    >>> write_table(path, {f"p{k + 1}_w": powers[:5, k % 3] for k in range(4)})  # 4 ports
+    >>> try:  # before any reading is measured
+    ...     check_stream(cal, iter_readings(path), None, None)
+    ... except wm.InputError as error:
+    ...     print(str(error).split(" has ", 1)[1].split(";")[0])  # after the file's name
+    4 ports (p1_w, p2_w, p3_w, p4_w) but the calibration has 3 (p1, p2, p3)
+    """
     if len(stream.port_names) != calibration.n_ports_:
         raise InputError(
             f"{stream.source} has {len(stream.port_names)} ports "

@@ -80,6 +80,16 @@ class StreamHeader:
         What to read from each line and how to convert it.
     cells : LineCells
         How a line is split into cells and a cell read as a number.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from wavemeter.jobs import read_header
+    >>> lines = ["# the meter's log", "frequency_hz,p1_mW,p2_mW,p3_mW", "1,0.5,0.25,0.25"]
+    >>> numbered = iter(enumerate(lines, start=1))
+    >>> header = read_header(numbered, Path("<stdin>"), None, find_temperature=False)
+    >>> header.source.name, header.names
+    ('<stdin>', ('frequency_hz', 'p1_mW', 'p2_mW', 'p3_mW'))
     """
 
     source: Path
@@ -274,6 +284,18 @@ def read_header(numbered, source: Path, request, find_temperature: bool) -> Stre
     ------
     InputError
         When the lines end before a header, or its columns cannot be found as in files.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from wavemeter.jobs import read_header
+    >>> lines = ["# the meter's log", "frequency_hz,p1_mW,p2_mW,p3_mW", "1,0.5,0.25,0.25"]
+    >>> numbered = iter(enumerate(lines, start=1))
+    >>> header = read_header(numbered, Path("<stdin>"), None, find_temperature=False)
+    >>> header.line, header.delimiter, header.port_names, header.port_units
+    (2, ',', ('p1_mW', 'p2_mW', 'p3_mW'), ('mW', 'mW', 'mW'))
+    >>> next(numbered)  # the header consumed; the data lines follow
+    (3, '1,0.5,0.25,0.25')
     """
     request = request or ColumnRequest()
     declared = None
