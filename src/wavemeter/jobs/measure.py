@@ -68,6 +68,32 @@ class MeasureSummary:
     warnings : list of Warning
         The warnings the measurement gave (each once), also issued with
         :func:`warnings.warn`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import iter_readings
+    >>> from wavemeter.jobs import measure_file
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> readings = device.powers(f_hz[:5], power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> readings[2] = np.nan  # a row the instrument could not read
+    >>> write_table(folder / "readings.csv", {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> stream = iter_readings(folder / "readings.csv", allow_invalid=True)  # flag, do not refuse
+    >>> summary = measure_file(cal, stream, folder / "frequencies.csv")
+    >>> summary.rows, summary.invalid_rows, summary.flag_counts
+    (5, 1, {'INVALID': 1})
+    >>> summary.out_path.name
+    'frequencies.csv'
     """
 
     source: Path
@@ -147,6 +173,35 @@ def measure_file(
         ``uncertainty`` asked of a calibration that gives none); no output is written then.
     ReadingsRefused
         With ``errors="raise"``, when some reading cannot be read; no output is written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import iter_readings
+    >>> from wavemeter.jobs import measure_file
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> readings = device.powers(f_hz[:5], power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> readings[2] = np.nan  # a row the instrument could not read
+    >>> write_table(folder / "readings.csv", {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> stream = iter_readings(folder / "readings.csv", allow_invalid=True)  # flag, do not refuse
+    >>> summary = measure_file(cal, stream, folder / "frequencies.csv")
+    >>> summary.rows, summary.flagged, summary.flag_counts
+    (5, 1, {'INVALID': 1})
+    >>> lines = (folder / "frequencies.csv").read_text().splitlines()
+    >>> lines[0]
+    'frequency_hz,wavelength_nm,phase_rad,frequency_std_hz,flags'
+    >>> len(lines) - 1  # one row out per row in, the unreadable one NaN with its flag
+    5
     """
     check_choice("errors", errors, ("coerce", "raise"))
     check_reading_options(

@@ -12,8 +12,8 @@ bookkeeping the thermal model shares (:func:`detector_noise_w`,
 the naming of causes with their warnings and remedies in :mod:`.misfit_causes`, the checks
 of the arguments in :mod:`.misfit_inputs`, and the generic statistics (model-free noise,
 projections, nested cosine tests) in :mod:`wavemeter.stats`. The theory (the model, the
-noise without it, each test, how a cause is named, what cannot be seen) is in
-``docs/theory-drafts/misfit.md``.
+noise without it, each test, how a cause is named, what cannot be seen) is in the docs'
+fit-diagnostics page (``docs/theory/diagnostics.rst``).
 """
 
 from __future__ import annotations
@@ -344,7 +344,7 @@ def misfit_report(
     detector_dof = noise_dof * float(np.min(detector / noise)) ** 4
     noise_note, unequal_p = unequal_noise(detector, detector_dof, names)
     # whitening weights: one noise for all ports unless theirs differ
-    # (``docs/theory-drafts/misfit.md``)
+    # (``docs/theory/diagnostics.rst``, "The residual tests")
     pooled = unequal_p >= POOLED_NOISE_P_VALUE
     weight = np.full(ports, np.sqrt(np.mean(noise**2))) if pooled else noise
     scatter = scatter_tests(residual, image, tangent, residual_dof, pooled, expected)

@@ -9,7 +9,7 @@ residual follows is ``quantised_axis`` (:mod:`.axis_tests`); the checks of the m
 sweep add ``detector_offset``, ``partial_span``, ``unequal_noise`` and ``ill_conditioned``.
 Each is a :class:`~wavemeter.exceptions.CalibrationWarning` whose ``cause`` is one of
 :data:`CAUSES`, with what was seen (its numbers) and what to do (:data:`REMEDIES`). The
-rules are in ``docs/theory-drafts/misfit.md`` ("Naming the cause", "Checks of the map and
+rules are in ``docs/theory/diagnostics.rst`` ("Naming the cause", "Checks of the map and
 the sweep").
 """
 
@@ -125,7 +125,7 @@ def _excess(test: ResidualTest | None) -> float:
 
 
 def _cause(structure: Structure, band: BandTests | None) -> str:
-    """The alternative that explains the residual best (``docs/theory-drafts/misfit.md``)."""
+    """The alternative that explains the residual best (``docs/theory/diagnostics.rst``)."""
     if not structure.smooth_failed:
         scatter = structure.scatter
         return "power_drift" if scatter.power_excess >= scatter.phase_excess else "phase_drift"

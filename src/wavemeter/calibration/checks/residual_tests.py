@@ -8,7 +8,7 @@ fringe phase and cosines of the row on every port (other structure) (:func:`stru
 and the scatter of each reading along ``a_P`` and ``a_t`` against the rest
 (:func:`scatter_tests`); also the per-reading directions themselves, the effective span in
 FSRs, the lag-1 autocorrelation and the pseudo-inverse's phase variance over the bound. The
-theory is in ``docs/theory-drafts/misfit.md``; the report that runs these is
+theory is in ``docs/theory/diagnostics.rst``; the report that runs these is
 :func:`~wavemeter.calibration.checks.misfit.misfit_report`.
 """
 
@@ -169,7 +169,7 @@ class Scatter:
 
 
 def scatter_tests(residual, image, tangent, dof: float, pooled: bool, phase_noise_rad) -> Scatter:
-    """Tests 6 and 7 (``docs/theory-drafts/misfit.md``) on the residual (N, n) and the directions
+    """Tests 6 and 7 (``docs/theory/diagnostics.rst``) on the residual (N, n) and the directions
     ``a_P`` (``image``) and ``a_t`` (``tangent``) of every reading (N, n); ``pooled``: one
     noise level for every port; ``phase_noise_rad`` (N,) the phase scatter the model
     expects besides the detector noise (0 for none).

@@ -89,6 +89,21 @@ class Part:
         The fitted sub-calibration.
     range_hz : (float, float)
         The frequencies it reads (Hz): a window's edges, a stage's band.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(800, span_fsr=4)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal_set = wm.CalibrationSet(fsr_hz=50e9).fit(powers, f_hz)
+    >>> parts = cal_set.parts()  # a set's windows: one fitted calibrator each
+    >>> len(parts), parts[0].kind
+    (4, 'window')
+    >>> print(parts[0].label)
+    window 0 (193.296864 to 193.348368 THz)
+    >>> print(f"{parts[0].calibration.fsr_hz_ / 1e9:.2f} GHz")
+    51.50 GHz
     """
 
     label: str
@@ -98,7 +113,44 @@ class Part:
 
 
 class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
-    """Common machinery of every calibrator; not used on its own (module docstring)."""
+    """Common machinery of every calibrator; not used on its own (module docstring).
+
+    Examples
+    --------
+    A calibrator of your own subclasses ``BaseCalibrator`` (reading, flags, streaming,
+    files, the summary) and :class:`SweepFitMixin` (the checked fit), and writes its
+    settings, ``_learn`` and ``_phase``. This one learns the map at a known FSR; a
+    ``method`` tag (not given here) would register it for files and the command line:
+
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.calibration import BaseCalibrator, SweepFitMixin
+    >>> from wavemeter.model import cone_vectors, delay_phase_rad
+    >>> class KnownDelayCalibrator(SweepFitMixin, BaseCalibrator):  # the map at a known FSR
+    ...     def __init__(self, fsr_hz=50e9):
+    ...         self.fsr_hz = fsr_hz
+    ...     def _learn(self, sweep):
+    ...         phase_rad = delay_phase_rad(sweep.frequency_hz, self.center_hz_, 1 / self.fsr_hz)
+    ...         objects = cone_vectors(phase_rad, 1.0 if sweep.scale is None else sweep.scale)
+    ...         self.map_ = np.linalg.lstsq(objects, sweep.powers_w, rcond=None)[0].T
+    ...         self.fsr_hz_ = float(self.fsr_hz)
+    ...     def _phase(self, readings):
+    ...         objects = readings @ np.linalg.pinv(self.map_).T
+    ...         return np.arctan2(objects[:, 1], objects[:, 0])
+    >>> cal = KnownDelayCalibrator(fsr_hz=device.true_fsr_hz).fit(powers, f_hz)
+
+    The contract gives it the rest: checked readings, per-reading status and uncertainty:
+
+    >>> readings = np.vstack([powers[100:102], np.full(3, np.nan)])  # the last one not a reading
+    >>> reading = cal.readout(readings)
+    >>> print(np.round((reading.frequency_hz - f_hz[[100, 101, 0]]) / 1e6), reading.flags)
+    [-2. -3. nan] [0 0 8]
+    >>> print(f"{cal.calibration_rms_hz_ / 1e6:.0f} MHz RMS on its own sweep")
+    14 MHz RMS on its own sweep
+    """
 
     #: the tag in calibration files; a class with a tag of its own registers itself
     method: ClassVar[str] = ""

@@ -31,6 +31,25 @@ class FitValue:
         SI unit of ``value`` and ``stderr`` (empty for pure numbers).
     label : str
         How people read its name (``"group-delay dispersion"``); empty: the key's words.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> fsr = cal.summary().values["fsr_hz"]
+    >>> fsr.unit
+    'Hz'
+
+    The fitted FSR's standard error (4 MHz) covers its distance to the true FSR (4.8 MHz):
+
+    >>> print(f"{fsr.value / 1e9:.4f} GHz +- {fsr.stderr / 1e6:.1f} MHz")
+    51.5076 GHz +- 4.1 MHz
+    >>> print(f"true {device.true_fsr_hz / 1e9:.4f} GHz")
+    true 51.5029 GHz
     """
 
     value: float
@@ -59,6 +78,19 @@ class Table:
         Cells: text, integers, or floats in the column's display unit.
     text : str
         What the table means, in a sentence or two.
+
+    Examples
+    --------
+    >>> from wavemeter.calibration import Table
+    >>> stages = Table(
+    ...     name="stages",
+    ...     title="Stages",
+    ...     columns=("stage", "FSR [GHz]", "noise [MHz]"),
+    ...     rows=((1, 514.0, 641.0), (2, 50.2, 58.0)),
+    ...     text="The cascade's stages, coarsest first.",
+    ... )
+    >>> dict(zip(stages.columns, stages.rows[1]))
+    {'stage': 2, 'FSR [GHz]': 50.2, 'noise [MHz]': 58.0}
     """
 
     name: str
@@ -116,6 +148,18 @@ class Check:
         What they say, in a sentence or two.
     table : Table or None
         The numbers in rows, where there are many.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(800, span_fsr=4)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal_set = wm.CalibrationSet(fsr_hz=50e9).fit(powers, f_hz)
+    >>> test = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> checks = cal_set.evaluation_checks(test, f_hz)  # a set checks its maps on the neighbours
+    >>> [(check.name, check.title) for check in checks]
+    [('adjacent', 'Maps applied to the neighbouring FSRs ([1], Fig. 9)')]
     """
 
     name: str
@@ -373,6 +417,26 @@ class FitReport:
         orders of a wide band).
     notes : tuple of str
         What the method adds in words (the calibrated temperatures and what they resolve).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> report = cal.summary()  # what the calibration learned, as every command shows it
+    >>> report.method, report.samples, report.ports
+    ('learned', 200, ('p1', 'p2', 'p3'))
+    >>> list(report.values)[:4]
+    ['fsr_hz', 'design_fsr_hz', 'center_hz', 'calibration_rms_hz']
+    >>> fsr = report.values["fsr_hz"]
+    >>> print(f"FSR {fsr.value / 1e9:.4f} GHz +- {fsr.stderr / 1e6:.1f} MHz")
+    FSR 51.5076 GHz +- 4.1 MHz
+    >>> rms = report.values["calibration_rms_hz"]
+    >>> print(f"{rms.value / 1e6:.1f} MHz RMS on the sweep")
+    13.5 MHz RMS on the sweep
     """
 
     method: str

@@ -141,6 +141,21 @@ def save_calibration(calibrator: FittedCalibrator, path, metadata: dict | None =
         Target file, conventionally ``*.wmcal.json``.
     metadata : dict, optional
         JSON-ready notes kept with the calibration (source file, units, ...).
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> path = Path(tempfile.mkdtemp()) / "chip.wmcal.json"
+    >>> wm.save_calibration(cal, path, metadata={"chip": "W7-14"})
+    >>> loaded = wm.load_calibration(path)
+    >>> print(loaded.method, loaded.fsr_hz_ == cal.fsr_hz_)
+    learned True
     """
     document = calibration_to_dict(calibrator, metadata)
     text = json.dumps(document, indent=1, allow_nan=False)
@@ -499,5 +514,21 @@ def load_calibration(path) -> FittedCalibrator:
     FileFormatError
         When the file is missing, too large, truncated, not JSON, of another format or
         version, or its content is inconsistent. The message names the file and the field.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> path = Path(tempfile.mkdtemp()) / "chip.wmcal.json"
+    >>> wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz).save(path)
+    >>> cal = wm.load_calibration(path)  # the class comes from the file's method tag
+    >>> print(cal.method, f"{cal.fsr_hz_ / 1e9:.2f} GHz")
+    learned 51.51 GHz
+    >>> print(abs(cal.predict(powers[:1])[0] - f_hz[0]) < 100e6)
+    True
     """
     return read_calibration_file(path).calibrator

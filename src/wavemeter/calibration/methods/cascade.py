@@ -101,6 +101,32 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
     diagnostics_ : dict
         ``"cascade"``: stages (FSR, orders, RMS, z-score spread on the sweep), hand-overs
         and the edge margin; ``"warnings"``: every stage's warnings, named by stage.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> meter = wm.CascadeInterferometer.table1(fsrs_hz=(500e9, 50e9), seed=2)  # 2 stages
+    >>> band_hz = np.linspace(193.2e12, 193.5e12, 2000)  # one sweep over a 300 GHz band
+    >>> powers = meter.powers(band_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> powers.shape
+    (2000, 6)
+    >>> cal = wm.CascadeCalibrator(fsr_hz=(500e9, 50e9)).fit(powers, band_hz)
+
+    The stages' fitted FSRs (the coarse stage's delay is off its 500 GHz design):
+
+    >>> print([f"{fsr / 1e9:.0f} GHz" for fsr in cal.stage_fsrs_hz_])
+    ['514 GHz', '50 GHz']
+
+    Readings are absolute with no coarse input, each with its probability of a wrong order:
+
+    >>> test_hz = np.array([193.25e12, 193.4e12])
+    >>> test = meter.powers(test_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> reading = cal.readout(test)
+    >>> print(np.abs(reading.frequency_hz - test_hz) < 5 * reading.frequency_std_hz)
+    [ True  True]
+    >>> print(reading.extras["order_error_probability"] < 1e-6)
+    [ True  True]
     """
 
     method = "cascade"

@@ -109,6 +109,30 @@ class ThermalCalibrator(ThermalReadingMixin, Calibrator):
         unambiguous and searched bias-rate ranges and the effective spread.
 
     The other attributes are those of :class:`~wavemeter.calibration.methods.learned.Calibrator`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> chip = wm.Interferometer.table1(ports=3, seed=7).with_thermal("sin")  # silicon nitride
+    >>> temperatures_k = np.repeat([293.0, 294.0, 295.0], 200)  # three sweeps, 1 K apart
+    >>> f_hz = np.tile(chip.sweep_hz(200), 3)
+    >>> powers = chip.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1, temperature_k=temperatures_k)
+    >>> cal = wm.ThermalCalibrator(fsr_hz=50e9).fit(powers, f_hz, temperature_k=temperatures_k)
+
+    The fitted bias rate gives the fringe shift per kelvin the simulated chip has:
+
+    >>> shift = cal.thermal_phase_rad_per_k_ * cal.fsr_hz_ / (2 * np.pi)
+    >>> true = chip.thermal_phase_rad_per_k * chip.true_fsr_hz / (2 * np.pi)
+    >>> print(f"fringes move {shift / 1e9:.2f} GHz/K (true {true / 1e9:.2f} GHz/K)")
+    fringes move 2.60 GHz/K (true 2.60 GHz/K)
+
+    A reading 1 K beyond the calibrated range is still read within 50 MHz:
+
+    >>> test = chip.powers(f_hz[:5], power_w=1e-3, rng=2, temperature_k=296.0)
+    >>> error_hz = cal.predict(test, temperature_k=296.0) - f_hz[:5]
+    >>> print(np.abs(error_hz).max() < 50e6)
+    True
     """
 
     method = "thermal"

@@ -140,6 +140,27 @@ class WidebandCalibrator(
         As the learned calibrator's, plus ``"wideband"``: orders, how they were chosen
         (the cross-validation curve), the phase coefficients with standard errors and the
         residual phase per FSR window across the band.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> chip = wm.Interferometer.table1(ports=3, seed=7).with_spectral("sin", seed=3)  # dispersion
+    >>> f_hz = chip.sweep_hz(2000, span_fsr=10)  # ten FSRs, 500 GHz
+    >>> powers = chip.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal = wm.WidebandCalibrator(fsr_hz=50e9).fit(powers, f_hz)
+
+    Dispersion bends the phase: cross-validation on held-out FSRs picks a quadratic phase
+    and a map linear in frequency:
+
+    >>> cal.phase_order_, cal.map_order_
+    (2, 1)
+    >>> test_hz = f_hz[50::400] + 1e8
+    >>> test = chip.powers(test_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> coarse_hz = test_hz + 5e9  # a coarse frequency within half an FSR picks the order
+    >>> error_hz = cal.predict(test, coarse_hz=coarse_hz) - test_hz
+    >>> print(np.abs(error_hz).max() < 100e6)
+    True
     """
 
     method = "wideband"

@@ -1,36 +1,17 @@
 """Re-anchoring a single-map calibration to reference lines of known frequency.
 
 A calibration learned at one temperature reads a chip at another with its bias phase moved
-by ``delta``: ``p = P A u(t + delta) = P (A R(delta)) u(t)``, ``R`` the rotation of the first
-two object components (about the cone axis). Readings of one or more reference lines of
-known frequency (a reference laser, a gas-cell line) measure ``delta``; the corrected map is
-``A R(delta)``. With lines spread over enough of the FSR they also measure a change of the
-delay ``tau``:
+by ``delta``: ``p = P A u(t + delta) = P (A R(delta)) u(t)``, ``R`` a rotation about the
+cone axis. Readings of reference lines of known frequency measure ``delta``
+(:func:`line_phases`: one circular-mean phase per line, with its variance) and, with lines
+spread over enough of the FSR, a change of the delay (:func:`fit_reanchor`: weighted least
+squares, the delay refitted only where the lines know it better than the calibration's
+``delay_std_s_``). :func:`reanchored_copy` returns the corrected deep copy, its parameter
+covariance rotated with the map and widened by the lines' uncertainty
+(:func:`reanchored_covariance`).
 
-    t_measured(f) = 2 pi (f - f0) tau' + delta,
-
-with ``t_measured`` the phase the calibration retrieves. The rules:
-
-* **lines**: readings with the same known frequency are one line; its phase is the mean on
-  the circle (the angle of the mean of ``exp(i t)``);
-* **a line's variance**: that of its readings about the line's mean, divided by their
-  number ``k`` -- the spread of the readings when ``k >= LINE_SPREAD_MIN_READINGS``,
-  otherwise the mean of the model's per-reading phase variances (the calibrator's
-  ``frequency_std_hz`` without the calibration part, in rad);
-* **the check**: the readings of each line must scatter like one line at the calibration's
-  noise (:mod:`~wavemeter.calibration.models.reference_check`): refused, warned or
-  recorded before the fit;
-* **the fit**: weighted least squares (weights ``1 / variance``) of the wrapped phase
-  differences ``t_measured - 2 pi (f - f0) tau``, unwrapped about their weighted circular
-  mean, on ``delta`` alone or on ``delta`` and ``tau' - tau``;
-* **the delay** is refitted only when at least two lines are given and the standard error
-  the lines give it is smaller than the calibration's own ``delay_std_s_``; otherwise it is
-  kept and ``delta`` is the weighted mean of the differences.
-
-The corrected calibrator is a deep copy; its parameter covariance is the original one
-rotated with the map (the delay's rows replaced by the lines' when refitted), plus the
-uncertainty of ``delta`` (and of the delay) along the directions they move the map
-(conservative: the original bias uncertainty is kept though the lines re-measure it).
+Theory (the rules): the docs' thermal page (``docs/theory/thermal.rst``, "Re-anchoring to
+reference lines").
 """
 
 from __future__ import annotations

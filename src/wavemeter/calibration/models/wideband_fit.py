@@ -1,38 +1,17 @@
 """The wide-band model of the port powers and its fit: a phase polynomial and a smooth map.
 
-Over a band of many FSRs the fringe phase is not linear in frequency (dispersion of the
-delay imbalance) and the coupler and photodiodes change slowly with wavelength. With
-``y = (f - f0) / h`` (``f0`` the middle of the calibrated band, ``h`` its half width) the
-model of a reading at frequency ``f`` is
+With ``y = (f - f0) / h`` (``f0`` the middle of the band, ``h`` its half width) a reading
+is ``p = m A(y) u(t(y)) (+ d)``, ``t(y) = sum_{i=1..P} b_i y^i``, ``A(y) = sum_{j=0..J} A_j
+L_j(y)`` (Legendre polynomials; ``P = 1``, ``J = 0`` is the paper's model)
+(:class:`BandModel`). :func:`fit_band_region` fits it by variable projection (the map
+linear, the phase coefficients by Levenberg-Marquardt); :func:`fit_band` starts from the
+paper's delay search within one FSR of the middle and grows outwards, doubling the radius
+(``GROWTH``), so that sweeps with missing FSRs fit like dense ones.
+:func:`band_frequency_hz` reads a frequency with a coarse value within half an FSR
+(``PREDICT_ITERATIONS`` rounds of map, phase and Newton steps on the polynomial).
 
-    p = m A(y) u(t(y)) (+ d),   t(y) = sum_{i=1..P} b_i y^i,   A(y) = sum_{j=0..J} A_j L_j(y),
-
-``u(t) = [cos t, sin t, sqrt 2]``, ``m`` the relative monitored source power (or 1), ``L_j``
-the Legendre polynomials, ``d`` per-port offsets where they are fitted. ``P = 1`` and
-``J = 0`` is the paper's model: ``b_1 = 2 pi h tau``. The phase has no constant term: a
-constant phase is a rotation of every ``A_j`` about the cone axis.
-
-**The fit** is variable projection: for given phase coefficients ``b`` the map
-coefficients are linear least squares on the columns ``X_k = L(y_k) (x) m_k u(t_k)`` (one
-block of three per Legendre order, shared by the ports), and only the ``P`` coefficients
-``b`` are searched, by Levenberg-Marquardt with Kaufman's Jacobian of the projected
-residual (:func:`fit_band_region`). The start comes from the paper's delay search on the
-readings within one FSR of the middle of the band; the fit then grows outwards, doubling
-the frequency radius it covers (:func:`fit_band`): extrapolating a fit to twice its radius
-errs by far less than the half fringe that would miscount the fringes in between, so
-sweeps with gaps (whole FSRs missing) are fitted like dense ones. On a partial radius the
-polynomials are taken in that radius' own coordinate (well conditioned) and the map is held
-constant: a map that varies with frequency can rotate about the cone axis, which is a phase
-change, so with few FSRs in reach it would let the phase coefficients wander (the growth
-counts fringes; the orders of the map come after it).
-
-**Reading a frequency** (:func:`band_frequency_hz`) needs a coarse frequency within half an
-FSR: it picks the fringe order. The map is evaluated at the coarse frequency, the phase
-retrieved, the frequency of that phase nearest the coarse one solved for (Newton steps on
-the polynomial), and the map evaluated again there, ``PREDICT_ITERATIONS`` times in all.
-
-**The orders** (:func:`select_orders`) are chosen by cross-validation on held-out whole
-FSRs (module :mod:`wavemeter.calibration.methods.wideband`).
+Theory (the band model, the fit, reading a frequency): the docs' wide-band page
+(``docs/theory/wideband.rst``).
 """
 
 from __future__ import annotations
