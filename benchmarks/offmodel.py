@@ -46,6 +46,10 @@ a second line has none when it is in phase with the first. The last table shows 
 by itself: the share of phases at which a one-port glitch of a given size is visible.
 Medians over ``--seeds`` devices (simulated) or fault draws (measured).
 
+Held out (measured data): the coupler calibrated on part of its readings, its good readings
+the others: interleaved (even readings, then the odd ones), or split in time (70 % of the
+record, then the other 30 %), with the frequency error (modulo the FSR) of both parts.
+
 Usage: ``python benchmarks/offmodel.py [--seeds 5] [--test 5000] [--quick]``
 """
 
@@ -268,6 +272,33 @@ def off_model_share(calibration, readings: np.ndarray) -> float:
     return 100 * float(np.mean(calibration.flags(readings) & OFF_MODEL > 0))
 
 
+def held_out_rows(folder: Path = MEASURED_DIR) -> list[list[str]]:
+    """Per split of the measured readings (module docstring): the held-out readings
+    flagged (%) by each rule, and the RMS frequency error (MHz) in and out of the sweep."""
+    readings, frequency = measured_sweep(folder)
+    order = np.arange(frequency.size)
+    splits = {
+        "even -> odd readings": order % 2 == 0,
+        "first 70 % -> last 30 % in time": order < 0.7 * order.size,
+        "last 70 % -> first 30 % in time": order >= 0.3 * order.size,
+    }
+    rows = []
+    for label, sweep in splits.items():
+        progress(f"measured fibre coupler: held out, {label}")
+        calibration = quiet_fit(
+            wm.Calibrator(fsr_hz=DESIGN_FSR_HZ), readings[sweep], frequency[sweep]
+        )
+        rules = (old_rule(calibration), median_rule(calibration), calibration)
+        errors = []
+        for part in (sweep, ~sweep):
+            error = calibration.predict(readings[part]) - frequency[part]
+            error = (error + DESIGN_FSR_HZ / 2) % DESIGN_FSR_HZ - DESIGN_FSR_HZ / 2
+            errors.append(float(np.sqrt(np.mean(error**2))) / 1e6)
+        flagged = [f"{off_model_share(rule, readings[~sweep]):.2f}" for rule in rules]
+        rows.append([label, *flagged, f"{errors[0]:.0f} / {errors[1]:.0f}"])
+    return rows
+
+
 def shares(case: Case, rng: np.random.Generator) -> dict:
     """Per scatter reading and rule: good readings flagged (%) and each fault caught (%);
     per scatter reading and fault: visible (%) at the detector-noise threshold."""
@@ -401,6 +432,7 @@ def main(argv=None) -> int:
     seeds, test = (2, 1000) if args.quick else (args.seeds, args.test)
     measured = MEASURED_DIR.is_dir()
     found = list(data_sets(seeds, test, measured))
+    held_out = held_out_rows() if measured else []
     progress("")
     sys.stderr.write("\r")
     print(f"OFF_MODEL: medians over {seeds} seeds; simulated good readings: {test} per device\n")
@@ -466,6 +498,17 @@ def main(argv=None) -> int:
     )
     if not measured:
         print(f"\n> measured data skipped: {MEASURED_DIR} not found")
+        return 0
+    print(
+        "\nHeld out: the measured coupler calibrated on part of its readings; good readings "
+        "flagged % among the others, per rule:\n"
+    )
+    print(
+        markdown_table(
+            ["sweep -> good readings", *RULES.values(), "RMS error MHz (sweep / held out)"],
+            held_out,
+        )
+    )
     return 0
 
 

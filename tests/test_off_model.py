@@ -317,6 +317,13 @@ def test_the_record_round_trips_through_a_file(simulated, tmp_path):
         ("residual.spread_coefficients", [0.0, 1.0]),
         ("residual.spread_coefficients", [0.5, 0.0, 0.0]),
         ("residual.spread_coefficients", "wide"),
+        # the physical ranges (the loader's rules, OFF_MODEL_STATE_RULES)
+        ("readings", 1e293),
+        ("median", 1e293),
+        ("residual.readings", 10**9),
+        ("residual.power_range", [1e-9, 1.0]),
+        ("residual.coefficients_w", [[1e293] * 3] * 21),
+        ("residual.spread_coefficients", [0.0, 50.0, 0.0]),
     ],
 )
 def test_a_bad_record_is_refused_with_its_field(simulated, tmp_path, field, value):
