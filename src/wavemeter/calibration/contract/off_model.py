@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
 from ..files.fields import NOISE_RELATIVE, SPREAD_RELATIVE, FieldRule, rule_table
 from .flags import OFF_MODEL_P_VALUE, off_model_threshold
 from .off_model_residual import (
@@ -411,14 +411,15 @@ def basis_from_state(state: dict, ports: int, noise_dof: float) -> OffModelBasis
             finite = False
         if not finite:
             raise InputError(
-                f"field '{STATE_KEY}.{key}' must be a finite number, got {value!r:.80}"
+                f"field '{STATE_KEY}.{key}' must be a finite number, got {shown(value)}"
             )
         below = value <= minimum if open_minimum else value < minimum
         if below or (integer and value != int(value)):
             kind = "an integer" if integer else "a number"
             relation = ">" if open_minimum else ">="
             raise InputError(
-                f"field '{STATE_KEY}.{key}' must be {kind} {relation} {minimum:g}, got {value!r}"
+                f"field '{STATE_KEY}.{key}' must be {kind} {relation} {minimum:g}, "
+                f"got {shown(value)}"
             )
         return value
 

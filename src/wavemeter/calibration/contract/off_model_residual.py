@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
 from ...model.cone import cone_vectors
 from ...model.retrieval import source_power_ratio
 
@@ -346,7 +346,7 @@ def residual_from_record(record, ports: int, key: str) -> ResidualModel:
         value = field(name)
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
             raise InputError(
-                f"field '{key}.{name}' must be an integer {low} to {high}, got {value!r:.40}"
+                f"field '{key}.{name}' must be an integer {low} to {high}, got {shown(value)}"
             )
         return value
 
@@ -358,7 +358,7 @@ def residual_from_record(record, ports: int, key: str) -> ResidualModel:
         if array.shape != shape or not np.all(np.isfinite(array)):
             raise InputError(
                 f"field '{key}.{name}' must hold {' x '.join(map(str, shape)) or 'one'} "
-                f"finite numbers, got {field(name)!r:.80}"
+                f"finite numbers, got {shown(field(name))[:80]}"
             )
         return array
 
@@ -366,13 +366,15 @@ def residual_from_record(record, ports: int, key: str) -> ResidualModel:
     degree = integer("power_degree", 0, MAX_POWER_DEGREE)
     low, high = numbers("power_range", (2,))
     if not 0 < low <= high:
-        raise InputError(f"field '{key}.power_range' must be 0 < low <= high, got {[low, high]}")
+        raise InputError(
+            f"field '{key}.power_range' must be 0 < low <= high, got {shown((low, high))}"
+        )
     rows = 0 if harmonics < 0 else (2 * harmonics + 1) * (degree + 1)
     coefficients = numbers("coefficients_w", (rows, ports) if rows else (0,))
     readings = integer("readings", 1, 2**62)
     median = float(numbers("median", ()))
     if median < 0:
-        raise InputError(f"field '{key}.median' must be >= 0, got {median!r}")
+        raise InputError(f"field '{key}.median' must be >= 0, got {shown(median)}")
     given = field("spread_coefficients")
     spread = numbers("spread_coefficients", (len(given) if isinstance(given, list) else -1,))
     if spread.size and (spread.size % 2 == 0 or spread[0] != 0.0):
