@@ -1,12 +1,15 @@
-"""OFF_MODEL against the calibration's own distances once the fit finds a model error.
+"""OFF_MODEL against the calibration's own readings once the fit finds a model error.
 
 A calibration whose sweep sits on its cone within the detector noise keeps the
-detector-noise test (p = 1e-6); one whose sweep's distances show a model error compares a
-reading with those distances (the noise's distribution scaled to their median), so its own
-readings, and readings like them, are not flagged while readings that leave the model by
-more than the sweep's scatter are. The data sets and faults are the benchmark's
-(``benchmarks/offmodel.py``): simulated Table 1 devices, clean or with 5 % detector
-compression, and the measured MiniPTI fibre coupler labelled with its published phase.
+detector-noise test (p = 1e-6). One whose sweep's distances show a model error learns the
+residual its readings share at their phase (and source power), subtracts it from every
+reading's before the distance is taken, and scales the noise's distribution to what
+remains: its own readings, and readings like them, are not flagged, while readings that
+leave the model by more than what remains are. The data sets and faults are the
+benchmark's (``benchmarks/offmodel.py``): simulated Table 1 devices, clean or with 5 %
+detector compression, and the measured MiniPTI fibre coupler labelled with its published
+phase. Files written before (0.7.1, and the first round's record without a residual) keep
+their tests.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from .conftest import NOISE_W, POWER_W
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 MEASURED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "minipti-fiber-3x3"
 OLD_FILES = Path(__file__).parent / "data" / "offmodel-0.7.1"
+ROUND1_FILES = Path(__file__).parent / "data" / "offmodel-round1"
 OFF_MODEL = int(wm.ReadingFlag.OFF_MODEL)
 #: the p-value of the detector-noise test and of the sign test that finds a model error
 P_VALUE = 1e-6
@@ -72,21 +76,33 @@ def without_record(calibration, folder: Path):
 
 # ---------------------------------------------------------------------------- good readings
 def test_measured_fibre_coupler_flags_almost_none_of_its_own_readings(measured, tmp_path):
-    """The issue's case: 79 % of the calibration's own readings were OFF_MODEL."""
+    """The issue's case: 79 % of the calibration's own readings were OFF_MODEL. What remains
+    of their residual once the shared part is subtracted has a heavier tail than the noise
+    (the coupler drifts in time), so the threshold follows it over the phase; the
+    cross-validated count beyond it bounds the share below 1 %."""
     calibration = measured.calibration
     assert off_model_share(calibration, measured.good) <= 0.01
     assert off_model_share(without_record(calibration, tmp_path), measured.good) > 0.5
+    basis = calibration.off_model_basis_
+    assert basis.residual is not None and basis.residual.spread_coefficients
+    assert basis.beyond_bound < 0.01
     note = str(calibration.summary())
-    assert "OFF_MODEL beyond cone distance" in note and "a model error" in note
+    assert "a model error" in note and "subtracted from each reading's residual" in note
+    assert "heavier tail than the noise" in note
 
 
 @pytest.mark.parametrize("ports", [3, 4])
 def test_fresh_readings_of_a_device_with_a_model_error_are_not_flagged(simulated, ports):
     """Readings of the compressing device, like its sweep's, stay under the threshold; the
-    detector-noise test flagged 40-70 % of them."""
+    detector-noise test flagged 40-70 % of them. The compression's residual is a smooth
+    function of the phase: subtracted, what remains is the detector noise's (its median
+    within 20 % of the noise's, so the threshold within 20 % of the detector-noise one)."""
     case = simulated[(ports, True)]
     assert off_model_share(case.calibration, case.good) <= 0.01
-    assert "a model error" in str(case.calibration.summary())
+    basis = case.calibration.off_model_basis_
+    assert basis.residual.harmonics >= 2 and not basis.residual.spread_coefficients
+    assert 0.8 < basis.scale < 1.2
+    assert "like the detector noise" in str(case.calibration.summary())
 
 
 @pytest.mark.parametrize("ports", [3, 4])
@@ -104,28 +120,47 @@ def test_a_clean_calibration_keeps_the_detector_noise_test(simulated, bench, tmp
 
 
 # ---------------------------------------------------------------------------- faults
+def old_and_new(bench, case, kind, seed=11):
+    """The fault ``kind`` in every good reading: the shares (%) caught by the new rule, by
+    the first round's (median-scaled) and visible at the detector-noise threshold."""
+    faulty = bench.inject(kind, case, np.random.default_rng(seed))
+    readings = faulty.readings[faulty.affected]
+    return (
+        100 * off_model_share(case.calibration, readings),
+        100 * off_model_share(bench.median_rule(case.calibration), readings),
+        100 * off_model_share(bench.old_rule(case.calibration), faulty.on_cone[faulty.affected]),
+    )
+
+
 @pytest.mark.parametrize("kind", ["glitch", "two-tone", "saturated"])
-@pytest.mark.parametrize(
-    "data", ["clean 3", "clean 4", "model error 3", "model error 4", "measured"]
-)
-def test_a_fault_that_leaves_the_model_is_caught(bench, simulated, request, kind, data):
-    """Of the faulty readings, OFF_MODEL catches at least 90 % as many as a distance test
-    can see at its threshold: those whose fault takes the reading's own point on the cone
-    beyond it. (The rest differ by the reading's own scatter, within the threshold, which
-    pushes some faults out and pulls others in.) What no distance test sees, a one-port
-    fault at the two phases per fringe where it lies along a 3-port cone or a second line
-    in phase with the first, the benchmark counts apart."""
-    if data == "measured":
-        case = request.getfixturevalue("measured")
+@pytest.mark.parametrize("data", ["clean 3", "clean 4", "model error 3", "model error 4"])
+def test_a_fault_that_leaves_the_model_is_caught(bench, simulated, kind, data):
+    """Of the faulty readings (faults in scatters about the model), OFF_MODEL catches at
+    least 90 % as many as a distance test at the detector-noise threshold can see at all:
+    those whose fault takes the reading's own point on the cone beyond it. With the
+    compression's residual subtracted, what remains is the noise's, so the compressing
+    devices are judged as the clean ones. (The rest differ by the reading's own scatter,
+    which pushes some faults out and pulls others in; what no distance test sees, a
+    one-port fault near the two phases per fringe where it lies along a 3-port cone or a
+    second line in phase with the first, the benchmark counts apart.)"""
+    label, ports = data.rsplit(" ", 1)
+    case = simulated[(int(ports), label == "model error")]
+    caught, _, visible = old_and_new(bench, case, kind)
+    assert visible >= 3  # 90 of 3000 readings or more: enough to tell the shares apart
+    assert caught >= 0.9 * visible
+
+
+@pytest.mark.parametrize("kind", ["glitch", "two-tone", "saturated"])
+def test_the_measured_coupler_catches_more_faults_than_the_first_round(bench, measured, kind):
+    """On the measured coupler the remaining spread (its time drift) lies above the noise
+    at some phases, so what is caught falls short of what the noise allows (the benchmark
+    states by how much); against the first round's median-scaled test, side by side on the
+    same faults: more glitches by half or more, and no fewer second lines or clipped ports."""
+    caught, first_round, _ = old_and_new(bench, measured, kind)
+    if kind == "glitch":
+        assert caught >= 1.5 * first_round
     else:
-        label, ports = data.rsplit(" ", 1)
-        case = simulated[(int(ports), label == "model error")]
-    calibration = case.calibration
-    faulty = bench.inject(kind, case, np.random.default_rng(11))
-    visible = calibration.flags(faulty.on_cone[faulty.affected]) & OFF_MODEL > 0
-    caught = calibration.flags(faulty.readings[faulty.affected]) & OFF_MODEL > 0
-    assert np.count_nonzero(visible) >= 100  # enough to tell the shares apart
-    assert np.count_nonzero(caught) >= 0.9 * np.count_nonzero(visible)
+        assert caught >= first_round
 
 
 def test_a_calibration_with_a_model_error_still_sees_gross_faults(simulated, bench):
@@ -208,14 +243,18 @@ def test_outliers_in_a_clean_sweep_are_no_model_error(bench):
     assert not basis.model_error and basis.scale == 1.0
 
 
-def test_the_summary_states_the_threshold_and_its_basis(simulated):
-    case = simulated[(3, True)]
-    basis = case.calibration.off_model_basis_
-    text = str(case.calibration.summary())
-    assert f"{basis.scale:.4g}x the detector noise's" in text
-    assert f"{basis.beyond} of {basis.readings} sweep readings beyond it" in text
-    as_dict = case.calibration.summary().as_dict()
-    assert any("OFF_MODEL" in note for note in as_dict["notes"])
+def test_the_summary_states_the_threshold_and_its_basis(simulated, measured):
+    for case in (simulated[(3, True)], measured):
+        basis = case.calibration.off_model_basis_
+        residual = basis.residual
+        text = str(case.calibration.summary())
+        assert f"{residual.harmonics} harmonics in the phase" in text
+        assert f"chosen by 5-fold cross-validation on {residual.readings} readings" in text
+        assert f"{basis.beyond} of {basis.tested} sweep readings beyond it" in text
+        assert f"a share below {basis.beyond_bound:.2g} at 95% confidence" in text
+        as_dict = case.calibration.summary().as_dict()
+        assert any("OFF_MODEL" in note for note in as_dict["notes"])
+    assert "degree 2 in the source power" in str(measured.calibration.summary())
 
 
 # ---------------------------------------------------------------------------- files
@@ -234,6 +273,23 @@ def test_a_file_without_the_record_gives_the_flags_it_gave(name):
     assert "a file without the sweep's distances" in str(calibration.summary())
 
 
+@pytest.mark.parametrize("name", ["learned", "wideband"])
+def test_a_record_without_a_residual_gives_the_flags_it_gave(name):
+    """Files written by the first round of issue 29 (commit 0ae97fd, ``make_files.py``) of a
+    compressing device: the median-scaled test, bit for bit, batch and stream."""
+    expected = json.loads((ROUND1_FILES / "expected.json").read_text())[name]
+    calibration = wm.load_calibration(ROUND1_FILES / f"{name}.wmcal.json")
+    basis = calibration.off_model_basis_
+    assert basis.model_error and basis.residual is None and basis.scale > 1
+    readings = np.array(expected["readings_w"])
+    inputs = {"coarse_hz": np.array(expected["coarse_hz"])} if calibration.requires else {}
+    np.testing.assert_array_equal(calibration.flags(readings, **inputs), expected["flags"])
+    streamed = [record.flags for record in calibration.stream(readings, **inputs)]
+    np.testing.assert_array_equal(streamed, expected["flags"])
+    text = str(calibration.summary())
+    assert f"{basis.scale:.4g}x the detector noise's" in text and "median distance" in text
+
+
 def test_the_record_round_trips_through_a_file(simulated, tmp_path):
     case = simulated[(3, True)]
     path = tmp_path / "cal.wmcal.json"
@@ -245,28 +301,72 @@ def test_the_record_round_trips_through_a_file(simulated, tmp_path):
 
 @pytest.mark.parametrize(
     ("field", "value"),
-    [("scale", 0.5), ("readings", 0), ("above", 5000), ("median", "big"), ("beyond", 1.5)],
+    [
+        ("scale", 0.0),
+        ("readings", 0),
+        ("above", 5000),
+        ("median", "big"),
+        ("beyond", 1.5),
+        ("residual", [1, 2]),
+        ("residual.harmonics", 13),
+        ("residual.power_degree", 1.5),
+        ("residual.power_range", [1.2, 1.1]),
+        ("residual.coefficients_w", [[0.0, 0.0, 0.0]]),
+        ("residual.readings", 0),
+        ("residual.median", -1.0),
+        ("residual.spread_coefficients", [0.0, 1.0]),
+        ("residual.spread_coefficients", [0.5, 0.0, 0.0]),
+        ("residual.spread_coefficients", "wide"),
+        # the physical ranges (the loader's rules, OFF_MODEL_STATE_RULES)
+        ("readings", 1e293),
+        ("median", 1e293),
+        ("residual.readings", 10**9),
+        ("residual.power_range", [1e-9, 1.0]),
+        ("residual.coefficients_w", [[1e293] * 3] * 21),
+        ("residual.spread_coefficients", [0.0, 50.0, 0.0]),
+    ],
 )
 def test_a_bad_record_is_refused_with_its_field(simulated, tmp_path, field, value):
     path = tmp_path / "cal.wmcal.json"
     simulated[(3, True)].calibration.save(path)
     document = json.loads(path.read_text())
-    document["state"]["off_model"][field] = value
+    record = document["state"]["off_model"]
+    *parents, name = field.split(".")
+    for parent in parents:
+        record = record[parent]
+    record[name] = value
     path.write_text(json.dumps(document))
     with pytest.raises(wm.FileFormatError, match=f"off_model.{field}"):
         wm.load_calibration(path)
 
 
+def test_a_first_round_record_must_scale_up(simulated, tmp_path):
+    """Without a residual the scale is the median's over the noise's, at least 1."""
+    path = tmp_path / "cal.wmcal.json"
+    simulated[(3, True)].calibration.save(path)
+    document = json.loads(path.read_text())
+    del document["state"]["off_model"]["residual"]
+    document["state"]["off_model"]["scale"] = 0.5
+    path.write_text(json.dumps(document))
+    with pytest.raises(wm.FileFormatError, match="off_model.scale' must be a number >= 1"):
+        wm.load_calibration(path)
+
+
 # ---------------------------------------------------------------------------- stream
-def test_the_stream_flags_what_flags_gives_about_the_scaled_threshold(simulated):
-    """Readings moved off the compressing device's cone by amounts about its scaled
-    threshold (found by bisection): the stream's screen gives way to the exact test there,
-    and both flag the same readings."""
-    case = simulated[(3, True)]
+@pytest.mark.parametrize("data", ["model error 3", "measured"])
+def test_the_stream_flags_what_flags_gives_about_the_threshold(simulated, request, data):
+    """Readings moved off the cone by amounts about the threshold (found by bisection), and
+    good ones: with a learned residual the stream takes the test ``flags`` takes, at the
+    retrieved phase (no screen), and both flag the same readings. The measured coupler's
+    threshold changes with the phase."""
+    case = request.getfixturevalue("measured") if data == "measured" else simulated[(3, True)]
     calibration = case.calibration
+    assert calibration.off_model_basis_.residual is not None
     clean = case.good[0]
     direction = np.array([1.0, -0.3, 0.1]) * POWER_W
 
+    if data == "measured":
+        direction = np.array([1.0, -0.3, 0.1]) * np.abs(clean).max()
     high = threshold_amount(calibration, clean, direction)
     amounts = high * np.array([0.5, 0.9, 0.999, 1.0 - 1e-9, 1.0, 1.001, 1.1])
     rows = np.vstack([clean + amounts[:, None] * direction, case.good[:200]])
@@ -284,14 +384,26 @@ def test_a_wideband_calibration_with_a_model_error_reads_its_readings_unflagged(
     calibration = fitted(
         wm.WidebandCalibrator(fsr_hz=50e9), bench.compressed(sweep, largest), sweep_hz
     )
-    assert calibration.off_model_basis_.model_error
+    assert calibration.off_model_basis_.residual is not None
+    clean = fitted(wm.WidebandCalibrator(fsr_hz=50e9), sweep, sweep_hz)
+    assert not clean.off_model_basis_.model_error
     truth = rng.uniform(sweep_hz.min(), sweep_hz.max(), 2000)
-    good = bench.compressed(device.powers(truth, POWER_W, NOISE_W, rng=rng), largest)
+    plain = device.powers(truth, POWER_W, NOISE_W, rng=rng)
+    good = bench.compressed(plain, largest)
     coarse = truth + rng.normal(0.0, 1e9, truth.size)
     flags = calibration.flags(good, coarse_hz=coarse)
     assert np.mean(flags & OFF_MODEL > 0) <= 0.01
     streamed = [record.flags for record in calibration.stream(good[:100], coarse_hz=coarse[:100])]
     np.testing.assert_array_equal(streamed, flags[:100])
+    # a glitch of 10 noise standard deviations on a random port: the compressing device's
+    # calibration, its residual subtracted, sees it about as often as the clean one does
+    port = rng.integers(0, 3, truth.size)
+    step = np.zeros_like(good)
+    step[np.arange(truth.size), port] = rng.choice([-1.0, 1.0], truth.size) * 10 * NOISE_W
+    seen = calibration.flags(good + step, coarse_hz=coarse) & OFF_MODEL > 0
+    seen_clean = clean.flags(plain + step, coarse_hz=coarse) & OFF_MODEL > 0
+    assert np.count_nonzero(seen_clean) >= 200
+    assert np.count_nonzero(seen) >= 0.9 * np.count_nonzero(seen_clean)
 
 
 # ---------------------------------------------------------------------------- false alarms

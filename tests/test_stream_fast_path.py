@@ -150,6 +150,44 @@ def test_a_thermal_calibration_streams_its_numbers_and_temperature_flags(device)
     assert bits & FLAG.TEMPERATURE_RANGE
 
 
+@pytest.mark.parametrize("case", ["pinv", "ml", "thermal"])
+def test_a_learned_residual_streams_the_flags_of_its_batch_methods(device, case):
+    """Detectors that compress by 5 % at the sweep's largest reading: the fit learns the
+    residual the sweep's readings share and tests what remains at the retrieved phase (no
+    screen); the stream gives the numbers and flags of the batch methods, on good readings
+    and on readings glitched about the threshold."""
+    thermal = device.with_thermal("sin")
+    if case == "thermal":
+        powers, frequency, temperature = thermal_sweep(thermal, 150, NOISE_W, 1)
+    else:
+        frequency = device.sweep_hz(600)
+        powers, temperature = device.powers(frequency, POWER_W, NOISE_W, rng=1), None
+    largest = float(powers.max())
+    squeezed = powers - 0.05 * powers**2 / largest
+    if case == "thermal":
+        cal = _fitted(wm.ThermalCalibrator(), squeezed, frequency, temperature_k=temperature)
+    else:
+        cal = _fitted(wm.Calibrator(fsr_hz=50e9, retrieval=case), squeezed, frequency)
+    assert cal.off_model_basis_.residual is not None
+    rng = np.random.default_rng(12)
+    truth = device.center_hz + rng.uniform(-0.5, 0.5, 60) * device.true_fsr_hz
+    kelvin = rng.uniform(290.0, 296.0, truth.size)
+    rows = np.vstack(
+        [
+            thermal.powers([f], POWER_W, NOISE_W, rng=rng, temperature_k=t)
+            if case == "thermal"
+            else device.powers([f], POWER_W, NOISE_W, rng=rng)
+            for f, t in zip(truth, kelvin, strict=True)
+        ]
+    )
+    rows = rows - 0.05 * rows**2 / largest
+    steps = np.linspace(0.0, 40.0, 20)[:, None] * NOISE_W * np.array([1.0, -0.5, 0.2])
+    rows = np.vstack([rows, rows[:20] + steps])
+    inputs = {"temperature_k": np.concatenate([kelvin, kelvin[:20]])} if case == "thermal" else {}
+    flags = assert_streams_its_numbers(cal, rows, **inputs)
+    assert 0 < np.count_nonzero(flags[-20:] & FLAG.OFF_MODEL) < 20
+
+
 # ---------------------------------------------------------------------------- cascade
 @pytest.fixture(scope="module", params=["plain", "offsets fitted", "dark offsets"])
 def cascade(request):

@@ -119,9 +119,11 @@ class Calibrator(
         RMS frequency error on the calibration sweep itself (Hz).
     off_model_basis_ : OffModelBasis or None
         The sweep's distances to the cone and what ``OFF_MODEL`` compares a reading's
-        with: the detector noise, or, where those distances show a model error, the noise
-        scaled to their median (:mod:`~wavemeter.calibration.contract.off_model`). None for
-        a file written by 0.7 or older (the detector-noise test).
+        with: the detector noise or, where those distances show a model error, the
+        residual the sweep's readings share at their phase (subtracted first) and the
+        noise's distribution scaled to what remains
+        (:mod:`~wavemeter.calibration.contract.off_model`). None for a file written by 0.7
+        or older (the detector-noise test).
     diagnostics_ : dict
         The sweep's own FSR estimate, every port's fringe amplitude and significance, the
         fit diagnostics (:mod:`wavemeter.calibration.checks.misfit`), the readings they saw
@@ -284,7 +286,8 @@ class Calibrator(
         if noise is not None:  # weight and state uncertainties with the model-free noise
             self.port_noise_std_w_, self.noise_dof_ = noise
             self._set_covariance(ctx)
-        self._judge_distances(self._ml_cone_distance(readings))
+        distance = self._cone_distance(readings, self._ml_phase_rad(readings))
+        self._judge_distances(distance, readings, self.map_, self._phase(readings))
         self.diagnostics_, notes = diagnostics_record(
             ctx, misfit, method=self._method_record(ctx), notes=self._fit_notes(ctx)
         )

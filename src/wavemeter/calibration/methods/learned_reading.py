@@ -201,22 +201,30 @@ class LearnedReadingMixin(OffModelMixin):
         residual = (readings - power[:, None] * (cone_vectors(phase_rad) @ self.map_.T)) / noise
         return np.einsum("ij,ij->i", residual, residual)
 
-    def _ml_cone_distance(self, readings) -> np.ndarray:
-        """Weighted squared distance (N,) of each reading (offset-corrected) to the
-        calibrated cone at the maximum-likelihood phase: the nearest point."""
-        phase = fused_ml_phase_rad(readings, self.map_, noise_std_w=self.port_noise_std_w_)
-        return self._cone_distance(readings, phase)
+    def _ml_phase_rad(self, readings) -> np.ndarray:
+        """The maximum-likelihood phase (N,) of offset-corrected readings: the cone's point
+        nearest each."""
+        return fused_ml_phase_rad(readings, self.map_, noise_std_w=self.port_noise_std_w_)
 
     def _off_model(self, readings, inputs: ReadingInputs):
         """Each reading's distance to the calibrated cone, tested against the threshold
-        (:class:`~wavemeter.calibration.contract.off_model.OffModelMixin`)."""
-        return self._ml_cone_distance(readings) > self._off_model_threshold()
+        (:class:`~wavemeter.calibration.contract.off_model.OffModelMixin`); where the
+        sweep's readings share a learned residual, what remains of the reading's residual
+        at its retrieved phase once that is subtracted."""
+        if self._off_model_learned():
+            return self._off_model_remaining(readings, self.map_, self._phase(readings))
+        return self._cone_distance(readings, self._ml_phase_rad(readings)) > (
+            self._off_model_threshold()
+        )
 
     def _screened_off_model(self, readings, phase_rad) -> np.ndarray:
         """:meth:`_off_model` of readings whose retrieved phase is ``phase_rad``: the
         distance at that phase is at least the one at the maximum-likelihood phase, so a
         reading below the threshold there by more than ``SCREEN_MARGIN`` (relative) is on
-        the model; the others take the test itself."""
+        the model; the others take the test itself. With a learned residual the test is
+        at the retrieved phase itself: no screen."""
+        if self._off_model_learned():
+            return self._off_model_remaining(readings, self.map_, phase_rad)
         threshold = self._off_model_threshold()
         suspect = self._cone_distance(readings, phase_rad) > threshold * (1.0 - SCREEN_MARGIN)
         off = np.zeros(readings.shape[0], dtype=bool)

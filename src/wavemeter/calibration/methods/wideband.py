@@ -265,7 +265,9 @@ class WidebandCalibrator(
             self.port_noise_std_w_, self.noise_dof_ = noise
             self._set_covariance(ctx)
         maps = self.band_model_.maps_at(sweep.frequency_hz)
-        self._judge_distances(band_cone_distance(readings, maps, self.port_noise_std_w_))
+        noise = self.port_noise_std_w_
+        distance = band_cone_distance(readings, maps, noise)
+        self._judge_distances(distance, readings, maps, self._retrieve(readings, maps))
         record = self._band_record(ctx, self._residual_phase_by_window(ctx, readings))
         self.diagnostics_, notes = diagnostics_record(ctx, misfit, method={"wideband": record})
         return notes

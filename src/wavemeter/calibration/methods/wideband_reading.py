@@ -138,8 +138,11 @@ class BandReadingMixin(OffModelMixin):
         flags[np.abs(frequency - coarse) > ORDER_MARGIN_FSR * local_fsr] |= (
             ReadingFlag.ORDER_AMBIGUOUS
         )
-        off_model = band_off_model(
-            readings, maps, self.port_noise_std_w_, self._off_model_threshold()
-        )
+        if self._off_model_learned():
+            off_model = self._off_model_remaining(readings, maps, phase)
+        else:
+            off_model = band_off_model(
+                readings, maps, self.port_noise_std_w_, self._off_model_threshold()
+            )
         flags[off_model] |= ReadingFlag.OFF_MODEL
         return Readout(frequency, std, flags, {}, phase)
