@@ -34,7 +34,14 @@ from ..fitting.steps import (
 from ..fitting.sweep import FitContext, Sweep
 from ..models.band_reading import band_phase_rad
 from ..models.learned_fit import RETRIEVALS, fit_learned_map, port_noise_std_w
-from ..models.wideband_fit import BandModel, check_monotonic, fit_band, map_coefficients
+from ..models.wideband_fit import (
+    BandModel,
+    band_objects,
+    check_monotonic,
+    fit_band,
+    map_coefficients,
+)
+from ..models.wideband_fringe import fringe_phase_coefficients, fringe_phase_jacobian
 from ..models.wideband_orders import (
     MAX_MAP_ORDER,
     MAX_PHASE_ORDER,
@@ -55,6 +62,9 @@ __all__ = ["ORDER_MARGIN_FSR", "WidebandCalibrator"]
 MIN_CENTRAL_READINGS = 16
 #: phase order of the growth of the fit when the order is to be chosen
 GROWTH_PHASE_ORDER = 2
+#: what ``phase_coefficients_`` are of: the fringe phase, or (files written before it was
+#: reported) the model phase ``t``
+PHASE_DEFINITIONS = ("fringe", "model")
 
 
 def _order(name: str, value, lowest: int, highest: int) -> None:
@@ -100,15 +110,22 @@ class WidebandCalibrator(
     Attributes
     ----------
     phase_coefficients_ : ndarray, shape (P,)
-        Taylor coefficients ``c_i`` (s^i) of the phase in angular detuning:
-        ``t = sum_i c_i w^i / i!``, ``w = 2 pi (f - center_hz_)``: the delay ``c_1``
-        (``delay_s_``), the group-delay dispersion ``c_2`` (s^2), ...
-        A map of order ``J`` may rotate about the cone axis along the band, which is a
-        phase term of order up to ``J``: those coefficients are told from the map only to
-        second order (their standard errors in ``diagnostics_["wideband"]`` say how well);
-        the frequencies read are not affected.
+        Taylor coefficients ``c_i`` (s^i) of the fringe phase at ``center_hz_`` in angular
+        detuning, ``psi = sum_i c_i w^i / i!``, ``w = 2 pi (f - center_hz_)``: the delay
+        ``c_1`` (``delay_s_``), the group-delay dispersion ``c_2`` (s^2), ... The fringe
+        phase is the model phase plus the map's rotation along the band, averaged over the
+        ports by their fringe power
+        (:mod:`~wavemeter.calibration.models.wideband_fringe`): what the readings tell,
+        whatever share of it the fit gave the map. Their standard errors are in
+        ``diagnostics_["wideband"]`` and the summary.
     phase_coefficients_rad_ : ndarray, shape (P,)
-        The same as ``b_i`` (rad): ``t = sum_i b_i y^i``, ``y = (f - center_hz_) / h``.
+        The model phase's coefficients ``b_i`` (rad): ``t = sum_i b_i y^i``, ``y = (f -
+        center_hz_) / h``. A map of order ``J`` rotating about the cone axis is a phase
+        term of order up to ``J``, so ``b`` is told from the map only through its highest
+        orders (weakly); the frequencies read are not affected.
+    phase_definition_ : {"fringe", "model"}
+        What ``phase_coefficients_``, ``delay_s_`` and ``fsr_hz_`` are of: the fringe phase;
+        ``"model"`` (the model phase ``t``) for calibration files written before.
     map_coefficients_ : ndarray, shape (J + 1, n, 3)
         Legendre coefficients ``A_j`` (W) of the map ``A(y) = sum_j A_j L_j(y)``.
     band_model_ : BandModel
@@ -123,8 +140,8 @@ class WidebandCalibrator(
     half_span_hz_ : float
         ``h`` (Hz), half the band.
     delay_s_, fsr_hz_ : float
-        Delay ``c_1`` (s) and FSR ``1 / c_1`` (Hz) at ``center_hz_``; :meth:`fsr_hz_at`
-        gives the local FSR.
+        Delay ``c_1`` (s) and FSR ``1 / c_1`` (Hz) of the fringe at ``center_hz_``;
+        :meth:`fsr_hz_at` gives the local FSR.
     offset_w_ : ndarray, shape (n,)
         Fitted per-port offsets (W); zeros unless fitted.
     port_noise_std_w_, noise_std_w_, noise_dof_, parameter_covariance_
@@ -188,7 +205,7 @@ class WidebandCalibrator(
             self.center_hz_,
             range(sweep.ports),
             self.fringe_ports_needed,
-            phase_rad=ctx.fit.phase_rad,
+            objects=self._fitted_design(ctx),
         )
         self._take_band_fit(ctx)
         self._take_power_range(sweep.powers_w)
@@ -203,6 +220,14 @@ class WidebandCalibrator(
         record = self._band_record(ctx, self._residual_phase_by_window(ctx, readings))
         self.diagnostics_, notes = diagnostics_record(ctx, misfit, method={"wideband": record})
         return notes
+
+    def _fitted_design(self, ctx: BandContext) -> np.ndarray:
+        """The band model's design columns (N, q) at the fitted phase: each port's fringe
+        and noise are judged under the band model (under one map its change along the
+        band would count as noise)."""
+        frequency_hz = ctx.sweep.frequency_hz
+        y = (frequency_hz - self.center_hz_) / (0.5 * float(np.ptp(frequency_hz)))
+        return band_objects(y, ctx.fit.phase_rad, ctx.sweep.scale, ctx.orders.map_order, ctx.affine)
 
     def _central_rows(self, frequency_hz: np.ndarray) -> np.ndarray:
         """The readings within one design FSR of the reading nearest the middle of the band
@@ -317,9 +342,10 @@ class WidebandCalibrator(
         self.port_noise_std_w_ = np.maximum(noise, np.finfo(float).eps * np.abs(powers).max())
         self._set_covariance(ctx)
 
-    def _set_model(self, coefficients_rad, map_coefficients_w) -> None:
-        """The learned band model and the attributes derived from it; raises when the
-        phase does not rise across the band."""
+    def _set_model(self, coefficients_rad, map_coefficients_w, definition="fringe") -> None:
+        """The learned band model and the attributes derived from it (the phase
+        coefficients of the ``definition`` phase); raises when the phase does not rise
+        across the band."""
         self.band_model_ = BandModel(
             self.center_hz_,
             self.half_span_hz_,
@@ -329,7 +355,14 @@ class WidebandCalibrator(
         check_monotonic(self.band_model_)
         self.phase_coefficients_rad_ = self.band_model_.phase_coefficients_rad
         self.map_coefficients_ = self.band_model_.map_coefficients_w
-        self.phase_coefficients_ = self.phase_coefficients_rad_ * self._seconds_per_rad()
+        self.phase_definition_ = definition
+        order = self.phase_coefficients_rad_.size
+        phase = (
+            fringe_phase_coefficients(self.band_model_, order)
+            if definition == "fringe"
+            else self.phase_coefficients_rad_
+        )
+        self.phase_coefficients_ = phase * self._seconds_per_rad()
         self.delay_s_ = float(self.phase_coefficients_[0])
         self.fsr_hz_ = 1.0 / self.delay_s_
 
@@ -346,16 +379,24 @@ class WidebandCalibrator(
         return columns > 3 * (self.map_order_ + 1)
 
     # ------------------------------------------------------------------ reporting
+    def _phase_coefficients_std_s(self) -> np.ndarray:
+        """Standard errors (s^i) of ``phase_coefficients_``: the delta method with the
+        covariance of every fitted number (the fringe phase's gradient by the map and the
+        model phase, :func:`fringe_phase_jacobian`)."""
+        order = self.phase_order_
+        if self.phase_definition_ == "fringe":
+            gradient = fringe_phase_jacobian(self.band_model_, order, self._affine())
+            variance = np.einsum("ip,pq,iq->i", gradient, self.parameter_covariance_, gradient)
+        else:
+            variance = np.diag(self.parameter_covariance_)[-order:]
+        return np.sqrt(np.maximum(variance, 0.0)) * self._seconds_per_rad()
+
     def _fsr_std_hz(self) -> float | None:
         """``FSR^2 sigma(c_1)`` (Hz)."""
-        std = float(np.sqrt(self.parameter_covariance_[-self.phase_order_, -self.phase_order_]))
-        return self.fsr_hz_**2 * std * self._seconds_per_rad()[0]
+        return self.fsr_hz_**2 * float(self._phase_coefficients_std_s()[0])
 
     def _summary_values(self) -> dict:
-        std = (
-            np.sqrt(np.diag(self.parameter_covariance_)[-self.phase_order_ :])
-            * self._seconds_per_rad()
-        )
+        std = self._phase_coefficients_std_s()
         values = {
             "delay_s": FitValue(self.delay_s_, float(std[0]), "s"),
             "phase_order": FitValue(float(self.phase_order_), None, "", "phase order P"),
@@ -379,6 +420,7 @@ class WidebandCalibrator(
             "phase_order": self.phase_order_,
             "map_order": self.map_order_,
             "phase_coefficients_rad": self.phase_coefficients_rad_.tolist(),
+            "phase_definition": self.phase_definition_,
             "map_coefficients": self.map_coefficients_.tolist(),
             "n_parameters": self.n_parameters_,
             "cost_w2": self.cost_,
@@ -399,9 +441,15 @@ class WidebandCalibrator(
         self.half_span_hz_ = 0.5 * (self.span_hz_[1] - self.span_hz_[0])
         if not self.half_span_hz_ > 0:
             raise ValueError("field 'span_hz' must have low < high for a wide-band calibration")
+        definition = state.get("phase_definition", "model")  # files before it: model
+        if definition not in PHASE_DEFINITIONS:
+            raise ValueError(
+                f"field 'phase_definition' must be one of {PHASE_DEFINITIONS}, got {definition!r}"
+            )
         self._set_model(
             state_array(state, "phase_coefficients_rad", (phase_order,)),
             state_array(state, "map_coefficients", (map_order + 1, ports, 3)),
+            definition,
         )
         self.cost_ = state_float(state, "cost_w2", minimum=0.0)
         self.residual_rms_ = state_float(state, "residual_rms_w", minimum=0.0)
