@@ -22,7 +22,6 @@ from ...units import frequency_text
 from ...validation import check_choice, check_positive
 from ..contract.base import BaseCalibrator
 from ..contract.summary import FitValue
-from ..files.document import state_array, state_float
 from ..fitting.steps import (
     SweepFitMixin,
     check_ports,
@@ -32,7 +31,7 @@ from ..fitting.steps import (
     rms,
 )
 from ..fitting.sweep import FitContext, Sweep
-from ..models.band_reading import band_phase_rad
+from ..models.band_reading import band_cone_distance, band_phase_rad
 from ..models.learned_fit import RETRIEVALS, fit_learned_map, port_noise_std_w
 from ..models.wideband_fit import (
     BandModel,
@@ -54,17 +53,15 @@ from ..models.wideband_orders import (
 )
 from .wideband_checks import BandChecksMixin
 from .wideband_reading import ORDER_MARGIN_FSR, BandReadingMixin
-from .wideband_report import PHASE_COEFFICIENT_NAMES, BandReportMixin
+from .wideband_report import BAND_RECORD_RULES, PHASE_COEFFICIENT_NAMES, BandReportMixin
+from .wideband_state import MAX_PHASE_TERM, BandStateMixin
 
-__all__ = ["ORDER_MARGIN_FSR", "WidebandCalibrator"]
+__all__ = ["MAX_PHASE_TERM", "ORDER_MARGIN_FSR", "WidebandCalibrator"]
 
 #: readings within one design FSR of the middle start the fit: at least this many
 MIN_CENTRAL_READINGS = 16
 #: phase order of the growth of the fit when the order is to be chosen
 GROWTH_PHASE_ORDER = 2
-#: what ``phase_coefficients_`` are of: the fringe phase, or (files written before it was
-#: reported) the model phase ``t``
-PHASE_DEFINITIONS = ("fringe", "model")
 
 
 def _order(name: str, value, lowest: int, highest: int) -> None:
@@ -87,7 +84,12 @@ class BandContext(FitContext):
 
 
 class WidebandCalibrator(
-    BandReadingMixin, BandReportMixin, BandChecksMixin, SweepFitMixin, BaseCalibrator
+    BandReadingMixin,
+    BandReportMixin,
+    BandChecksMixin,
+    BandStateMixin,
+    SweepFitMixin,
+    BaseCalibrator,
 ):
     """Learned calibration of a band of many FSRs (module docstring).
 
@@ -144,19 +146,42 @@ class WidebandCalibrator(
         :meth:`fsr_hz_at` gives the local FSR.
     offset_w_ : ndarray, shape (n,)
         Fitted per-port offsets (W); zeros unless fitted.
-    port_noise_std_w_, noise_std_w_, noise_dof_, parameter_covariance_
-        As for :class:`~wavemeter.calibration.methods.learned.Calibrator`; the covariance holds the
+    port_noise_std_w_, noise_std_w_, noise_dof_, parameter_covariance_, off_model_basis_
+        As for :class:`~wavemeter.calibration.methods.learned.Calibrator` (the sweep's cone
+        distances each under the map at its frequency); the covariance holds the
         map coefficients (row-major over ports, then the design columns) and ``b``.
     diagnostics_ : dict
         As the learned calibrator's, plus ``"wideband"``: orders, how they were chosen
         (the cross-validation curve), the phase coefficients with standard errors and the
         residual phase per FSR window across the band.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> chip = wm.Interferometer.table1(ports=3, seed=7).with_spectral("sin", seed=3)  # dispersion
+    >>> f_hz = chip.sweep_hz(2000, span_fsr=10)  # ten FSRs, 500 GHz
+    >>> powers = chip.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal = wm.WidebandCalibrator(fsr_hz=50e9).fit(powers, f_hz)
+
+    Dispersion bends the phase: cross-validation on held-out FSRs picks a quadratic phase
+    and a map linear in frequency:
+
+    >>> cal.phase_order_, cal.map_order_
+    (2, 1)
+    >>> test_hz = f_hz[50::400] + 1e8
+    >>> test = chip.powers(test_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> coarse_hz = test_hz + 5e9  # a coarse frequency within half an FSR picks the order
+    >>> error_hz = cal.predict(test, coarse_hz=coarse_hz) - test_hz
+    >>> print(np.abs(error_hz).max() < 100e6)
+    True
     """
 
     method = "wideband"
     requires = frozenset({"coarse_hz"})
     comparison_misfits_expected = True
     capabilities = frozenset({"frequency_std", "crlb", "power_monitor"})
+    diagnostics_rules = BAND_RECORD_RULES
 
     def __init__(
         self,
@@ -217,6 +242,8 @@ class WidebandCalibrator(
         if noise is not None:  # weight and state uncertainties with the model-free noise
             self.port_noise_std_w_, self.noise_dof_ = noise
             self._set_covariance(ctx)
+        maps = self.band_model_.maps_at(sweep.frequency_hz)
+        self._judge_distances(band_cone_distance(readings, maps, self.port_noise_std_w_))
         record = self._band_record(ctx, self._residual_phase_by_window(ctx, readings))
         self.diagnostics_, notes = diagnostics_record(ctx, misfit, method={"wideband": record})
         return notes
@@ -413,58 +440,3 @@ class WidebandCalibrator(
                 PHASE_COEFFICIENT_NAMES.get(order, f"phase coefficient c{order}"),
             )
         return values
-
-    # ------------------------------------------------------------------ files
-    def _state(self) -> dict:
-        return {
-            "phase_order": self.phase_order_,
-            "map_order": self.map_order_,
-            "phase_coefficients_rad": self.phase_coefficients_rad_.tolist(),
-            "phase_definition": self.phase_definition_,
-            "map_coefficients": self.map_coefficients_.tolist(),
-            "n_parameters": self.n_parameters_,
-            "cost_w2": self.cost_,
-            "residual_rms_w": self.residual_rms_,
-            "noise_std_w": self.noise_std_w_,
-            "port_noise_std_w": self.port_noise_std_w_.tolist(),
-            "noise_dof": self.noise_dof_,
-            "parameter_covariance": self.parameter_covariance_.tolist(),
-        }
-
-    def _set_state(self, state: dict) -> None:
-        ports = self.n_ports_
-        phase_order = int(state_float(state, "phase_order", minimum=1, maximum=MAX_PHASE_ORDER))
-        map_order = int(state_float(state, "map_order", minimum=0, maximum=MAX_MAP_ORDER))
-        if phase_order != state["phase_order"] or map_order != state["map_order"]:
-            raise ValueError("fields 'phase_order' and 'map_order' must be integers")
-        self.phase_order_, self.map_order_ = phase_order, map_order
-        self.half_span_hz_ = 0.5 * (self.span_hz_[1] - self.span_hz_[0])
-        if not self.half_span_hz_ > 0:
-            raise ValueError("field 'span_hz' must have low < high for a wide-band calibration")
-        definition = state.get("phase_definition", "model")  # files before it: model
-        if definition not in PHASE_DEFINITIONS:
-            raise ValueError(
-                f"field 'phase_definition' must be one of {PHASE_DEFINITIONS}, got {definition!r}"
-            )
-        self._set_model(
-            state_array(state, "phase_coefficients_rad", (phase_order,)),
-            state_array(state, "map_coefficients", (map_order + 1, ports, 3)),
-            definition,
-        )
-        self.cost_ = state_float(state, "cost_w2", minimum=0.0)
-        self.residual_rms_ = state_float(state, "residual_rms_w", minimum=0.0)
-        self.noise_std_w_ = state_float(state, "noise_std_w", minimum=0.0)
-        self.port_noise_std_w_ = state_array(state, "port_noise_std_w", (ports,))
-        if np.any(self.port_noise_std_w_ <= 0):
-            raise ValueError("field 'port_noise_std_w' must hold positive numbers (W)")
-        self.noise_dof_ = state_float(state, "noise_dof", minimum=2.0, open_minimum=True)
-        columns = 3 * (map_order + 1)
-        self.parameter_covariance_ = state_array(state, "parameter_covariance", (None, None))
-        sizes = (ports * columns + phase_order, ports * (columns + 1) + phase_order)
-        size = self.parameter_covariance_.shape[0]
-        if self.parameter_covariance_.shape != (size, size) or size not in sizes:
-            raise ValueError(
-                f"field 'parameter_covariance' must be square of size {sizes[0]} or {sizes[1]}, "
-                f"got shape {self.parameter_covariance_.shape}"
-            )
-        self.n_parameters_ = parameter_count(ports, phase_order, map_order, self._affine())

@@ -1,19 +1,13 @@
 """The fringe phase of the wide-band model: what its delay, dispersion and FSR are.
 
-In the model ``p = A(y) u(t(y))`` the phase ``t`` and the map are not told apart by the
-readings alone: a rotation ``theta(y)`` of the map about the cone axis is a change of
-phase (``A(y) u(t + theta) = A(y) R(theta) u(t)``), and a Legendre map of order ``J``
-absorbs the rotation up to ``y^J``; the phase coefficients ``b`` are told from the map only
-through its highest orders, weakly and far from linearly. What the readings do tell is the
-phase of each port's fringe, ``p_k = Re(z_k(y) e^(i t(y))) + ...`` with the complex fringe
-amplitude ``z_k = A_k0 - i A_k1``: ``psi_k = t + arg z_k``, which such a rotation leaves
-unchanged. The phase coefficients reported (delay, dispersion, ...) are therefore those of
-the *fringe phase* ``psi = t + sum_k w_k arg z_k``, the mean of the ports' fringe phases
-weighted by their fringe power at the centre, ``w_k = |z_k(0)|^2 / sum_j |z_j(0)|^2`` (the
-weights of the rotation that best aligns the maps): their Taylor coefficients at ``y = 0``
-(:func:`fringe_phase_coefficients`), their gradient by every fitted number for the delta
-method (:func:`fringe_phase_jacobian`) and the local FSR ``2 pi / (dpsi / df)``
-(:func:`fringe_slope_rad_per_hz`). Theory: the docs' wide-band page.
+The readings tell the model phase ``t`` from the map only weakly (a rotation of the map
+about the cone axis is a change of phase); they do tell each port's fringe phase ``t +
+arg z_k``, ``z_k = A_k0 - i A_k1``. This module owns the *fringe phase* ``psi = t + sum_k
+w_k arg z_k`` (weights ``w_k`` the ports' fringe power at the centre): its Taylor
+coefficients at ``y = 0`` (:func:`fringe_phase_coefficients`), their gradient by every
+fitted number for the delta method (:func:`fringe_phase_jacobian`) and the local FSR ``2 pi
+/ (dpsi / df)`` (:func:`fringe_slope_rad_per_hz`). Theory: the docs' wide-band page
+(``docs/theory/wideband.rst``, "What the phase coefficients are").
 """
 
 from __future__ import annotations
