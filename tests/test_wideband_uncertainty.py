@@ -73,6 +73,21 @@ def test_noiseless_sweep_gives_the_true_fringe_phase_whatever_the_map_absorbs():
     )
 
 
+def test_the_simulators_fringe_fsr_is_the_fringe_phase_truth(guide):
+    """``Interferometer.fringe_fsr_hz`` (a central difference of the true map's fringe
+    phase, what ``simulate`` prints) is the truth of ``fsr_hz_`` (``tests/_fringe.py``, a
+    Chebyshev fit): the two agree to the difference's error, (1 GHz / 1 THz)^2 of the
+    couplers' share, itself below 1e-4 of the FSR; the calibration lies within its
+    standard errors of it."""
+    device, calibration = guide
+    truth_hz = 1.0 / truth_of(device, calibration)[0]
+    fringe_hz = device.fringe_fsr_hz(calibration.center_hz_)[0]
+    assert fringe_hz == pytest.approx(truth_hz, rel=1e-10)
+    assert abs(fringe_hz / device.local_fsr_hz(np.array([calibration.center_hz_]))[0] - 1) > 1e-7
+    fsr = calibration.summary().values["fsr_hz"]
+    assert abs(fsr.value - fringe_hz) < MAX_Z * fsr.stderr
+
+
 def test_phase_coefficients_lie_within_their_standard_errors_of_the_truth(guide):
     device, calibration = guide
     record = calibration.diagnostics_["wideband"]
