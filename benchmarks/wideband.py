@@ -38,7 +38,10 @@ drawn to ``--figure``.
 Usage: ``python benchmarks/wideband.py [--devices 1] [--test 5000] [--repeats 3] [--seed 0]
 [--figure docs/figures/wideband_residual_phase.png] [--quick]`` (``--quick``, or the
 environment variable ``WAVEMETER_BENCH_QUICK=1``: a 12-FSR band of 300 samples per FSR, for
-the smoke test).
+the smoke test). ``--coverage SEEDS`` prints instead whether the standard errors of the
+fitted delay, dispersion and higher phase coefficients cover the simulation's truth over
+that many seeds, and whether ``frequency_std_hz`` covers the readings' errors
+(:mod:`_wideband_coverage`, with its targets).
 """
 
 from __future__ import annotations
@@ -70,6 +73,8 @@ from _montecarlo import (
     wideband_crlb_hz,
 )
 from _script import Parser, check_writable, positive_int, save_png
+from _wideband_coverage import CASES as COVERAGE_CASES
+from _wideband_coverage import coverage_table, reading_table, run_coverage
 
 import wavemeter as wm
 
@@ -888,6 +893,33 @@ def warm_up() -> None:
         fit_recorded(calibrator, powers_w, frequency_hz)
 
 
+def print_coverage(seeds: int, first_seed: int) -> None:
+    """The coverage table (module :mod:`_wideband_coverage`) on stdout."""
+    start = time.perf_counter()
+    outcomes = run_coverage(seeds, first_seed)
+    print(file=sys.stderr)
+    print(
+        f"## Wide-band standard errors against the truth: seeds {first_seed}-"
+        f"{first_seed + seeds - 1} of wavemeter simulate's scenarios\n"
+    )
+    for case in COVERAGE_CASES:
+        print(f"- {case.key}: simulate {case.title}")
+    print(
+        "\nz = (fit - truth) / stated std per seed; where the standard errors hold, z std is 1 "
+        "and |z| < 1.96 in 95 % of the seeds. Fringe phase: the phase_coefficients_ "
+        "reported (delay, dispersion, ...); model phase t: the model's own coefficients and "
+        "their standard errors (what was reported before), against the simulator's t.\n"
+    )
+    print(coverage_table(outcomes))
+    print(
+        "\nThe readings: z = (read - truth) / frequency_std_hz of the test readings of each "
+        "seed; its standard deviation per seed, the median over the seeds against the target "
+        "band for that many readings.\n"
+    )
+    print(reading_table(outcomes))
+    print(f"\nfull run: {time.perf_counter() - start:.0f} s wall clock")
+
+
 def main(argv=None) -> None:
     parser = Parser(description=__doc__.splitlines()[0])
     parser.add_argument("--devices", type=positive_int, default=1, help="devices per port count")
@@ -909,7 +941,18 @@ def main(argv=None) -> None:
         action="store_true",
         help=f"a small band (smoke test; also {QUICK_ENV}=1): overrides the sizes",
     )
+    parser.add_argument(
+        "--coverage",
+        type=positive_int,
+        default=None,
+        metavar="SEEDS",
+        help="print only the coverage of the truth by the phase coefficients' standard "
+        "errors over SEEDS seeds (from --seed + 1)",
+    )
     args = parser.parse_args(argv)
+    if args.coverage is not None:
+        print_coverage(args.coverage, args.seed + 1)
+        return
     band = FULL_BAND
     if args.quick or os.environ.get(QUICK_ENV, "") not in ("", "0"):
         band, args.devices, args.test, args.repeats = QUICK_BAND, 1, QUICK_TEST, 1

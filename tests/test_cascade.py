@@ -21,6 +21,7 @@ from wavemeter.calibration.methods.cascade_handover import HANDOVER_CAUSE
 from wavemeter.calibration.methods.cascade_reading import noise_scale
 from wavemeter.model import handover_error_probability, wrap_error_probability
 
+from ._fringe import true_fringe_coefficients_s
 from .conftest import NOISE_W, POWER_W
 
 FSRS_HZ = (1e12, 100e9, 10e9)
@@ -180,11 +181,13 @@ def test_wrap_probability_of_the_coarsest_stage_is_its_posterior():
 def test_fit_records_stages_and_handovers():
     cal, _, sweep_hz = calibrated()
     assert len(cal.stages_) == 3 and cal.stage_ports_ == ((0, 1, 2), (3, 4, 5), (6, 7, 8))
-    # the finer stages span many FSRs: their delays are the chips' (the coarsest stage's
-    # sub-FSR band cannot tell a map that turns with frequency from phase curvature, so
-    # its linear phase coefficient is not the delay; its frequencies are checked below)
-    for stage, true_fsr in zip(cal.stages_[1:], device().true_fsrs_hz[1:], strict=True):
-        assert abs(stage.fsr_hz_ - true_fsr) < 5 * stage._fsr_std_hz()
+    # the finer stages span many FSRs: their fringe delays are the chips' (the coarsest
+    # stage's sub-FSR band cannot tell a map that turns with frequency from phase
+    # curvature, so its linear phase coefficient is not the delay; its frequencies are
+    # checked below)
+    for stage, chip in zip(cal.stages_[1:], device().stages[1:], strict=True):
+        truth = true_fringe_coefficients_s(chip, stage.center_hz_, stage.half_span_hz_, 1)
+        assert abs(stage.fsr_hz_ - 1.0 / truth[0]) < 5 * stage._fsr_std_hz()
     assert cal.fsr_hz_ == cal.stage_fsrs_hz_[-1]
     assert [record["to_stage"] for record in cal.handovers_] == [2, 3]
     for record in cal.handovers_:

@@ -294,6 +294,9 @@ def test_cli_c_band_sweep(capsys, tmp_path):
     assert span_hz == pytest.approx(88 * device.true_fsr_hz * (1 - 1 / 176000), rel=1e-12)
     low, high = (f"{device.local_fsr_hz(f) / 1e9:.6f} GHz" for f in table.x_hz[[0, -1]])
     assert f"local FSR {low} at the sweep's low end, {high} at its high end" in printed
+    centre_hz = 0.5 * (table.x_hz[0] + table.x_hz[-1])
+    fringe = f"{device.fringe_fsr_hz(centre_hz)[0] / 1e9:.6f} GHz"
+    assert f"the fringes' {fringe} at its centre" in printed
 
 
 @pytest.mark.parametrize(

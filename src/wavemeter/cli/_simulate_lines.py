@@ -43,7 +43,8 @@ def summary_lines(scenario, sweep: dict) -> list[str]:
 
 
 def _spectral_line(device, preset, sweep_hz: np.ndarray, scenario) -> str:
-    """The ``spectral:`` line: dispersion, slope sigmas, local FSR over the sweep."""
+    """The ``spectral:`` line: dispersion, slope sigmas, local FSR over the sweep, the
+    fringes' FSR at its centre."""
     parts = [scenario.spectral or "custom", f"dispersion {device.dispersion_s2:.3g} s^2"]
     if preset is not None:
         parts.append(
@@ -52,9 +53,11 @@ def _spectral_line(device, preset, sweep_hz: np.ndarray, scenario) -> str:
             f"{preset.responsivity_slope_sigma_per_thz:.3g} /THz"
         )
     local_hz = device.local_fsr_hz(np.array([sweep_hz.min(), sweep_hz.max()]))
+    fringe_hz = device.fringe_fsr_hz(0.5 * (sweep_hz.min() + sweep_hz.max()))[0]
     parts.append(
         f"local FSR {fsr_text(local_hz[0])} at the sweep's low end, {fsr_text(local_hz[1])} "
-        "at its high end"
+        f"at its high end, the fringes' {fsr_text(fringe_hz)} at its centre (what a wide-band "
+        "calibration's FSR estimates)"
     )
     return "spectral: " + ", ".join(parts)
 

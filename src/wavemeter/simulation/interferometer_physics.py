@@ -21,6 +21,9 @@ __all__ = ["InterferometerPhysics", "TERAHERTZ_HZ"]
 
 #: the unit of the spectral slopes: relative change per THz of detuning from ``center_hz``
 TERAHERTZ_HZ = 1e12
+#: half the step of the central difference of the fringe amplitudes' phase (Hz): their
+#: slopes change over THz, so its error is ~(step / THz)^2 of a slope already below 1e-4
+FRINGE_STEP_HZ = 1e9
 
 
 class InterferometerPhysics:
@@ -148,6 +151,45 @@ class InterferometerPhysics:
         ndarray, shape (N,), Hz
         """
         return 1.0 / self.group_delay_s(f_hz, temperature_k)
+
+    def fringe_fsr_hz(self, f_hz) -> np.ndarray:
+        """The fringes' own period (Hz) at ``f_hz`` (Hz), at the reference temperature.
+
+        2 pi over the slope of the fringe phase: the chip's phase plus the phase of each
+        port's fringe amplitude ``A_k0 - i A_k1`` in :meth:`true_map`, weighted by its
+        fringe power at ``f_hz``. The couplers' and detectors' phase slopes make it differ
+        from :meth:`local_fsr_hz`; it is what a wide-band calibration's ``fsr_hz_`` estimates
+        at its centre (the docs' wide-band page, "What the phase coefficients are").
+
+        Parameters
+        ----------
+        f_hz : array_like, shape (N,)
+            Source optical frequency (Hz).
+
+        Returns
+        -------
+        ndarray, shape (N,), Hz
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from wavemeter.simulation import Interferometer
+        >>> chip = Interferometer.table1(seed=1).with_spectral("sin", seed=2)
+        >>> f_hz = np.array([chip.center_hz])
+        >>> shift_hz = chip.fringe_fsr_hz(f_hz) - chip.local_fsr_hz(f_hz)
+        >>> bool(0 < abs(shift_hz[0]) < 1e6)  # the couplers' phase slopes: below 1 MHz here
+        True
+        """
+        f_hz = np.atleast_1d(np.asarray(f_hz, dtype=float))
+        step_hz = FRINGE_STEP_HZ
+        maps = self.true_map(frequency_hz=np.concatenate([f_hz - step_hz, f_hz, f_hz + step_hz]))
+        amplitudes = (maps[:, :, 0] - 1j * maps[:, :, 1]).reshape(3, f_hz.size, -1)
+        power = np.abs(amplitudes[1]) ** 2
+        turn = np.angle(amplitudes[2] / amplitudes[0]) / (2.0 * step_hz)  # rad/Hz per port
+        slope = 2.0 * np.pi * self.group_delay_s(f_hz) + np.sum(turn * power, axis=1) / np.sum(
+            power, axis=1
+        )
+        return 2.0 * np.pi / slope
 
     def _port_fields(self, f_hz=None) -> tuple[np.ndarray, np.ndarray]:
         """Per-port field amplitudes (delayed arm, other arm) at frequencies ``f_hz`` (Hz).

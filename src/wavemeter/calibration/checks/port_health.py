@@ -122,6 +122,7 @@ def port_health(
     scale=None,
     *,
     phase_rad=None,
+    objects=None,
 ) -> list[PortHealth]:
     """Fringe amplitude, its significance and the clipping of every port.
 
@@ -142,19 +143,26 @@ def port_health(
     phase_rad : None or ndarray, shape (N,)
         The model phase of each reading (rad) when it is not ``2 pi (f - f0) tau`` (the
         thermal model's); ``center_hz`` and ``delay_s`` are then not used.
+    objects : None or ndarray, shape (N, q)
+        The design columns of the method's own model (the wide-band one: Legendre orders
+        times the cone vector), its first two the fringe averaged over the sweep; the noise
+        is then each port's residual under that model, on ``N - q`` degrees of freedom.
+        ``center_hz``, ``delay_s``, ``scale`` and ``phase_rad`` are then not used.
 
     Returns
     -------
     list of PortHealth, one per port
     """
-    if phase_rad is None:
+    if objects is not None:
+        objects = np.asarray(objects, dtype=float)
+    elif phase_rad is None:
         objects = object_vectors(frequency_hz, center_hz, delay_s, scale)
     else:
         objects = cone_vectors(phase_rad, 1.0 if scale is None else scale)
     matrix, _ = map_cost(objects, powers)
     residual = powers - objects @ matrix.T
     samples = powers.shape[0]
-    dof = max(samples - 3, 1)
+    dof = max(samples - objects.shape[1], 1)
     noise = np.sqrt(np.einsum("ij,ij->j", residual, residual) / dof)
     fringe_block = np.linalg.pinv(objects.T @ objects)[:2, :2]
     precision = np.linalg.pinv(fringe_block)

@@ -76,10 +76,12 @@ def guard_design_fsr(
     ctx.delay_s = 1.0 / float(fsr_hz) if ctx.estimate is None else ctx.estimate.delay_s
 
 
-def check_ports(ctx: FitContext, center_hz: float, ports_read, needed: int, phase_rad=None):
+def check_ports(
+    ctx: FitContext, center_hz: float, ports_read, needed: int, phase_rad=None, objects=None
+):
     """Step 3: every port's fringe at the sweep's delay (or at the model phase
-    ``phase_rad``); raises when fewer than ``needed`` of ``ports_read`` carry one, warns
-    about the bad ones."""
+    ``phase_rad``, or under the method's design columns ``objects``); raises when fewer
+    than ``needed`` of ``ports_read`` carry one, warns about the bad ones."""
     sweep = ctx.sweep
     ctx.health = port_health(
         sweep.powers_w,
@@ -89,6 +91,7 @@ def check_ports(ctx: FitContext, center_hz: float, ports_read, needed: int, phas
         sweep.port_names,
         sweep.scale,
         phase_rad=phase_rad,
+        objects=objects,
     )
     ctx.notes += check_port_health(
         [ctx.health[k] for k in ports_read], sweep.samples, needed=needed

@@ -22,8 +22,6 @@ from ...units import frequency_text
 from ...validation import check_choice, check_positive
 from ..contract.base import BaseCalibrator
 from ..contract.summary import FitValue
-from ..files import fields
-from ..files.document import state_array, state_float
 from ..fitting.steps import (
     SweepFitMixin,
     check_ports,
@@ -35,7 +33,14 @@ from ..fitting.steps import (
 from ..fitting.sweep import FitContext, Sweep
 from ..models.band_reading import band_cone_distance, band_phase_rad
 from ..models.learned_fit import RETRIEVALS, fit_learned_map, port_noise_std_w
-from ..models.wideband_fit import BandModel, check_monotonic, fit_band, map_coefficients
+from ..models.wideband_fit import (
+    BandModel,
+    band_objects,
+    check_monotonic,
+    fit_band,
+    map_coefficients,
+)
+from ..models.wideband_fringe import fringe_phase_coefficients, fringe_phase_jacobian
 from ..models.wideband_orders import (
     MAX_MAP_ORDER,
     MAX_PHASE_ORDER,
@@ -49,12 +54,9 @@ from ..models.wideband_orders import (
 from .wideband_checks import BandChecksMixin
 from .wideband_reading import ORDER_MARGIN_FSR, BandReadingMixin
 from .wideband_report import BAND_RECORD_RULES, PHASE_COEFFICIENT_NAMES, BandReportMixin
+from .wideband_state import MAX_PHASE_TERM, BandStateMixin
 
 __all__ = ["MAX_PHASE_TERM", "ORDER_MARGIN_FSR", "WidebandCalibrator"]
-
-#: largest phase coefficient a file may hold, in units of the phase a linear term gives half
-#: the band (pi span / FSR): dispersion changes the FSR across a band by percents, not tenfold
-MAX_PHASE_TERM = 10.0
 
 #: readings within one design FSR of the middle start the fit: at least this many
 MIN_CENTRAL_READINGS = 16
@@ -82,7 +84,12 @@ class BandContext(FitContext):
 
 
 class WidebandCalibrator(
-    BandReadingMixin, BandReportMixin, BandChecksMixin, SweepFitMixin, BaseCalibrator
+    BandReadingMixin,
+    BandReportMixin,
+    BandChecksMixin,
+    BandStateMixin,
+    SweepFitMixin,
+    BaseCalibrator,
 ):
     """Learned calibration of a band of many FSRs (module docstring).
 
@@ -105,15 +112,22 @@ class WidebandCalibrator(
     Attributes
     ----------
     phase_coefficients_ : ndarray, shape (P,)
-        Taylor coefficients ``c_i`` (s^i) of the phase in angular detuning:
-        ``t = sum_i c_i w^i / i!``, ``w = 2 pi (f - center_hz_)``: the delay ``c_1``
-        (``delay_s_``), the group-delay dispersion ``c_2`` (s^2), ...
-        A map of order ``J`` may rotate about the cone axis along the band, which is a
-        phase term of order up to ``J``: those coefficients are told from the map only to
-        second order (their standard errors in ``diagnostics_["wideband"]`` say how well);
-        the frequencies read are not affected.
+        Taylor coefficients ``c_i`` (s^i) of the fringe phase at ``center_hz_`` in angular
+        detuning, ``psi = sum_i c_i w^i / i!``, ``w = 2 pi (f - center_hz_)``: the delay
+        ``c_1`` (``delay_s_``), the group-delay dispersion ``c_2`` (s^2), ... The fringe
+        phase is the model phase plus the map's rotation along the band, averaged over the
+        ports by their fringe power
+        (:mod:`~wavemeter.calibration.models.wideband_fringe`): what the readings tell,
+        whatever share of it the fit gave the map. Their standard errors are in
+        ``diagnostics_["wideband"]`` and the summary.
     phase_coefficients_rad_ : ndarray, shape (P,)
-        The same as ``b_i`` (rad): ``t = sum_i b_i y^i``, ``y = (f - center_hz_) / h``.
+        The model phase's coefficients ``b_i`` (rad): ``t = sum_i b_i y^i``, ``y = (f -
+        center_hz_) / h``. A map of order ``J`` rotating about the cone axis is a phase
+        term of order up to ``J``, so ``b`` is told from the map only through its highest
+        orders (weakly); the frequencies read are not affected.
+    phase_definition_ : {"fringe", "model"}
+        What ``phase_coefficients_``, ``delay_s_`` and ``fsr_hz_`` are of: the fringe phase;
+        ``"model"`` (the model phase ``t``) for calibration files written before.
     map_coefficients_ : ndarray, shape (J + 1, n, 3)
         Legendre coefficients ``A_j`` (W) of the map ``A(y) = sum_j A_j L_j(y)``.
     band_model_ : BandModel
@@ -128,8 +142,8 @@ class WidebandCalibrator(
     half_span_hz_ : float
         ``h`` (Hz), half the band.
     delay_s_, fsr_hz_ : float
-        Delay ``c_1`` (s) and FSR ``1 / c_1`` (Hz) at ``center_hz_``; :meth:`fsr_hz_at`
-        gives the local FSR.
+        Delay ``c_1`` (s) and FSR ``1 / c_1`` (Hz) of the fringe at ``center_hz_``;
+        :meth:`fsr_hz_at` gives the local FSR.
     offset_w_ : ndarray, shape (n,)
         Fitted per-port offsets (W); zeros unless fitted.
     port_noise_std_w_, noise_std_w_, noise_dof_, parameter_covariance_, off_model_basis_
@@ -168,42 +182,6 @@ class WidebandCalibrator(
     comparison_misfits_expected = True
     capabilities = frozenset({"frequency_std", "crlb", "power_monitor"})
     diagnostics_rules = BAND_RECORD_RULES
-    #: what each number of the file's state may hold (:mod:`~wavemeter.calibration.files.fields`)
-    state_rules = fields.rule_table(
-        {
-            "phase_order": fields.FieldRule(
-                "the phase polynomial's order", "", 1, MAX_PHASE_ORDER, integer=True
-            ),
-            "map_order": fields.FieldRule("the map's order", "", 0, MAX_MAP_ORDER, integer=True),
-            "n_parameters": fields.FieldRule("the fitted parameters", "", 1, integer=True),
-            "phase_coefficients_rad": fields.FieldRule(
-                "a phase coefficient",
-                "rad",
-                high=MAX_PHASE_TERM,
-                scale="band_phase_rad",
-                magnitude=True,
-            ),
-            "map_coefficients": (
-                fields.ScaleRule(
-                    "the map's coefficients",
-                    fields.largest_singular_value,
-                    "the largest singular value of the map's mean over the band",
-                ),
-                fields.FieldRule(
-                    "a map coefficient",
-                    "W",
-                    high=fields.SPREAD_RELATIVE,
-                    scale="power_w",
-                    magnitude=True,
-                ),
-            ),
-            **fields.NOISE_MODEL_RULES,
-            "parameter_covariance": fields.CovarianceRule(
-                tail=(("a phase coefficient", "band_phase_rad", MAX_PHASE_TERM),),
-                tail_repeats="phase_order",
-            ),
-        }
-    )
 
     def __init__(
         self,
@@ -252,7 +230,7 @@ class WidebandCalibrator(
             self.center_hz_,
             range(sweep.ports),
             self.fringe_ports_needed,
-            phase_rad=ctx.fit.phase_rad,
+            objects=self._fitted_design(ctx),
         )
         self._take_band_fit(ctx)
         self._take_power_range(sweep.powers_w)
@@ -271,6 +249,14 @@ class WidebandCalibrator(
         record = self._band_record(ctx, self._residual_phase_by_window(ctx, readings))
         self.diagnostics_, notes = diagnostics_record(ctx, misfit, method={"wideband": record})
         return notes
+
+    def _fitted_design(self, ctx: BandContext) -> np.ndarray:
+        """The band model's design columns (N, q) at the fitted phase: each port's fringe
+        and noise are judged under the band model (under one map its change along the
+        band would count as noise)."""
+        frequency_hz = ctx.sweep.frequency_hz
+        y = (frequency_hz - self.center_hz_) / (0.5 * float(np.ptp(frequency_hz)))
+        return band_objects(y, ctx.fit.phase_rad, ctx.sweep.scale, ctx.orders.map_order, ctx.affine)
 
     def _central_rows(self, frequency_hz: np.ndarray) -> np.ndarray:
         """The readings within one design FSR of the reading nearest the middle of the band
@@ -385,9 +371,10 @@ class WidebandCalibrator(
         self.port_noise_std_w_ = np.maximum(noise, np.finfo(float).eps * np.abs(powers).max())
         self._set_covariance(ctx)
 
-    def _set_model(self, coefficients_rad, map_coefficients_w) -> None:
-        """The learned band model and the attributes derived from it; raises when the
-        phase does not rise across the band."""
+    def _set_model(self, coefficients_rad, map_coefficients_w, definition="fringe") -> None:
+        """The learned band model and the attributes derived from it (the phase
+        coefficients of the ``definition`` phase); raises when the phase does not rise
+        across the band."""
         self.band_model_ = BandModel(
             self.center_hz_,
             self.half_span_hz_,
@@ -397,7 +384,14 @@ class WidebandCalibrator(
         check_monotonic(self.band_model_)
         self.phase_coefficients_rad_ = self.band_model_.phase_coefficients_rad
         self.map_coefficients_ = self.band_model_.map_coefficients_w
-        self.phase_coefficients_ = self.phase_coefficients_rad_ * self._seconds_per_rad()
+        self.phase_definition_ = definition
+        order = self.phase_coefficients_rad_.size
+        phase = (
+            fringe_phase_coefficients(self.band_model_, order)
+            if definition == "fringe"
+            else self.phase_coefficients_rad_
+        )
+        self.phase_coefficients_ = phase * self._seconds_per_rad()
         self.delay_s_ = float(self.phase_coefficients_[0])
         self.fsr_hz_ = 1.0 / self.delay_s_
 
@@ -414,16 +408,24 @@ class WidebandCalibrator(
         return columns > 3 * (self.map_order_ + 1)
 
     # ------------------------------------------------------------------ reporting
+    def _phase_coefficients_std_s(self) -> np.ndarray:
+        """Standard errors (s^i) of ``phase_coefficients_``: the delta method with the
+        covariance of every fitted number (the fringe phase's gradient by the map and the
+        model phase, :func:`fringe_phase_jacobian`)."""
+        order = self.phase_order_
+        if self.phase_definition_ == "fringe":
+            gradient = fringe_phase_jacobian(self.band_model_, order, self._affine())
+            variance = np.einsum("ip,pq,iq->i", gradient, self.parameter_covariance_, gradient)
+        else:
+            variance = np.diag(self.parameter_covariance_)[-order:]
+        return np.sqrt(np.maximum(variance, 0.0)) * self._seconds_per_rad()
+
     def _fsr_std_hz(self) -> float | None:
         """``FSR^2 sigma(c_1)`` (Hz)."""
-        std = float(np.sqrt(self.parameter_covariance_[-self.phase_order_, -self.phase_order_]))
-        return self.fsr_hz_**2 * std * self._seconds_per_rad()[0]
+        return self.fsr_hz_**2 * float(self._phase_coefficients_std_s()[0])
 
     def _summary_values(self) -> dict:
-        std = (
-            np.sqrt(np.diag(self.parameter_covariance_)[-self.phase_order_ :])
-            * self._seconds_per_rad()
-        )
+        std = self._phase_coefficients_std_s()
         values = {
             "delay_s": FitValue(self.delay_s_, float(std[0]), "s"),
             "phase_order": FitValue(float(self.phase_order_), None, "", "phase order P"),
@@ -440,67 +442,3 @@ class WidebandCalibrator(
                 PHASE_COEFFICIENT_NAMES.get(order, f"phase coefficient c{order}"),
             )
         return values
-
-    # ------------------------------------------------------------------ files
-    def _state(self) -> dict:
-        return {
-            "phase_order": self.phase_order_,
-            "map_order": self.map_order_,
-            "phase_coefficients_rad": self.phase_coefficients_rad_.tolist(),
-            "map_coefficients": self.map_coefficients_.tolist(),
-            "n_parameters": self.n_parameters_,
-            "cost_w2": self.cost_,
-            "residual_rms_w": self.residual_rms_,
-            "noise_std_w": self.noise_std_w_,
-            "port_noise_std_w": self.port_noise_std_w_.tolist(),
-            "noise_dof": self.noise_dof_,
-            "parameter_covariance": self.parameter_covariance_.tolist(),
-            **self._off_model_state(),
-        }
-
-    def _set_state(self, state: dict) -> None:
-        ports = self.n_ports_
-        phase_order = int(state_float(state, "phase_order", minimum=1, maximum=MAX_PHASE_ORDER))
-        map_order = int(state_float(state, "map_order", minimum=0, maximum=MAX_MAP_ORDER))
-        if phase_order != state["phase_order"] or map_order != state["map_order"]:
-            raise ValueError("fields 'phase_order' and 'map_order' must be integers")
-        self.phase_order_, self.map_order_ = phase_order, map_order
-        self.half_span_hz_ = 0.5 * (self.span_hz_[1] - self.span_hz_[0])
-        if not self.half_span_hz_ > 0:
-            raise ValueError("field 'span_hz' must have low < high for a wide-band calibration")
-        coefficients_rad = state_array(state, "phase_coefficients_rad", (phase_order,))
-        linear = 2.0 * np.pi * self.half_span_hz_ / self.fsr_hz_  # the delay, in rad
-        if not abs(coefficients_rad[0] / linear - 1.0) <= fields.DELAY_RTOL:
-            raise InputError(
-                "field 'phase_coefficients_rad' must start with the linear term 2 pi (half the "
-                f"span) / fsr_hz = {linear!r} rad (the delay), got {coefficients_rad.tolist()}"
-            )
-        try:
-            self._set_model(
-                coefficients_rad, state_array(state, "map_coefficients", (map_order + 1, ports, 3))
-            )
-        except InputError as exc:  # the fit's wording: say which field
-            raise InputError(
-                f"field 'phase_coefficients_rad' must give a phase rising across the band: {exc}"
-            ) from exc
-        self.cost_ = state_float(state, "cost_w2", minimum=0.0)
-        self.residual_rms_ = state_float(state, "residual_rms_w", minimum=0.0)
-        self.noise_std_w_ = state_float(state, "noise_std_w", minimum=0.0)
-        self.port_noise_std_w_ = state_array(state, "port_noise_std_w", (ports,))
-        self.noise_dof_ = state_float(state, "noise_dof", minimum=2.0, open_minimum=True)
-        columns = 3 * (map_order + 1)
-        self.parameter_covariance_ = state_array(state, "parameter_covariance", (None, None))
-        sizes = (ports * columns + phase_order, ports * (columns + 1) + phase_order)
-        size = self.parameter_covariance_.shape[0]
-        if self.parameter_covariance_.shape != (size, size) or size not in sizes:
-            raise ValueError(
-                f"field 'parameter_covariance' must be square of size {sizes[0]} or {sizes[1]}, "
-                f"got shape {self.parameter_covariance_.shape}"
-            )
-        self.n_parameters_ = parameter_count(ports, phase_order, map_order, self._affine())
-        if state.get("n_parameters") != self.n_parameters_:
-            raise InputError(
-                f"field 'n_parameters' must be {self.n_parameters_}, the parameters of the orders "
-                f"and ports, got {fields.shown(state.get('n_parameters'))}"
-            )
-        self._set_off_model_state(state)

@@ -138,13 +138,12 @@ class BandChecksMixin:
     def _band_record(self, ctx, residual_phase: list) -> dict:
         """``diagnostics_["wideband"]``: the orders and how they were chosen, the phase
         coefficients with their standard errors, the residual phase per FSR window."""
-        std = np.sqrt(np.diag(self.parameter_covariance_)[-self.phase_order_ :])
         return {
             "phase_order": self.phase_order_,
             "map_order": self.map_order_,
             "n_parameters": self.n_parameters_,
             "orders": ctx.orders.record(),
             "phase_coefficients_s": self.phase_coefficients_.tolist(),
-            "phase_coefficients_std_s": (std * self._seconds_per_rad()).tolist(),
+            "phase_coefficients_std_s": self._phase_coefficients_std_s().tolist(),
             "residual_phase": residual_phase,
         }

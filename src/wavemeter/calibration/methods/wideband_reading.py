@@ -26,6 +26,7 @@ from ..models.band_reading import (
     band_phase_rad,
 )
 from ..models.wideband_fit import band_frequency_hz
+from ..models.wideband_fringe import fringe_slope_rad_per_hz
 
 __all__ = ["ORDER_MARGIN_FSR", "BandReadingMixin"]
 
@@ -76,8 +77,12 @@ class BandReadingMixin(OffModelMixin):
         return wrap_phase_rad(self.band_model_.phase_rad(frequency_hz))
 
     def fsr_hz_at(self, frequency_hz) -> np.ndarray:
-        """The local FSR ``2 pi / (dt / df)`` (Hz) at frequencies (Hz)."""
+        """The local FSR ``2 pi / (dpsi / df)`` (Hz) of the fringe phase ``psi`` (the
+        model phase for a ``phase_definition_`` of ``"model"``) at frequencies (Hz);
+        ``fsr_hz_`` at ``center_hz_``."""
         check_fitted(self)
+        if self.phase_definition_ == "fringe":
+            return 2.0 * np.pi / fringe_slope_rad_per_hz(self.band_model_, frequency_hz)
         return 2.0 * np.pi / self.band_model_.phase_slope_rad_per_hz(frequency_hz)
 
     def _frequency_std(self, readings, inputs: ReadingInputs, include_calibration: bool):

@@ -71,7 +71,8 @@ BAND_RECORD_RULES = fields.rule_table(
 
 
 def band_tables(record: dict) -> tuple[Table, ...]:
-    """The candidate orders scored (none when the orders were given or too few FSRs)."""
+    """The candidate orders scored (none when the orders were given or too few FSRs), the
+    orders fitted marked ``chosen``."""
     orders = record["orders"]
     candidates = orders["candidates"]
     if not candidates:
@@ -81,7 +82,7 @@ def band_tables(record: dict) -> tuple[Table, ...]:
             candidate["phase_order"],
             candidate["map_order"],
             candidate["parameters"],
-            candidate["cv_rms_hz"] / 1e6,
+            "not scored" if candidate["cv_rms_hz"] is None else candidate["cv_rms_hz"] / 1e6,
             "chosen" if candidate["chosen"] else "",
         )
         for candidate in candidates
@@ -124,7 +125,7 @@ def band_figures(record: dict, center_hz: float, noise_std_rad: float | None) ->
     orders = record["orders"]
     candidates = orders["candidates"]
     parameters = np.array([c["parameters"] for c in candidates], dtype=float)
-    rms = np.array([c["cv_rms_hz"] for c in candidates], dtype=float)
+    rms = np.array([c["cv_rms_hz"] for c in candidates], dtype=float)  # None: NaN, not drawn
     choice = FigureData(
         "cross_validation",
         "How the wide-band orders were chosen: the RMS frequency error on held-out FSR "

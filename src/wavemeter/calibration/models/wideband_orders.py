@@ -9,20 +9,19 @@ the :class:`OrderSelection` (the cross-validation curve). :func:`raise_orders` t
 the orders while the whole sweep rejects the smaller model by a nested F test at the
 diagnostics' level; a map order stays below the number of windows minus one
 (:func:`highest_map_order`).
-
-Theory (the folds, the search, why the orders are raised): the docs' wide-band page
-(``docs/theory/wideband.rst``, "Choosing the orders").
+Theory: ``docs/theory/wideband.rst``, "Choosing the orders".
 """
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import linalg, stats
 
+from ...exceptions import InputError
 from ...stats.nested_tests import TEST_P_VALUE
 from .wideband_fit import (
     BandFit,
@@ -105,13 +104,17 @@ class OrderSelection:
     reason : str
         How the orders were chosen, in words.
     candidates : tuple of dict
-        Every candidate scored: ``phase_order``, ``map_order``, ``parameters``,
-        ``cv_rms_hz`` (held-out RMS frequency error) and ``chosen``.
+        Every candidate scored: ``phase_order``, ``map_order``, ``parameters`` and
+        ``cv_rms_hz`` (held-out RMS frequency error; None where the held-out folds could
+        not fit it), in order of ``(P, J)``; the orders raised to are scored too.
     held_out_windows : int
         FSR windows held out in turn.
     sweep_tests : tuple of dict
         The F tests of :func:`raise_orders` on every reading: ``phase_order``,
         ``map_order`` (the larger model), ``p_value`` and ``taken``.
+    scorer : callable or None
+        ``scorer((P, J)) -> dict``, the candidate entry of more orders on the same folds
+        (None without cross-validation).
     """
 
     phase_order: int
@@ -121,18 +124,37 @@ class OrderSelection:
     candidates: tuple[dict, ...]
     held_out_windows: int
     sweep_tests: tuple[dict, ...] = ()
+    scorer: Callable[[tuple[int, int]], dict] | None = field(
+        default=None, repr=False, compare=False
+    )
 
     def record(self) -> dict:
-        """JSON-ready entries of ``diagnostics_["wideband"]["orders"]``."""
+        """JSON-ready entries of ``diagnostics_["wideband"]["orders"]``; each candidate
+        ``chosen`` when it has the orders fitted."""
+        fitted = (self.phase_order, self.map_order)
         return {
             "phase_order": self.phase_order,
             "map_order": self.map_order,
             "method": self.method,
             "reason": self.reason,
             "held_out_windows": self.held_out_windows,
-            "candidates": [dict(candidate) for candidate in self.candidates],
+            "candidates": [
+                dict(c, chosen=(c["phase_order"], c["map_order"]) == fitted)
+                for c in self.candidates
+            ],
             "sweep_tests": [dict(test) for test in self.sweep_tests],
         }
+
+    def with_orders(self, phase_order: int, map_order: int, **changes) -> OrderSelection:
+        """These orders instead, scored on the same folds when they were not."""
+        candidates = self.candidates
+        scored = {(c["phase_order"], c["map_order"]) for c in candidates}
+        if self.scorer is not None and (phase_order, map_order) not in scored:
+            candidates = (*candidates, self.scorer((phase_order, map_order)))
+            candidates = tuple(sorted(candidates, key=lambda c: (c["phase_order"], c["map_order"])))
+        return dataclasses.replace(
+            self, phase_order=phase_order, map_order=map_order, candidates=candidates, **changes
+        )
 
 
 def highest_map_order(windows: int) -> int:
@@ -279,16 +301,20 @@ def select_orders(
             break
         current = best[1]
     score(current)
-    candidates = tuple(
-        {
-            "phase_order": order_p,
-            "map_order": order_j,
-            "parameters": parameter_count(ports, order_p, order_j, affine),
-            "cv_rms_hz": float(np.sqrt(errors.mean())),
-            "chosen": (order_p, order_j) == current,
+
+    def candidate(orders) -> dict:
+        try:
+            rms = float(np.sqrt(score(orders).mean()))
+        except InputError:  # the training folds do not determine a map of this order
+            rms = None
+        return {
+            "phase_order": orders[0],
+            "map_order": orders[1],
+            "parameters": parameter_count(ports, *orders, affine),
+            "cv_rms_hz": rms,
         }
-        for (order_p, order_j), errors in sorted(scored.items())
-    )
+
+    candidates = tuple(candidate(orders) for orders in sorted(scored))
     held_windows = int(np.unique(windows[held]).size)
     return OrderSelection(
         current[0],
@@ -299,6 +325,7 @@ def select_orders(
         "standard errors",
         candidates,
         held_windows,
+        scorer=candidate,
     )
 
 
@@ -414,14 +441,7 @@ def raise_orders(
         f"{selection.reason}; raised to phase order {current[0]}, map order {current[1]}: "
         f"every reading rejects the smaller model (F test, p < {TEST_P_VALUE:g})"
     )
-    raised = dataclasses.replace(
-        selection,
-        phase_order=current[0],
-        map_order=current[1],
-        reason=reason,
-        sweep_tests=tuple(tests),
-    )
-    return raised, fit
+    return selection.with_orders(*current, reason=reason, sweep_tests=tuple(tests)), fit
 
 
 def _nested_p_value(fit: BandFit, lowered, noise, ports, small, large, affine) -> float:
