@@ -250,9 +250,9 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
         InputError
             For readings or settings that are wrong (the stage named); with
             ``parameter="fsr_hz"`` when the coarsest stage's FSR does not exceed the band
-            or a hand-over's wrong-order rate at the sweep's noise exceeds
-            ``max_order_error`` (the message names the stages and the largest usable FSR
-            ratio).
+            or it read the sweep a fringe away more often than it predicts, or a hand-over's
+            wrong-order rate at the sweep's noise exceeds ``max_order_error`` (the message
+            names the stages and the largest usable FSR ratio).
 
         Warns
         -----

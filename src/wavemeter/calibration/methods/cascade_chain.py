@@ -5,7 +5,10 @@ its reading: the coarsest stage read with the band's middle as coarse value, eac
 stage with the frequency before it, every stage's uncertainty in the readings' own noise
 (plus the error its sweep showed beyond it), the probability of a wrong order at each
 hand-over and the coarsest stage's edge, the flags, one reading of a stream in one light
-pass per stage, and the warning that the readings are noisier than the sweep.
+pass per stage, and the warning that the readings are noisier than the sweep. The coarsest
+stage's fringe covers nearly the whole band: a reading near an end of it may have a twin,
+one turn of the phase away, that its map (which turns with the frequency) also reads as
+itself; of the two the one nearer its map's cone is taken (:func:`twin_probability`).
 """
 
 from __future__ import annotations
@@ -18,7 +21,11 @@ import numpy as np
 from scipy import special
 
 from ...exceptions import CalibrationWarning
-from ...model.orders import handover_error_probability, wrap_error_probability
+from ...model.orders import (
+    any_error_probability,
+    handover_error_probability,
+    wrap_error_probability,
+)
 from ...units import frequency_text
 from ...validation import check_fitted
 from ..contract.flags import SPAN_MARGIN_STD, ReadingFlag, off_model_threshold, power_flags
@@ -32,13 +39,49 @@ from .cascade_reading import (
     noise_scale,
 )
 
-__all__ = ["ChainReadingMixin", "READING_NOISE_CAUSE"]
+__all__ = [
+    "ChainReadingMixin",
+    "READING_NOISE_CAUSE",
+    "is_twin",
+    "twin_probability",
+    "twin_start_hz",
+]
 
 #: the cause of a warning that the readings are noisier than the calibration sweep
 READING_NOISE_CAUSE = "reading_noise"
 #: a hand-over residual beyond this many standard deviations is OFF_MODEL: the stages
 #: disagree beyond their uncertainties (two-sided p-value ``OFF_MODEL_P_VALUE``, 1e-6)
 DISAGREEMENT_STD = float(special.ndtri(1.0 - 0.5e-6))
+
+
+def twin_start_hz(model, frequency_hz: np.ndarray, center_hz: float) -> np.ndarray:
+    """Where the coarsest stage's twin of a reading lies: the frequency (Hz) whose model
+    phase is one turn from that of ``frequency_hz`` (N,) (Hz), towards the other end of the
+    band (from ``center_hz``, Hz)."""
+    phase = model.phase_rad(frequency_hz)
+    center = float(model.phase_rad(np.array([center_hz]))[0])
+    return model.frequency_of_phase_hz(phase - 2.0 * np.pi * np.sign(phase - center), frequency_hz)
+
+
+def is_twin(model, found_hz, twin_hz, center_hz: float) -> np.ndarray:
+    """Whether each ``twin_hz`` (N,) (Hz) is another reading than ``found_hz`` (N,) (Hz)
+    (their phases a turn apart, not the same fixed point found again) within the range
+    the coarsest stage's phase is unique over (within half a turn of ``center_hz``)."""
+    center = float(model.phase_rad(np.array([center_hz]))[0])
+    twin = model.phase_rad(twin_hz)
+    return (np.abs(twin - model.phase_rad(found_hz)) > np.pi) & (np.abs(twin - center) <= np.pi)
+
+
+def twin_probability(distance, twin_distance) -> np.ndarray:
+    """Probability that the coarsest stage took the wrong one of a reading and its twin.
+
+    Each is a frequency whose map reads the reading at the phase the model has there;
+    their cone distances (N,), in the readings' noise (a chi-square's, so half of one is
+    minus a log-likelihood), weigh them: ``1 / (1 + exp((d_twin - d) / 2))`` for the one
+    taken (the smaller distance); 0 where there is no twin (``twin_distance`` inf).
+    """
+    with np.errstate(over="ignore"):
+        return special.expit(-0.5 * (np.asarray(twin_distance) - np.asarray(distance)))
 
 
 def _stream_record(chain: CascadeReading) -> StreamReading:
@@ -70,12 +113,16 @@ class ChainReadingMixin:
         for index, (stage, block) in enumerate(zip(self.stages_, self.stage_ports_, strict=True)):
             rows = readings[:, list(block)]
             frequency[index], phase[index], stage_maps = stage._frequency_checked(rows, coarse)
-            maps.append(stage_maps)
             distance[index] = band_cone_distance(rows, stage_maps, stage.port_noise_std_w_)
+            if index == 0:
+                twin_distance = self._take_twins(rows, frequency, phase, stage_maps, distance)
+            maps.append(stage_maps)
             reference = self.cone_distance_median_[index]
             median = chi2_median(len(block) - 2, stage.noise_dof_)
             scale[index] = noise_scale(distance[index], reference, median)
             distance[index] = distance_in_noise(distance[index], reference, median, scale[index])
+            if index == 0:
+                twin_distance = distance_in_noise(twin_distance, reference, median, scale[0])
             std[index] = np.hypot(
                 stage._frequency_std_of(
                     rows, frequency[index], phase[index], stage_maps, noise_scale=scale[index]
@@ -83,14 +130,49 @@ class ChainReadingMixin:
                 self.model_error_hz_[index],
             )
             coarse = frequency[index]
-        return self._joined(frequency, std, phase, maps, distance, scale)
+        twins = twin_probability(distance[0], twin_distance)
+        return self._joined(frequency, std, phase, maps, distance, scale, twins)
 
-    def _joined(self, frequency, std, phase, maps, distance, scale) -> CascadeReading:
+    def _take_twins(self, rows, frequency, phase, maps, distance) -> np.ndarray:
+        """The coarsest stage's twins of its readings (module docstring): where a twin lies
+        nearer its map's cone than the reading found from the band's middle, it replaces it
+        (in ``frequency[0]``, ``phase[0]``, ``maps``, ``distance[0]``, in place). Returns the
+        cone distance of the one not taken (N,) (inf where there is no twin)."""
+        stage = self.stages_[0]
+        model = stage.band_model_
+        start = twin_start_hz(model, frequency[0], self.center_hz_)
+        other = np.full(rows.shape[0], np.inf)
+        tried = np.flatnonzero(stage._coarse_inside(start))
+        if tried.size == 0:
+            return other
+        found, found_phase, found_maps = stage._frequency_checked(rows[tried], start[tried])
+        twin = is_twin(model, frequency[0][tried], found, self.center_hz_)
+        tried, found, found_phase, found_maps = (
+            tried[twin],
+            found[twin],
+            found_phase[twin],
+            found_maps[twin],
+        )
+        found_distance = band_cone_distance(rows[tried], found_maps, stage.port_noise_std_w_)
+        other[tried] = found_distance
+        nearer = found_distance < distance[0][tried]
+        taken = tried[nearer]
+        other[taken] = distance[0][taken]
+        frequency[0][taken] = found[nearer]
+        phase[0][taken] = found_phase[nearer]
+        maps[taken] = found_maps[nearer]
+        distance[0][taken] = found_distance[nearer]
+        return other
+
+    def _joined(self, frequency, std, phase, maps, distance, scale, twins) -> CascadeReading:
         """The stages' readings (K, N), each with the probability that its order is wrong
-        (the coarsest stage's edge, then each hand-over's) and the hand-overs' disagreement."""
+        (the coarsest stage's edge or twin, then each hand-over's) and the hand-overs'
+        disagreement; ``twins`` (N,): :func:`twin_probability`."""
         stages, samples = frequency.shape
         probability = np.empty((stages, samples))
-        probability[0] = self._edge_probability(frequency[0], std[0])
+        probability[0] = any_error_probability(
+            [self._edge_probability(frequency[0], std[0]), twins]
+        )
         residual = frequency[:-1] - frequency[1:]
         spread = np.hypot(std[:-1], std[1:])
         # every hand-over at once: each at the finer stage's local FSR
@@ -157,11 +239,11 @@ class ChainReadingMixin:
 
         def read(powers: np.ndarray, inputs: dict) -> StreamReading:
             readings = corrected(powers)
-            found = []
-            coarse = self.center_hz_
-            for block, reader in readers:
-                found.append(reader.read(readings[0, block], coarse))
-                coarse = found[-1][0]
+            block, reader = readers[0]
+            first, twins = self._stream_coarsest(reader, readings[0, block])
+            found = [first]
+            for block, reader in readers[1:]:
+                found.append(reader.read(readings[0, block], found[-1][0]))
             frequency, std, phase, maps, distance = zip(*found, strict=True)
             chain = self._joined(
                 np.array(frequency)[:, None],
@@ -170,10 +252,33 @@ class ChainReadingMixin:
                 [stage_map[np.newaxis] for stage_map in maps],
                 np.array(distance)[:, None],
                 unscaled,
+                np.array([twins]),
             )
             return _stream_record(self._flagged(chain, readings))
 
         return read
+
+    def _stream_coarsest(self, reader: StageReader, rows: np.ndarray) -> tuple:
+        """The coarsest stage's reading of one offset-corrected reading ``rows`` (n,), as
+        :meth:`_read` takes it with its twin (:meth:`_take_twins`): the
+        :meth:`StageReader.read` taken and :func:`twin_probability`."""
+        stage = self.stages_[0]
+        model = stage.band_model_
+        found = reader.read(rows, self.center_hz_)
+        start = twin_start_hz(model, np.array([found[0]]), self.center_hz_)
+        if not stage._coarse_inside(start)[0]:
+            return found, 0.0
+        twin = reader.read(rows, float(start[0]))
+        if not is_twin(model, np.array([found[0]]), np.array([twin[0]]), self.center_hz_)[0]:
+            return found, 0.0
+        noise = stage.port_noise_std_w_
+        distance, twin_distance = (
+            float(reader.in_noise(band_cone_distance(rows[None], read[3][None], noise)[0]))
+            for read in (found, twin)
+        )
+        if twin_distance < distance:
+            found, distance, twin_distance = twin, twin_distance, distance
+        return found, float(twin_probability(distance, twin_distance))
 
     def _frequency_hz(self, readings, inputs: ReadingInputs) -> np.ndarray:
         """Absolute frequency (Hz) from the finest stage at the order the stages before it

@@ -3,7 +3,8 @@
 :class:`HandoverChecksMixin` gives :class:`~wavemeter.calibration.methods.cascade.CascadeCalibrator`
 each hand-over's record on the sweep (FSR ratio, margin in standard deviations, the
 largest ratio the noise allows, predicted and seen wrong orders), refuses a hand-over
-whose wrong-order rate exceeds ``max_order_error``, warns when the sweep saw improbably
+whose wrong-order rate exceeds ``max_order_error`` and a coarsest stage that read the
+sweep a fringe away more often than it predicts, warns when the sweep saw improbably
 many wrong orders, measures the coarsest stage's edge margin and each stage's error
 beyond its uncertainty, and says what a coarsest stage's misfit costs in a cascade.
 Theory: the docs' cascade page.
@@ -79,7 +80,9 @@ class HandoverChecksMixin:
 
     def _handovers(self, chain: CascadeReading, frequency_hz: np.ndarray) -> list[dict]:
         """Every hand-over's record on the sweep (``handovers_``); refuses a hand-over whose
-        expected wrong-order rate exceeds ``max_order_error``."""
+        expected wrong-order rate exceeds ``max_order_error``, and first a coarsest stage
+        that read the sweep a fringe away more often than it predicts (:meth:`_check_edge`)."""
+        self._check_edge(chain, frequency_hz)
         records = []
         design = self._design_fsrs_hz()
         required = math.sqrt(2.0) * float(special.erfcinv(self.max_order_error))
@@ -136,6 +139,32 @@ class HandoverChecksMixin:
             return error
         fsr = self.stages_[index].fsr_hz_at(frequency_hz)
         return error - fsr * np.round(error / fsr)
+
+    def _check_edge(self, chain: CascadeReading, frequency_hz: np.ndarray) -> None:
+        """Refuse a coarsest stage that read improbably many sweep readings a turn of its
+        phase away (beyond half its local FSR from the recorded frequency): its order
+        probabilities (edge and twin, :meth:`_edge_probability`) do not hold, and nor do
+        the hand-overs' after it (Poisson at ``HANDOVER_P_VALUE``)."""
+        fsr = self.stages_[0].fsr_hz_at(frequency_hz)
+        seen = int(np.count_nonzero(np.abs(chain.frequency_hz[0] - frequency_hz) > 0.5 * fsr))
+        expected = float(np.sum(chain.error_probability[0]))
+        if not seen or stats.poisson.sf(seen - 1, expected) >= HANDOVER_P_VALUE:
+            return
+        low, high = self.span_hz_
+        model = self.stages_[0].band_model_
+        turn = float(np.diff(model.phase_rad(np.array([low, high])))[0]) / (2.0 * np.pi)
+        raise InputError(
+            f"{stage_label(0, float(self._design_fsrs_hz()[0]))} read {seen} of the "
+            f"{frequency_hz.size} sweep readings a whole fringe away from the recorded "
+            f"frequency, where its uncertainties predict {expected:.3g}: its order "
+            "probabilities do not hold. The band swept "
+            f"({frequency_text(high - low)}) covers {turn:.3g} of its fringe (fitted FSR "
+            f"{frequency_text(self.stages_[0].fsr_hz_)}): near the whole of it, its noise "
+            "and map may not tell the band's two ends apart, or those readings are not "
+            "where the sweep says; sweep and measure a band narrower than that FSR (or add "
+            f"a coarser stage), and {HANDOVER_REMEDY}",
+            parameter="fsr_hz",
+        )
 
     def _edge_margin_std(self, chain: CascadeReading, frequency_hz: np.ndarray) -> float:
         """The coarsest stage's unique range beyond the band, in that stage's standard
