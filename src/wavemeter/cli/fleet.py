@@ -105,8 +105,9 @@ def calibrate(sweeps, out_dir, scheduler, workers, force, **options):
     \b
     Example:
       wavemeter fleet calibrate wafer7/ -o wafer7-cal
-      wavemeter fleet calibrate 'runs/*.csv' -o cal --fsr 49.7GHz --workers 8
-      wavemeter fleet calibrate wafer7/ -o wafer7-cal --scheduler tcp://10.0.0.5:8786
+      wavemeter fleet calibrate 'wafer7/die*.csv' -o cal --fsr 49.7GHz --workers 2
+      dask scheduler --port 8786 & dask worker tcp://127.0.0.1:8786 &
+      wavemeter fleet calibrate wafer7/ -o wafer7-cluster --scheduler tcp://127.0.0.1:8786
     """
     quiet = options["quiet"]
     job, check = calibrate_options(
