@@ -44,7 +44,10 @@ NEVER_ENDING = {
     "wavemeter serve chip.wmcal.json --source line.csv --follow": ("text", "serving "),
 }
 #: examples that start a service in the background, used by the examples after them
-BACKGROUND = {"dask scheduler --port 8786 & dask worker tcp://127.0.0.1:8786 &"}
+BACKGROUND = {
+    "dask scheduler --host 127.0.0.1 --dashboard-address 127.0.0.1:0 &",
+    "dask worker 127.0.0.1:8786 --host 127.0.0.1 --dashboard-address 127.0.0.1:0 &",
+}
 #: seconds an example may take to end, or to show it is up
 ENDS_WITHIN_S = 600
 UP_WITHIN_S = 120

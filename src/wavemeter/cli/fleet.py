@@ -106,7 +106,8 @@ def calibrate(sweeps, out_dir, scheduler, workers, force, **options):
     Example:
       wavemeter fleet calibrate wafer7/ -o wafer7-cal
       wavemeter fleet calibrate 'wafer7/die*.csv' -o cal --fsr 49.7GHz --workers 2
-      dask scheduler --port 8786 & dask worker tcp://127.0.0.1:8786 &
+      dask scheduler --host 127.0.0.1 --dashboard-address 127.0.0.1:0 &
+      dask worker 127.0.0.1:8786 --host 127.0.0.1 --dashboard-address 127.0.0.1:0 &
       wavemeter fleet calibrate wafer7/ -o wafer7-cluster --scheduler tcp://127.0.0.1:8786
     """
     quiet = options["quiet"]

@@ -107,11 +107,11 @@ def simulate(
 
     Fault options (--dark-offset, --port-noise, --dispersion, --power-drift, --thermal-drift)
     model real hardware. The detectors and the chip's dispersion are the device's: they
-    reach the --test, --laser and --dark files too. The drifts happen during the calibration sweep:
-    the other files have none. The power drift has a random stream of its own, so the noise
-    is the same as without it. A monitor column is written when the source power varies
-    (--power-fluctuation or --power-drift) and records the true source power, in every
-    file unless --no-monitor.
+    reach the --test, --laser and --dark files too. The drifts happen during the
+    calibration sweep: the other files have none. The power drift has a random stream of
+    its own, so the noise is the same as without it. A monitor column is written when the
+    source power varies (--power-fluctuation or --power-drift) and records the true source
+    power, in every file unless --no-monitor.
 
     A thermal device (--platform) is recorded at --temperature-k, or during --ramp-k
     (with --repeat sweeps in a row, so that temperature and frequency do not change
