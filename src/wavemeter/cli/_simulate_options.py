@@ -1,8 +1,8 @@
 """The options of ``wavemeter simulate``: their types and declarations.
 
 Each option's name in Python (its ``dest``) is the field of
-:class:`~wavemeter.simulation.Scenario` it sets; ``-o``, ``--test-out``, ``--laser-out``
-and ``--no-monitor`` are the command's own.
+:class:`~wavemeter.simulation.Scenario` it sets; ``-o``, ``--test-out``, ``--laser-out``,
+``--dark-out`` and ``--no-monitor`` are the command's own.
 """
 
 from __future__ import annotations
@@ -137,6 +137,19 @@ _OPTIONS = [
         "--test-out",
         type=click.Path(dir_okay=False, allow_dash=True),
         help="Test file (default: OUT with '-test' before the extension).",
+    ),
+    click.option(
+        "--dark",
+        default=0,
+        type=click.IntRange(0),
+        metavar="N",
+        help="Also write N readings with the source off (dark offset and noise), for "
+        "`wavemeter calibrate --dark`.",
+    ),
+    click.option(
+        "--dark-out",
+        type=click.Path(dir_okay=False, allow_dash=True),
+        help="Dark file (default: OUT with '-dark' before the extension).",
     ),
     setting(
         "--write-axis-unit",

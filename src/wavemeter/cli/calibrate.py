@@ -152,14 +152,15 @@ def calibrate(sweeps, out_path, force, **options):
 
     \b
     Example:
-      wavemeter calibrate sweep.csv -o chip.wmcal.json --fsr 50GHz
-      wavemeter calibrate sweep.csv -o chip.wmcal.json --dark dark.csv --strict
-      wavemeter calibrate lab.csv -o chip.wmcal.json --fsr '49.69 GHz' \\
-          --x 'Wavelength (nm)' --ports 'Port 1 [dBm]','Port 2 [dBm]','Port 3 [dBm]'
-      wavemeter calibrate --method thermal cold.csv mid.csv warm.csv -o chip.wmcal.json
-      wavemeter calibrate --method thermal a.csv b.csv --temperature-k 20C \\
-          --temperature-k 21.5C -o chip.wmcal.json
+      wavemeter calibrate hybrid.csv -o hybrid.wmcal.json --fsr 50GHz
+      wavemeter calibrate faulty.csv -o faulty.wmcal.json --dark faulty-dark.csv --strict
+      wavemeter calibrate lab.csv -o lab.wmcal.json --fsr '49.69 GHz' \\
+          --x wavelength_nm --ports p1_dBm,p2_dBm,p3_dBm
+      wavemeter calibrate --method thermal s292.csv s293.5.csv s295.csv -o thermal.wmcal.json
+      wavemeter calibrate --method thermal s292.csv s293.5.csv --temperature-k 292K \\
+          --temperature-k 20.35C -o thermal2.wmcal.json
       wavemeter calibrate --method wideband band.csv -o band.wmcal.json --phase-order 2
+      wavemeter calibrate band.csv -o set.wmcal.json --per-fsr
       wavemeter calibrate --method cascade cband.csv -o cascade.wmcal.json \\
           --fsr 5THz,500GHz,50GHz --stage-ports 1-3/4-6/7-9
     """

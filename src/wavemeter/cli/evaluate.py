@@ -330,7 +330,7 @@ def evaluate(
     \b
     Example:
       wavemeter evaluate chip.wmcal.json sweep-test.csv --sweep sweep.csv
-      wavemeter evaluate set.wmcal.json test.csv --adjacent --json
+      wavemeter evaluate set.wmcal.json band-test.csv --adjacent --json
     """
     calibration = load(calibration_file)
     if sweep is not None:

@@ -105,8 +105,10 @@ def calibrate(sweeps, out_dir, scheduler, workers, force, **options):
     \b
     Example:
       wavemeter fleet calibrate wafer7/ -o wafer7-cal
-      wavemeter fleet calibrate 'runs/*.csv' -o cal --fsr 49.7GHz --workers 8
-      wavemeter fleet calibrate wafer7/ -o wafer7-cal --scheduler tcp://10.0.0.5:8786
+      wavemeter fleet calibrate 'wafer7/die*.csv' -o cal --fsr 49.7GHz --workers 2
+      dask scheduler --host 127.0.0.1 --dashboard-address 127.0.0.1:0 &
+      dask worker 127.0.0.1:8786 --host 127.0.0.1 --dashboard-address 127.0.0.1:0 &
+      wavemeter fleet calibrate wafer7/ -o wafer7-cluster --scheduler tcp://127.0.0.1:8786
     """
     quiet = options["quiet"]
     job, check = calibrate_options(

@@ -134,11 +134,11 @@ def measure(
 
     \b
     Example:
-      wavemeter measure chip.wmcal.json readings.csv -o frequencies.csv --keep time_s
-      wavemeter measure thermal.wmcal.json readings.csv -o f.csv --temperature 'Temp (C)'
-      wavemeter measure band.wmcal.json readings.csv -o f.csv --coarse set_point_THz
-      wavemeter measure cascade.wmcal.json readings.csv -o f.csv
-      wavemeter measure chip.wmcal.json 'runs/*.parquet' -o measured/ --format parquet
+      wavemeter measure chip.wmcal.json laser.csv -o laser-f.csv --keep time_s
+      wavemeter measure thermal.wmcal.json ramp-test.csv -o ramp-f.csv --temperature temperature_k
+      wavemeter measure band.wmcal.json band-test.csv -o band-f.csv --coarse true_frequency_hz
+      wavemeter measure cascade.wmcal.json cband-test.csv -o cband-f.csv
+      wavemeter measure chip.wmcal.json 'sweep*.csv' -o measured/ --format parquet
     """
     quiet = options["quiet"]
     calibration_check = (calibration_file, coarse_column, coarse_hz, temperature_k, uncertainty)

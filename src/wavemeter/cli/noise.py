@@ -109,8 +109,8 @@ def noise(
     \b
     Example:
       wavemeter noise chip.wmcal.json laser.csv --rate 10MHz -o noise.html
-      wavemeter noise chip.wmcal.json laser.csv --time-column time_s -o noise.html
-      wavemeter noise chip.wmcal.json laser.csv --rate 1MHz --json --observation-time 1ms
+      wavemeter noise chip.wmcal.json laser.csv --time-column time_s -o noise-time.html
+      wavemeter noise chip.wmcal.json laser.csv --rate 10MHz --json --observation-time 0.5ms
     """
     quiet = options["quiet"]
     if out_path is None and not as_json:

@@ -144,9 +144,9 @@ def reanchor(calibration_file, readings, out_path, frequency_hz, temperature_k, 
 
     \b
     Example:
-      wavemeter reanchor chip.wmcal.json hcn.csv --frequency 193.4THz -o chip-today.wmcal.json
-      wavemeter reanchor chip.wmcal.json lines.csv --x wavelength_nm -o chip-today.wmcal.json
-      wavemeter reanchor thermal.wmcal.json hcn.csv --frequency 193.4THz --temperature-k 25C \\
+      wavemeter reanchor chip.wmcal.json line.csv --frequency 193.4THz -o chip-today.wmcal.json
+      wavemeter reanchor chip.wmcal.json lab.csv --x wavelength_nm -o chip-lab.wmcal.json
+      wavemeter reanchor thermal.wmcal.json line21.csv --frequency 193.4THz --temperature-k 21C \\
           -o thermal-today.wmcal.json
     """
     from ..calibration.files.document import save_calibration

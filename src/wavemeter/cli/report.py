@@ -51,7 +51,7 @@ def report(calibration_file, sweep, test, out_path, force, port_phases_deg, **op
     \b
     Example:
       wavemeter report chip.wmcal.json sweep.csv sweep-test.csv -o report.html
-      wavemeter report thermal.wmcal.json s293.csv readings.csv -o report.html
+      wavemeter report thermal.wmcal.json s293.5.csv ramp-test.csv -o thermal-report.html
     """
     from ..report.html import write_report
 

@@ -191,9 +191,9 @@ def serve(
     \b
     Example:
       wavemeter serve --simulate --channels 3
-      logger | wavemeter serve chip.wmcal.json --log logs/
+      cat sweep-test.csv | wavemeter serve chip.wmcal.json --log logs/
       wavemeter serve chip.wmcal.json --source tcp://127.0.0.1:5570 --channels 4
-      wavemeter serve chip.wmcal.json --source log.csv --follow --channel-column channel
+      wavemeter serve chip.wmcal.json --source line.csv --follow
     """
     quiet = options["quiet"]
     token = _token(token, token_file)

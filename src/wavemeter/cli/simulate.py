@@ -66,14 +66,13 @@ def _same_file(first: str, second: str) -> bool:
     return os.path.realpath(first) == os.path.realpath(second)
 
 
-def _targets(out_path: str, scenario: Scenario, test_out, laser_out) -> dict[str, str]:
-    """The files to write, by table: the sweep, and with ``--test`` and ``--laser`` their
-    files (default: OUT with ``-test`` or ``-laser`` before the extension), all distinct."""
+def _targets(out_path: str, scenario: Scenario, outs: dict) -> dict[str, str]:
+    """The files to write, by table: the sweep, and with ``--test``, ``--laser`` and
+    ``--dark`` their files (``outs``; default: OUT with ``-test``, ``-laser`` or ``-dark``
+    before the extension), all distinct."""
     targets = {"sweep": out_path}
-    for name, rows, path in (
-        ("test", scenario.test, test_out),
-        ("laser", scenario.laser, laser_out),
-    ):
+    for name, rows in (("test", scenario.test), ("laser", scenario.laser), ("dark", scenario.dark)):
+        path = outs[name]
         if not rows:
             continue
         if path is None:
@@ -96,7 +95,9 @@ def _targets(out_path: str, scenario: Scenario, test_out, laser_out) -> dict[str
 @FORMAT
 @FORCE
 @QUIET
-def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quiet, **fields):
+def simulate(
+    out_path, test_out, laser_out, dark_out, no_monitor, file_format, force, quiet, **fields
+):
     """Simulate a sweep of a Table 1 device (paper Section III) and write it to a file.
 
     Powers take a unit (1mW, 5e-7W, -30dBm) and frequencies too (50GHz); bare numbers are
@@ -106,11 +107,11 @@ def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quie
 
     Fault options (--dark-offset, --port-noise, --dispersion, --power-drift, --thermal-drift)
     model real hardware. The detectors and the chip's dispersion are the device's: they
-    reach the --test and --laser files too. The drifts happen during the calibration sweep:
-    the other files have none. The power drift has a random stream of its own, so the noise
-    is the same as without it. A monitor column is written when the source power varies
-    (--power-fluctuation or --power-drift) and records the true source power, in every
-    file unless --no-monitor.
+    reach the --test, --laser and --dark files too. The drifts happen during the
+    calibration sweep: the other files have none. The power drift has a random stream of
+    its own, so the noise is the same as without it. A monitor column is written when the
+    source power varies (--power-fluctuation or --power-drift) and records the true source
+    power, in every file unless --no-monitor.
 
     A thermal device (--platform) is recorded at --temperature-k, or during --ramp-k
     (with --repeat sweeps in a row, so that temperature and frequency do not change
@@ -131,20 +132,30 @@ def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quie
     A laser record (--laser N) is N readings of a laser with white, flicker and
     random-walk FM and a drift (--white-fm, --flicker-fm, --random-walk-fm, --laser-drift)
     at --laser-rate, from the device's centre: `wavemeter noise` measures them with the
-    calibration of the sweep and finds those levels.
+    calibration of the sweep and finds those levels. Dark readings (--dark N) are the
+    device read with the source off, its detectors' dark offset and noise, for
+    `wavemeter calibrate --dark`.
 
     \b
     Example:
-      wavemeter simulate -o sweep.csv --ports 3 --seed 1 --test 20000
+      wavemeter simulate -o hybrid.csv --ports 4 --seed 2 --test 2000
       wavemeter simulate -o lab.csv --write-axis-unit nm --write-power-unit dBm --noise 20nW
-      wavemeter simulate -o faulty.csv --dark-offset 2uW --power-drift 0.05 --test 2000
-      wavemeter simulate -o s290.csv --platform sin --temperature-k 290
-      wavemeter simulate -o ramp.csv --platform sin --ramp-k 290:300 --repeat 5
-      wavemeter simulate -o band.csv --spectral sin --span-fsr 88 --samples 176000
+      wavemeter simulate -o faulty.csv --dark-offset 2uW --power-drift 0.05 --test 2000 \\
+          --dark 500
+      for t in 292 293.5 295; do \\
+          wavemeter simulate -o s$t.csv --platform sin --temperature-k $t; done
+      wavemeter simulate -o ramp.csv --platform sin --ramp-k 292:295 --repeat 5 --test 2000
+      wavemeter simulate -o band.csv --spectral sin --span-fsr 24 --samples 24000 \\
+          --test 2000 --laser 1000
       wavemeter simulate -o cband.csv --cascade 5THz,500GHz,50GHz --spectral sin \\
-          --samples 20000 --test 100000
+          --samples 8000 --test 2000
       wavemeter simulate -o chip.csv --laser 65536 --laser-out laser.csv \\
           --white-fm 1.6e8 --laser-drift 1e9
+      wavemeter simulate -o today.csv --laser 1000 --laser-out line.csv \\
+          --laser-frequency 193.4THz
+      wavemeter simulate -o s294.csv --platform sin --temperature-k 21C \\
+          --laser 1000 --laser-out line21.csv --laser-frequency 193.4THz
+      mkdir wafer7 && for s in 1 2; do wavemeter simulate -o wafer7/die$s.csv --seed $s; done
     """
     context = click.get_current_context()
     given = {
@@ -154,7 +165,7 @@ def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quie
     }
     with _in_option_words(context.command):
         scenario = Scenario(monitor=not no_monitor, **given)
-    targets = _targets(out_path, scenario, test_out, laser_out)
+    targets = _targets(out_path, scenario, {"test": test_out, "laser": laser_out, "dark": dark_out})
     formats = {
         name: output_format(path, file_format, force=force) for name, path in targets.items()
     }
@@ -167,7 +178,12 @@ def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quie
 
     with _in_option_words(context.command):  # everything is simulated before anything is written
         sweep, test = scenario.tables(progress)
-        tables = {"sweep": sweep, "test": test, "laser": scenario.laser_table(progress)}
+        tables = {
+            "sweep": sweep,
+            "test": test,
+            "laser": scenario.laser_table(progress),
+            "dark": scenario.dark_table(progress),
+        }
     for name, path in targets.items():
         columns = tables[name]
         with busy(printable(f"writing {path}"), quiet=quiet):

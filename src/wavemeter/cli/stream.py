@@ -63,10 +63,10 @@ def stream(calibration_file, follow_path, coarse_column, coarse_hz, temperature_
 
     \b
     Example:
-      logger | wavemeter stream chip.wmcal.json
-      wavemeter stream chip.wmcal.json --follow readings.csv > frequencies.csv
-      wavemeter stream thermal.wmcal.json --follow log.tsv --temperature 'Temp (C)'
-      wavemeter stream band.wmcal.json --coarse-frequency 193.4THz < readings.csv
+      cat line.csv | wavemeter stream chip.wmcal.json
+      wavemeter stream chip.wmcal.json --follow line.csv > line-f.csv
+      wavemeter stream thermal.wmcal.json --temperature temperature_k < ramp-test.csv
+      wavemeter stream band.wmcal.json --coarse-frequency 193.4THz < band-laser.csv
     """
     quiet = options["quiet"]
     calibration, _ = checked_calibration(

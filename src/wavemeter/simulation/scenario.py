@@ -2,16 +2,18 @@
 
 A scenario is a simulated device (a Table 1 interferometer, with hardware faults, thermal
 or wide-band behaviour, or a cascade of them) and what is recorded with it: a calibration
-sweep, test readings at random frequencies, a laser record. ``Scenario(...).tables()`` gives
-the sweep and test columns ``wavemeter simulate`` writes for the same options, value for
-value, and ``laser_table()`` the laser record, so a ``--seed`` run is reproduced from Python.
+sweep, test readings at random frequencies, a laser record, dark readings. ``Scenario(...)
+.tables()`` gives the sweep and test columns ``wavemeter simulate`` writes for the same
+options, value for value, ``laser_table()`` the laser record and ``dark_table()`` the dark
+readings, so a ``--seed`` run is reproduced from Python.
 
 Random streams: the device's Table 1 impairments are drawn from the seed; the spectral
 slopes from ``default_rng([seed, SPECTRAL_STREAM])``; the power drift from ``[seed,
 DRIFT_STREAM]``; the noise (test frequencies, test temperatures, power fluctuation,
 detector noise, in that order) from the seed, or, at a temperature or ramp given, from
 ``[seed, TEMPERATURE_STREAM, *temperatures in mK]``; the laser record from ``[seed,
-LASER_STREAM]``. A power drift or a laser record leaves the other draws as they were; test
+LASER_STREAM]``, the dark readings from ``[seed, DARK_STREAM]``. A power drift, a laser record
+or dark readings leave the other draws as they were; test
 readings are drawn before the sweep's noise, so a sweep recorded with them has other noise
 than one without (as ``wavemeter simulate`` has always drawn it).
 """
@@ -44,6 +46,7 @@ __all__ = [
     "TEMPERATURE_STREAM",
     "SPECTRAL_STREAM",
     "LASER_STREAM",
+    "DARK_STREAM",
 ]
 
 #: source power (W) and detector noise std per reading (W) unless given
@@ -64,6 +67,7 @@ DRIFT_STREAM = 1
 TEMPERATURE_STREAM = 2
 SPECTRAL_STREAM = 3
 LASER_STREAM = 4
+DARK_STREAM = 5
 #: scenario fields -> the SpectralPreset fields they replace
 _SPECTRAL_FIELDS = {
     "dispersion_s2": "dispersion_s2",
@@ -154,6 +158,8 @@ class Scenario:
         (Hz^2/Hz, Hz^2, Hz^2/s), >= 0 (see :func:`~wavemeter.simulation.laser_frequency_hz`).
     laser_drift_hz_per_s : float
         The laser's linear drift (Hz/s).
+    dark : int
+        Readings with the source off (0: none): the detectors' dark offset and noise.
 
     Raises
     ------
@@ -220,6 +226,7 @@ class Scenario:
     flicker_fm_hz2: float = 0.0
     random_walk_fm_hz2_per_s: float = 0.0
     laser_drift_hz_per_s: float = 0.0
+    dark: int = 0
     #: drawn when the scenario is made: the device, its spectral preset, the noise std (W)
     _device: Interferometer | CascadeInterferometer = field(init=False, repr=False, compare=False)
     _preset: SpectralPreset | None = field(init=False, repr=False, compare=False)
@@ -461,3 +468,30 @@ class Scenario:
                 temperature_k=self._temperature_k(self.laser),
             ),
         }
+
+    def dark_table(self, progress=None) -> dict[str, np.ndarray] | None:
+        """Dark readings: the device read with the source off, as ``calibrate --dark`` takes them.
+
+        Parameters
+        ----------
+        progress : callable, optional
+            As :meth:`tables` takes it; ``table`` is ``"dark"``.
+
+        Returns
+        -------
+        dict of str to ndarray, each shape (dark,), or None
+            The port columns (dark offset plus detector noise), the monitor when the source
+            power varies and ``temperature_k`` on a thermal platform, as the sweep has them;
+            None when ``dark`` is 0.
+        """
+        if not self.dark:
+            return None
+        frequency_hz = np.full(self.dark, float(np.mean(self.sweep_hz())))
+        return self._readings(
+            frequency_hz,
+            np.random.default_rng([self.seed, DARK_STREAM]),
+            "dark",
+            progress,
+            power_factor=np.zeros(self.dark),
+            temperature_k=self._temperature_k(self.dark),
+        )

@@ -189,6 +189,7 @@ def normalised(fields: dict) -> dict:
         )
     values["monitor"] = bool(values["monitor"])
     values["laser"] = _count("laser", values["laser"], 0)
+    values["dark"] = _count("dark", values["dark"], 0)
     values["laser_rate_hz"] = _optional(
         _number, "laser_rate_hz", values["laser_rate_hz"], " (Hz)", **positive
     )
