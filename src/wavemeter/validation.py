@@ -201,7 +201,7 @@ def check_coarse_inside(
     if outside.any():
         first = int(np.flatnonzero(outside)[0])
         raise InputError(
-            f"coarse_hz {coarse_hz[first]!r} Hz (reading {first}, zero-based; "
+            f"coarse_hz {float(coarse_hz[first]) / 1e12:.9g} THz (reading {first}, zero-based; "
             f"{int(outside.sum())} in all) is {outside_text}; calibrate over a sweep that "
             "covers it",
             parameter=parameter,

@@ -62,6 +62,9 @@ class ReferenceFreeCalibrator(LabelLockedCalibrator):
     """
 
     method = "reference_free"
+    #: phase from the powers alone, for users without a frequency axis: its fit takes no
+    #: reference cell (a cell makes another calibrator absolute: ``"reference_cell"``)
+    capabilities = frozenset({"power_monitor"})
 
     def __init__(self, fsr_hz: float = 50e9, anchor_hz=None, offsets: str = "none"):
         self.fsr_hz = fsr_hz
