@@ -31,14 +31,16 @@ docs: $(BIN)/wavemeter
 	$(BIN)/sphinx-build -b html -W --keep-going docs docs/_build/html
 
 # 10,000 hypothesis examples per file reader (a tenth through `wavemeter measure`) and for the
-# calibration loader; the seed is printed: repeat a run with `make fuzz FUZZ_SEED=<seed>`,
-# change the count with FUZZ_EXAMPLES
+# calibration loader, new ones each run (the "fuzz" profile; `make test` draws the same ones
+# every run); the seed is printed: repeat a run with `make fuzz FUZZ_SEED=<seed>`, change the
+# count with FUZZ_EXAMPLES
 FUZZ_EXAMPLES ?= 10000
 fuzz: $(BIN)/wavemeter
 	@seed=$${FUZZ_SEED:-$$(od -An -N4 -tu4 /dev/urandom | tr -d ' ')}; \
 	echo "fuzz: $(FUZZ_EXAMPLES) examples per reader, seed $$seed (make fuzz FUZZ_SEED=$$seed)"; \
 	WAVEMETER_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest -q -p no:cacheprovider \
-		tests/test_fuzz_readers.py tests/test_fuzz_calibration_files.py --hypothesis-seed=$$seed
+		tests/test_fuzz_readers.py tests/test_fuzz_calibration_files.py \
+		--hypothesis-profile=fuzz --hypothesis-seed=$$seed
 
 bench: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/precision.py

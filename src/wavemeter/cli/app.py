@@ -220,6 +220,12 @@ class WarningsRefused(Exception):
         self.consequence = consequence
 
 
+class Refused(Exception):
+    """A result a command was told to refuse (``--strict``) for what it found in the input
+    (readings the calibration cannot read); nothing was written. :func:`main` prints its
+    ``error:`` line and returns exit code 3."""
+
+
 #: calibration-warning cause -> the command-line options of its remedy (the library's
 #: messages name parameters: power_monitor_w, dark_w, retrieval, CalibrationSet)
 OPTIONS_OF_CAUSE = {
@@ -238,6 +244,7 @@ OPTIONS_OF_CAUSE = {
 #: order; a misfit no cause explains over many FSRs: the wide-band calibration)
 OPTIONS_OF_REMEDY_NAME = {
     "phase_order": "--phase-order",
+    "map_order": "--map-order",
     "WidebandCalibrator": "--method wideband (or --per-fsr)",
 }
 
@@ -248,7 +255,7 @@ def warning_text(warning: Warning) -> str:
     cause = getattr(warning, "cause", "other_misfit")
     remedy = getattr(warning, "remedy", "")
     named = [option for name, option in OPTIONS_OF_REMEDY_NAME.items() if name in remedy]
-    hint = named[0] if named else OPTIONS_OF_CAUSE.get(cause)
+    hint = ", ".join(named) if named else OPTIONS_OF_CAUSE.get(cause)
     return f"[{cause}] {warning}" + (f" (options: {hint})" if hint else "")
 
 
@@ -304,7 +311,7 @@ def _signals_end_the_command():
 
 def main(argv=None) -> int:
     """Run the command line; return the exit code (0 ok, 2 user error, 3 calibration
-    warnings refused by ``--strict``, 130 interrupted)."""
+    warnings or unreadable readings refused by ``--strict``, 130 interrupted)."""
     # Our products are skinny (readings x 3): OpenBLAS threads only add start-up and, on a
     # busy machine, spin against each other (a 2000-sample fit 10x slower). One thread,
     # unless the user chose; set before numpy loads (no command has imported it yet).
@@ -324,6 +331,9 @@ def main(argv=None) -> int:
     except WarningsRefused as exc:
         for warning in exc.refused:
             click.echo(_error_line(f"{warning_text(warning)} ({exc.consequence})"), err=True)
+        return EXIT_WARNINGS_REFUSED
+    except Refused as exc:
+        click.echo(_error_line(str(exc)), err=True)
         return EXIT_WARNINGS_REFUSED
     except (WavemeterError, OSError) as exc:
         from ._common import error_text

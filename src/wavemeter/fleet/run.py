@@ -75,6 +75,33 @@ class FleetResult:
         The output folder.
     summary_csv, summary_parquet, page : Path
         The summary files and the HTML page written in it.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.fleet import calibrate_fleet
+    >>> from wavemeter.io import write_table
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> paths = []
+    >>> for seed, name in ((7, "die_x01_y02"), (8, "die_x02_y02")):  # two chips of a wafer
+    ...     device = wm.Interferometer.table1(ports=3, seed=seed)
+    ...     f_hz = device.sweep_hz(200)
+    ...     powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    ...     columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    ...     write_table(folder / f"{name}.csv", columns)
+    ...     paths.append(folder / f"{name}.csv")
+    >>> fleet = calibrate_fleet(paths, folder / "out", workers=0, fsr_hz=50e9)  # in-process
+    >>> fleet.summary_csv.name, fleet.page.name
+    ('summary.csv', 'fleet.html')
+
+    Each row is a device's DeviceResult: both chips read near the Cramer-Rao bound:
+
+    >>> for row in fleet.rows:
+    ...     print(row.device, f"FSR {row.fsr_hz / 1e9:.2f} GHz, {row.crlb_ratio:.2f} x the bound")
+    die_x01_y02 FSR 51.51 GHz, 1.00 x the bound
+    die_x02_y02 FSR 57.03 GHz, 1.06 x the bound
     """
 
     rows: tuple[DeviceResult, ...]
@@ -332,6 +359,33 @@ def calibrate_fleet(
         A device that fails is a row with ``status="error"``, not an error.
     KeyboardInterrupt
         Raised again after cancelling the remaining tasks; no summary is written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.fleet import calibrate_fleet
+    >>> from wavemeter.io import write_table
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> paths = []
+    >>> for seed, name in ((7, "die_x01_y02"), (8, "die_x02_y02")):  # two chips of a wafer
+    ...     device = wm.Interferometer.table1(ports=3, seed=seed)
+    ...     f_hz = device.sweep_hz(200)
+    ...     powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    ...     columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    ...     write_table(folder / f"{name}.csv", columns)
+    ...     paths.append(folder / f"{name}.csv")
+    >>> fleet = calibrate_fleet(paths, folder / "out", workers=0, fsr_hz=50e9)  # in-process
+    >>> [(row.device, row.status) for row in fleet.rows]
+    [('die_x01_y02', 'ok'), ('die_x02_y02', 'ok')]
+    >>> for path in sorted(fleet.out_dir.iterdir()):  # a calibration per device, the summaries
+    ...     print(path.name)
+    die_x01_y02.wmcal.json
+    die_x02_y02.wmcal.json
+    fleet.html
+    summary.csv
+    summary.parquet
     """
     from ..io.parquet import require_pyarrow
 

@@ -11,7 +11,7 @@ from .calibrate import CalibrationRefused, DeviceResult, calibrate_device, calib
 from .calibrator import CalibrateOptions, build_calibrator, method_settings
 from .chunks import RowSample, fit_sweep_chunks
 from .line_reader import LineReader
-from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, measure_file
+from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, ReadingsRefused, measure_file
 from .noise import NoiseSeries, measure_series
 from .readings import check_ports, check_reading_options, check_readings
 from .stream import StreamHeader, StreamSummary, follow_lines, read_header, stream_lines
@@ -31,6 +31,7 @@ __all__ = [
     "SweepsRead",
     "measure_file",
     "MeasureSummary",
+    "ReadingsRefused",
     "MEASURE_CHUNK_ROWS",
     "stream_lines",
     "follow_lines",

@@ -119,6 +119,30 @@ class DeviceResult:
         What was read (files, columns, rows skipped); None when resumed or failed.
     fit_warnings : tuple of CalibrationWarning
         The fit's warnings themselves, in order (recorded, not issued).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.jobs import calibrate_device
+    >>> result = calibrate_device(folder / "sweep.csv", device="chip-07")
+    >>> result.device, result.status, result.warnings
+    ('chip-07', 'ok', ())
+
+    The RMS error on the sweep is at the Cramer-Rao bound of the readings:
+
+    >>> rms_mhz, bound_mhz = result.calibration_rms_hz / 1e6, result.crlb_rms_hz / 1e6
+    >>> print(f"{rms_mhz:.1f} MHz, bound {bound_mhz:.1f} MHz")
+    13.5 MHz, bound 13.5 MHz
     """
 
     device: str
@@ -344,6 +368,28 @@ def calibrate_file(
         What the options, reading the files or fitting refuse; messages name the file.
     CalibrationRefused
         With ``strict``, for a fit that warned; nothing is saved.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.jobs import calibrate_file
+    >>> result = calibrate_file(folder / "sweep.csv", folder / "chip.wmcal.json", fsr_hz=50e9)
+    >>> result.status, result.device, result.samples
+    ('ok', 'sweep', 200)
+    >>> print(f"FSR {result.fsr_hz / 1e9:.2f} GHz, {result.crlb_ratio:.2f} x the Cramer-Rao bound")
+    FSR 51.51 GHz, 1.00 x the Cramer-Rao bound
+    >>> (folder / "chip.wmcal.json").exists()
+    True
     """
     if options is None:
         options = CalibrateOptions.from_keywords(**keywords)
@@ -380,7 +426,7 @@ def calibrate_file(
 
 
 def calibrate_device(path, *, device: str | None = None, **options) -> DeviceResult:
-    """:func:`calibrate_file` without saving, for a fleet: bad input is a result.
+    r""":func:`calibrate_file` without saving, for a fleet: bad input is a result.
 
     Parameters
     ----------
@@ -397,6 +443,27 @@ def calibrate_device(path, *, device: str | None = None, **options) -> DeviceRes
         ``status="ok"`` with the fitted calibration, or ``status="error"`` with the message
         of the :class:`~wavemeter.exceptions.WavemeterError` or ``OSError`` that stopped
         it. Any other exception is a bug and is raised.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.jobs import calibrate_device
+    >>> _ = (folder / "broken.csv").write_text("frequency_hz,p1_w\n1,2\n")  # one port only
+    >>> results = [calibrate_device(folder / name) for name in ("sweep.csv", "broken.csv")]
+    >>> [(result.device, result.status) for result in results]  # one bad file stops nothing
+    [('sweep', 'ok'), ('broken', 'error')]
+    >>> print(results[1].error.split(": ", 1)[1].split("; ")[0])
+    found 1 port column(s) (p1_w)
     """
     name = Path(path).stem if device is None else device
     try:

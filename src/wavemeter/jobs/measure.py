@@ -29,11 +29,13 @@ from ..exceptions import WavemeterError
 from ..io import ColumnRequest, ReadingStream, iter_readings, table_writer
 from ..io.streaming import CHUNK_ROWS
 from ..units import SPEED_OF_LIGHT_M_S
+from ..validation import check_choice
 from .readings import check_reading_options, check_readings
 
 __all__ = [
     "measure_file",
     "MeasureSummary",
+    "ReadingsRefused",
     "ChunkMeasurement",
     "MEASURE_CHUNK_ROWS",
 ]
@@ -66,6 +68,32 @@ class MeasureSummary:
     warnings : list of Warning
         The warnings the measurement gave (each once), also issued with
         :func:`warnings.warn`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import iter_readings
+    >>> from wavemeter.jobs import measure_file
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> readings = device.powers(f_hz[:5], power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> readings[2] = np.nan  # a row the instrument could not read
+    >>> write_table(folder / "readings.csv", {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> stream = iter_readings(folder / "readings.csv", allow_invalid=True)  # flag, do not refuse
+    >>> summary = measure_file(cal, stream, folder / "frequencies.csv")
+    >>> summary.rows, summary.invalid_rows, summary.flag_counts
+    (5, 1, {'INVALID': 1})
+    >>> summary.out_path.name
+    'frequencies.csv'
     """
 
     source: Path
@@ -90,6 +118,7 @@ def measure_file(
     temperature_k: float | None = None,
     uncertainty: bool | None = None,
     drop_invalid: bool = False,
+    errors: str = "coerce",
     progress: Callable | None = None,
 ) -> MeasureSummary:
     """Turn a file of port readings into frequencies, a chunk of rows at a time.
@@ -122,6 +151,10 @@ def measure_file(
         Write ``frequency_std_hz``; default: when the calibration gives it.
     drop_invalid : bool
         Write invalid rows as NaN with the ``INVALID`` flag instead of failing.
+    errors : {"coerce", "raise"}
+        ``"coerce"``: a reading the calibration cannot read is written as NaN with the
+        flags that say why, the others as usual; ``"raise"``: the file is refused
+        (:class:`ReadingsRefused`, nothing written) when any reading cannot be read.
     progress : callable, optional
         ``progress(description, total, unit=...)`` returning a context manager that
         yields ``advance(steps)`` (as :func:`wavemeter.progress.progress_bar`); it is
@@ -138,7 +171,39 @@ def measure_file(
         :mod:`wavemeter.jobs.readings` refuse (ports other than the calibration's, a
         missing temperature or coarse frequency, an input it does not use,
         ``uncertainty`` asked of a calibration that gives none); no output is written then.
+    ReadingsRefused
+        With ``errors="raise"``, when some reading cannot be read; no output is written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import iter_readings
+    >>> from wavemeter.jobs import measure_file
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> readings = device.powers(f_hz[:5], power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> readings[2] = np.nan  # a row the instrument could not read
+    >>> write_table(folder / "readings.csv", {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> stream = iter_readings(folder / "readings.csv", allow_invalid=True)  # flag, do not refuse
+    >>> summary = measure_file(cal, stream, folder / "frequencies.csv")
+    >>> summary.rows, summary.flagged, summary.flag_counts
+    (5, 1, {'INVALID': 1})
+    >>> lines = (folder / "frequencies.csv").read_text().splitlines()
+    >>> lines[0]
+    'frequency_hz,wavelength_nm,phase_rad,frequency_std_hz,flags'
+    >>> len(lines) - 1  # one row out per row in, the unreadable one NaN with its flag
+    5
     """
+    check_choice("errors", errors, ("coerce", "raise"))
     check_reading_options(
         calibration, coarse_hz=coarse_hz, temperature_k=temperature_k, uncertainty=uncertainty
     )
@@ -171,15 +236,23 @@ def measure_file(
         advance = stack.enter_context(bar) if bar is not None else None
         write = stack.enter_context(table_writer(out_path, file_format))
         done = 0
+        unread: list[str] = []
+        unread_count = 0
         for table in stream:
             columns = measured.chunk(table)
             flags = columns["flags"]
+            if errors == "raise":
+                missing = np.flatnonzero(np.isnan(columns["frequency_hz"]))
+                unread_count += missing.size
+                unread += [_unread_label(table, k, flags[k]) for k in missing[: 5 - len(unread)]]
             counts += [np.count_nonzero(flags & bit) for bit in ReadingFlag]
             summary.flagged += int(np.count_nonzero(flags))
             write(columns)
             if advance is not None:
                 advance(stream.progress - done)
             done = stream.progress
+        if unread_count:
+            raise ReadingsRefused(stream.source, unread_count, stream.rows, unread)
         summary.warnings = measured.finish()
         for warning in summary.warnings:
             warnings.warn(warning, stacklevel=2)
@@ -190,6 +263,33 @@ def measure_file(
         bit.name: int(count) for bit, count in zip(ReadingFlag, counts, strict=True) if count
     }
     return summary
+
+
+class ReadingsRefused(WavemeterError):
+    """Readings a calibration cannot read, refused (``errors="raise"``): nothing was written.
+
+    Attributes
+    ----------
+    unread : int
+        Readings that could not be read.
+    examples : list of str
+        The first of them by file line, with their flags (``line 12 (OUTSIDE_SPAN)``).
+    """
+
+    def __init__(self, source, unread: int, rows: int, examples: list[str]):
+        self.unread = unread
+        self.examples = list(examples)
+        super().__init__(
+            f"{source}: {unread} of {rows} readings cannot be read ({', '.join(examples)}"
+            f"{', ...' if unread > len(examples) else ''}); strict refuses the file, so "
+            "nothing was written"
+        )
+
+
+def _unread_label(table, row: int, flags: int) -> str:
+    """``line 12 (OUTSIDE_SPAN)``: a reading by its file line, with its flags."""
+    names = [bit.name for bit in ReadingFlag if flags & bit] or ["no flag"]
+    return f"{table.row_label(int(table.row_index[row]))} ({', '.join(names)})"
 
 
 class ChunkMeasurement:

@@ -5,8 +5,9 @@ calibration with these functions alone, from what the calibration declares (``re
 ``absolute_frequency``, ``capabilities``, its ports), never from its type:
 
 - :func:`check_reading_options`, before the readings are opened: no coarse frequency for a
-  calibration that reads the absolute frequency, no temperature for one that does not use
-  it, no per-reading uncertainty asked of one that gives none;
+  calibration that does not use one (it reads within its FSR, or reads the absolute
+  frequency), no temperature for one that does not use it, no per-reading uncertainty
+  asked of one that gives none;
 - :func:`check_readings`, against the columns the readings offer (a stream of chunks, a
   stream's header line): the calibration's ports, and a temperature and a coarse frequency
   where it needs them;
@@ -96,6 +97,19 @@ def check_reading_options(
         raise InputError(
             f"{_is(calibration, name)}: it reads the absolute frequency and picks every "
             f"fringe order itself, so it has no use for a coarse frequency; leave {parameter} out",
+            parameter=parameter,
+        )
+    coarse_given = coarse_column is not None or coarse_hz is not None
+    if (
+        coarse_given
+        and not calibration.absolute_frequency
+        and "coarse_hz" not in calibration.requires
+    ):
+        parameter = "coarse" if coarse_column is not None else "coarse_hz"
+        raise InputError(
+            f"{parameter} gives a coarse frequency to a calibration that needs one to pick a "
+            f"window or a fringe order (a set of windows, a wide band); {_is(calibration, name)}"
+            f", which reads within its FSR and does not use it: leave {parameter} out",
             parameter=parameter,
         )
     given = temperature_k is not None and np.size(temperature_k) > 0

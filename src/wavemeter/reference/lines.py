@@ -75,6 +75,24 @@ class ReferenceLines:
     InputError
         For empty, non-finite, non-optical or unsorted-and-duplicate values, a ``std_hz``
         that is not > 0, or labels that are not unique.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> path = Path(tempfile.mkdtemp()) / "cell.csv"
+    >>> rows = ["label,center_nm,std_pm", "line A,1530.0,0.1", "line B,1531.0,0.1"]
+    >>> with open(path, "w") as file:
+    ...     for row in rows:
+    ...         print(row, file=file)
+    >>> lines = wm.ReferenceLines.read_csv(path)  # vacuum wavelengths in nm, std in pm
+    >>> lines.labels  # in increasing frequency: 1531 nm first
+    ('line B', 'line A')
+    >>> print([f"{center / 1e12:.4f} THz" for center in lines.center_hz])
+    ['195.8148 THz', '195.9428 THz']
+    >>> print([f"{std / 1e6:.1f} MHz" for std in lines.std_hz])
+    ['12.8 MHz', '12.8 MHz']
     """
 
     labels: tuple

@@ -107,6 +107,22 @@ def write_report(
         and ``force`` is false (``parameter`` is ``"force"``); nothing is written then.
     NotFittedError
         When ``calibration`` is not fitted.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from types import SimpleNamespace
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> sweep = SimpleNamespace(powers_w=powers, frequency_hz=f_hz)  # or a wavemeter.io.Table
+    >>> out = Path(tempfile.mkdtemp()) / "report.html"
+    >>> written = wm.write_report(cal, sweep, out_html=out, dpi=40)
+    >>> out in written, sorted({path.suffix for path in written})
+    (True, ['.html', '.png'])
     """
     if str(out_html) == STDOUT:
         raise InputError(

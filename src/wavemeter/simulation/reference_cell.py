@@ -62,6 +62,18 @@ def simulated_band_lines(preset: str = "hcn-like") -> tuple[ReferenceLines, np.n
         ``source`` says it is simulated.
     strength : ndarray, shape (L,)
         Relative integrated strengths (strongest 1), in the table's order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.simulation import simulated_band_lines
+    >>> lines, strength = simulated_band_lines()
+    >>> len(lines.labels), lines.labels[:2]
+    (54, ('sim P(27)', 'sim P(26)'))
+    >>> print(f"{lines.center_hz[0] / 1e12:.2f} to {lines.center_hz[-1] / 1e12:.2f} THz")
+    191.62 to 196.25 THz
+    >>> print(f"strongest {lines.labels[int(np.argmax(strength))]}")
+    strongest sim R(8)
     """
     constants = CELL_PRESETS[preset]
     max_j = constants["max_j"]
@@ -109,6 +121,18 @@ class ReferenceCell:
         Its period (Hz) and phase.
     noise_std : float
         Detector noise, relative to the baseline (transmission units, rms).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.simulation import ReferenceCell
+    >>> cell = ReferenceCell.simulated(rng=1)
+    >>> len(cell.lines.labels)
+    54
+    >>> line_hz = cell.lines.center_hz[20]
+    >>> f_hz = line_hz + np.array([-20e9, 0.0])  # off the line, on it
+    >>> print(np.round(cell.transmission(f_hz, rng=2), 2))  # the line absorbs
+    [1.   0.43]
     """
 
     lines: ReferenceLines

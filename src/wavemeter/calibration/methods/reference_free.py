@@ -59,6 +59,23 @@ class ReferenceFreeCalibrator(LabelLockedCalibrator):
     Origin and direction are conventions: with frequencies, phase 0 at ``center_hz_`` and
     growing with frequency; without, phase 0 at the first reading and growing along the
     record. Retrieval is invariant to source power (the cone's rays).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.model import wrap_to_period
+    >>> cal = wm.ReferenceFreeCalibrator(fsr_hz=device.true_fsr_hz, anchor_hz=f_hz[0]).fit(powers)
+
+    No frequencies were given: the FSR and the first reading's frequency make the readings
+    absolute within one FSR:
+
+    >>> error_hz = wrap_to_period(cal.predict(powers) - f_hz, device.true_fsr_hz)
+    >>> print(f"{np.sqrt(np.mean(error_hz**2)) / 1e6:.0f} MHz RMS")
+    14 MHz RMS
     """
 
     method = "reference_free"

@@ -62,6 +62,20 @@ class ConeFit:
         Expected RMS phase distortion (rad) from the frame's estimate when the power varies
         at random: ``power_spread sqrt(2 / N)`` (0 with a power monitor: the frame is then
         exact).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.calibration import fit_cone
+    >>> cone = fit_cone(powers)
+    >>> cone.vertex_w, cone.basis.shape, cone.frame.shape  # no offsets fitted: vertex at 0
+    (array([0., 0., 0.]), (3, 3), (3, 3))
+    >>> print(f"power spread {cone.power_spread:.1e}")  # a source of constant power
+    power spread 1.1e-03
     """
 
     vertex_w: np.ndarray
@@ -225,6 +239,27 @@ def fit_cone(powers, *, power=None, offsets: str = "none") -> ConeFit:
     InputError
         For readings that are not a cone's, a frame that cannot be told (power following
         the phase), or offsets that the record cannot determine.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.calibration import cone_phase_rad, fit_cone
+    >>> cone = fit_cone(powers)  # the readings' cone, without their frequencies
+    >>> cone.basis.shape
+    (3, 3)
+    >>> phase = cone_phase_rad(cone, powers)
+
+    The cone's phase is the fringe phase up to its origin and direction: its steps
+    between readings are those of the true phase:
+
+    >>> true_step = 2 * np.pi * np.diff(f_hz) / device.true_fsr_hz
+    >>> step = np.abs(wm.wrap_phase_rad(np.diff(phase)))
+    >>> print(f"{np.median(step / true_step):.3f}")
+    0.998
     """
     readings = _readings(powers)
     if offsets not in OFFSET_MODES:
@@ -267,6 +302,24 @@ def cone_phase_rad(fit: ConeFit, powers) -> np.ndarray:
     ------
     InputError
         For readings on the far side of the vertex (negative power): not this cone's.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.calibration import cone_phase_rad, fit_cone
+    >>> cone = fit_cone(powers)
+    >>> phase = cone_phase_rad(cone, powers[:3])
+    >>> print(np.all(np.abs(phase) <= np.pi))
+    True
+    >>> try:
+    ...     cone_phase_rad(cone, -powers[:1])  # the far side of the vertex
+    ... except wm.InputError as error:
+    ...     print(type(error).__name__)
+    InputError
     """
     objects = fit.objects(_readings_any(powers))
     if not np.all(objects[:, 2] > 0):

@@ -51,6 +51,21 @@ def sweep_phase_reference_free(powers, *, offsets: str = "none", window_rad: flo
         Unwrapped phase (rad); its origin and direction are arbitrary.
     cone : ConeFit
         The cone fitted to the whole sweep.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.calibration import sweep_phase_reference_free
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(2000, span_fsr=5)  # five fringes, no frequency axis used
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> phase, _ = sweep_phase_reference_free(powers)
+
+    The unwrapped phase counts the fringes: 2 pi per FSR swept (up to its sign):
+
+    >>> print(f"{abs(phase[-1] - phase[0]) / (2 * np.pi):.2f} fringes")
+    5.00 fringes
     """
     readings = check_powers(powers, min_samples=MIN_WINDOW_READINGS)
     check_positive("window_rad", window_rad)
@@ -111,6 +126,30 @@ class SelfCalibration:
         Taylor coefficients of the phase in angular frequency at ``center_hz``:
         ``d phi / d omega`` (s) and ``d^2 phi / d omega^2`` (s^2), with the phase's sign
         taken to grow with frequency.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.calibration import self_calibrate
+    >>> from wavemeter.simulation import ReferenceCell, laser_sweep
+    >>> cell = ReferenceCell.simulated(rng=1)  # a simulated HCN-like cell of 54 lines
+    >>> band_hz = (cell.lines.center_hz[20] - 40e9, cell.lines.center_hz[27] + 40e9)  # 8 lines
+    >>> sweep = laser_sweep(band_hz, 4000, "dfb", rng=1)  # a current-tuned laser: a poor axis
+    >>> device = wm.Interferometer.table1(ports=3, seed=1)
+    >>> powers = device.powers(sweep.true_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> transmission = cell.transmission(sweep.true_hz, rng=3)  # the cell channel
+    >>> found = self_calibrate(
+    ...     powers, transmission, cell.lines, band_hz, fsr_hz=50e9,
+    ...     pressure_pa=cell.nominal_pressure_pa, pressure_std_pa=cell.pressure_std_pa,
+    ... )
+    >>> found.frequency_hz.shape, found.phase_rad.shape
+    ((4000,), (4000,))
+    >>> print(f"FSR {found.fsr_hz / 1e9:.2f} GHz, true {device.true_fsr_hz / 1e9:.2f} GHz")
+    FSR 49.59 GHz, true 49.58 GHz
+    >>> cal = wm.WidebandCalibrator(fsr_hz=50e9).fit(powers, found.frequency_hz)  # calibrate
+    >>> cal.method
+    'wideband'
     """
 
     frequency_hz: np.ndarray
@@ -168,6 +207,35 @@ def self_calibrate(
     InputError
         For bad readings, or lines that cannot be identified uniquely in the band (the
         reason).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.calibration import self_calibrate
+    >>> from wavemeter.simulation import ReferenceCell, laser_sweep
+    >>> cell = ReferenceCell.simulated(rng=1)  # a simulated HCN-like cell of 54 lines
+    >>> band_hz = (cell.lines.center_hz[20] - 40e9, cell.lines.center_hz[27] + 40e9)  # 8 lines
+    >>> sweep = laser_sweep(band_hz, 4000, "dfb", rng=1)  # a current-tuned laser: a poor axis
+    >>> device = wm.Interferometer.table1(ports=3, seed=1)
+    >>> powers = device.powers(sweep.true_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> transmission = cell.transmission(sweep.true_hz, rng=3)  # the cell channel
+    >>> found = self_calibrate(
+    ...     powers, transmission, cell.lines, band_hz, fsr_hz=50e9,
+    ...     pressure_pa=cell.nominal_pressure_pa, pressure_std_pa=cell.pressure_std_pa,
+    ... )
+
+    The laser's own axis is off by tens of GHz; the axis found from the meter's phase and
+    the cell's lines is right to a few MHz, without any frequency given:
+
+    >>> axis_error_hz = sweep.recorded_hz - sweep.true_hz
+    >>> print(f"recorded axis: up to {np.abs(axis_error_hz).max() / 1e9:.0f} GHz off")
+    recorded axis: up to 56 GHz off
+    >>> error_hz = found.frequency_hz - sweep.true_hz
+    >>> print(f"found axis: {np.sqrt(np.mean(error_hz**2)) / 1e6:.0f} MHz RMS")
+    found axis: 6 MHz RMS
+    >>> found.axis.identification.method  # lines named by their spacings
+    'pattern'
     """
     check_positive("fsr_hz", fsr_hz)
     check_positive("fsr_tolerance", fsr_tolerance, upper=1.0)
