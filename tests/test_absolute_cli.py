@@ -176,3 +176,44 @@ def test_the_report_draws_the_cell_the_correction_and_the_budget(capsys, files):
     for name in ("reference_cell", "axis_correction", "uncertainty_budget"):
         assert (page.parent / f"report-{name}.png").stat().st_size > 1000
         assert f'<figure id="figure-{name}"><img alt="{name} figure" src="data:image/png' in html
+
+
+def test_simulate_writes_the_recorded_axis_the_truth_and_the_cell(capsys, tmp_path):
+    out = tmp_path / "cell.csv"
+    simulate = (
+        f"simulate -o {out} --span-fsr 20 --samples 8000 --test 2000 --sweep-axis tls-spec "
+        "--reference-cell hcn-like"
+    )
+    code, text, err = run_cli(capsys, simulate)
+    assert code == 0, err
+    assert "SIMULATED hcn-like" in text
+    lines_file = tmp_path / "cell-lines.csv"
+    assert "SIMULATED" in lines_file.read_text().splitlines()[0]
+    columns = ("simulated_true_frequency_hz", "cell_transmission")
+    table = wm.io.read_table(out, wm.io.ColumnRequest(keep=columns))
+    truth = table.kept["simulated_true_frequency_hz"]
+    error = table.x_hz - truth  # the laser's error: up to 10 pm, about 1.3 GHz
+    assert 0.3e9 < np.max(np.abs(error)) < 1.35e9
+    scenario = wm.simulation.Scenario(
+        span_fsr=20, samples=8000, test=2000, sweep_axis="tls-spec", reference_cell="hcn-like"
+    )
+    sweep, _ = scenario.tables()
+    for name in columns:  # the file is the scenario's, from Python
+        assert np.allclose(sweep[name], table.kept[name], rtol=1e-12, atol=0)
+    # no band feature in 192.9-193.9 THz: the stated axis error identifies the lines
+    target = tmp_path / "cell.wmcal.json"
+    code, _, err = run_cli(
+        capsys,
+        f"calibrate {out} -o {target} {CELL} --lines {lines_file} --axis-error 1.3GHz",
+    )
+    assert code == 0, err
+    test = wm.io.read_table(tmp_path / "cell-test.csv")
+    assert within_budget(target, test.powers_w, test.x_hz) <= 1.2
+    record = json.loads(target.read_text())["absolute"]["axis_correction"]
+    assert record["identification"] == "nearest"
+
+
+def test_simulate_refuses_an_unknown_cell(capsys, tmp_path):
+    code, _, err = run_cli(capsys, f"simulate -o {tmp_path / 's.csv'} --reference-cell xenon")
+    assert "--reference-cell" in one_error(code, err) and "hcn-like" in err
+    assert not (tmp_path / "s.csv").exists()

@@ -23,7 +23,7 @@ from click.core import ParameterSource
 from ..exceptions import InputError
 from ..io import write_table
 from ..progress import busy, progress_bar
-from ..simulation import Scenario
+from ..simulation import CELL_PRESETS, Scenario, simulated_band_lines
 from ..units import SENTINEL_DBM
 from ._common import FORCE, FORMAT, QUIET, note, output_format, printable, say
 from ._simulate_lines import summary_lines
@@ -91,6 +91,19 @@ def _targets(out_path: str, scenario: Scenario, test_out, laser_out) -> dict[str
     return targets
 
 
+def _lines_target(out_path: str, scenario: Scenario, force: bool) -> str | None:
+    """Where the table of a simulated band goes: OUT with ``-lines.csv``; None for a cell
+    of the user's table or none."""
+    if scenario.reference_cell not in CELL_PRESETS:
+        return None
+    if is_stdio(out_path):
+        raise InputError("--reference-cell of a simulated band writes its table: give -o FILE")
+    path = str(Path(out_path).with_name(f"{Path(out_path).stem}-lines.csv"))
+    if Path(path).exists() and not force:
+        raise InputError(f"{path} exists: the band's table would replace it; use --force")
+    return path
+
+
 @click.command()
 @scenario_options
 @FORMAT
@@ -128,6 +141,10 @@ def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quie
     every stage gets the platform's slopes and the dispersion of its delay. The single
     device's FSR, span, detector and thermal faults are not simulated for a cascade.
 
+    A sweep as a laser records it (--sweep-axis) with a reference gas cell beside the
+    ports (--reference-cell) is what `calibrate --reference-column cell_transmission
+    --lines FILE` makes absolute; the true frequencies are written for evaluation only.
+
     A laser record (--laser N) is N readings of a laser with white, flicker and
     random-walk FM and a drift (--white-fm, --flicker-fm, --random-walk-fm, --laser-drift)
     at --laser-rate, from the device's centre: `wavemeter noise` measures them with the
@@ -145,6 +162,8 @@ def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quie
           --samples 20000 --test 100000
       wavemeter simulate -o chip.csv --laser 65536 --laser-out laser.csv \\
           --white-fm 1.6e8 --laser-drift 1e9
+      wavemeter simulate -o cell.csv --span-fsr 20 --samples 8000 --sweep-axis tls-spec \\
+          --reference-cell hcn-like
     """
     context = click.get_current_context()
     given = {
@@ -155,6 +174,7 @@ def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quie
     with _in_option_words(context.command):
         scenario = Scenario(monitor=not no_monitor, **given)
     targets = _targets(out_path, scenario, test_out, laser_out)
+    lines_path = _lines_target(out_path, scenario, force)
     formats = {
         name: output_format(path, file_format, force=force) for name, path in targets.items()
     }
@@ -183,6 +203,9 @@ def simulate(out_path, test_out, laser_out, no_monitor, file_format, force, quie
                 f"the {SENTINEL_DBM:g} dBm no-reading code; read {path} with --drop-invalid, "
                 "or simulate with a lower --noise",
             )
+    if lines_path is not None:  # the simulated band's table, for calibrate --lines
+        simulated_band_lines(scenario.reference_cell)[0].to_csv(lines_path)
+        say(quiet, f"wrote {lines_path} (the SIMULATED {scenario.reference_cell} lines)")
     for line in summary_lines(scenario, sweep):
         say(quiet, line, err=to_stderr)
 
