@@ -89,6 +89,21 @@ class CalibrateOptions:
     axis_error_hz : float, optional
         A bound on the recorded axis's error (Hz): below a quarter of the line spacing the
         nearest table line identifies each line; None: the pattern of spacings does.
+
+    Examples
+    --------
+    >>> from wavemeter.jobs import CalibrateOptions, build_calibrator
+    >>> options = CalibrateOptions(method="wideband", fsr_hz=50e9, settings={"phase_order": 2})
+    >>> calibrator = build_calibrator(options)  # unfitted, the method's settings applied
+    >>> calibrator.method, calibrator.get_params()["phase_order"]
+    ('wideband', 2)
+
+    A reference cell recorded beside the ports makes the calibration absolute (the line
+    table is the user's file; none ships):
+
+    >>> options = CalibrateOptions(reference_column="cell", reference_lines="lines.csv")
+    >>> "reference_cell" in build_calibrator(options).capabilities
+    True
     """
 
     method: str = "learned"
@@ -149,7 +164,17 @@ def method_class(method: str) -> type:
 
 def method_settings(method: str) -> dict:
     """The settings of a method's calibrator with their defaults: ``get_params()`` of an
-    unfitted one (``method_settings("cascade")["fsr_hz"]``: its stages' default FSRs)."""
+    unfitted one (``method_settings("cascade")["fsr_hz"]``: its stages' default FSRs).
+
+    Examples
+    --------
+    >>> from wavemeter.jobs import method_settings
+    >>> sorted(method_settings("learned").items())  # doctest: +NORMALIZE_WHITESPACE
+    [('fsr_hz', 50000000000.0), ('fsr_tolerance', 0.2), ('retrieval', 'pinv'),
+     ('search', 'golden'), ('xtol', 1e-12)]
+    >>> [fsr_hz / 1e9 for fsr_hz in method_settings("cascade")["fsr_hz"]]  # stages, in GHz
+    [5000.0, 500.0, 50.0]
+    """
     return method_class(method)().get_params()
 
 
@@ -229,6 +254,18 @@ def build_calibrator(options: CalibrateOptions):
         For an unknown method (``parameter="method"``), a setting the method does not have
         (``parameter`` names it), several design FSRs for a method of one, a method that
         cannot be fitted per FSR window with ``per_fsr``.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> from wavemeter.jobs import CalibrateOptions, build_calibrator
+    >>> build_calibrator(CalibrateOptions(fsr_hz=50e9, per_fsr=True)).method  # a set of windows
+    'calibration_set'
+    >>> try:  # a setting of another method is named, with the method that has it
+    ...     build_calibrator(CalibrateOptions(method="learned", settings={"phase_order": 2}))
+    ... except wm.InputError as error:
+    ...     print(error.parameter, "-", str(error).split(";")[0])
+    phase_order - method 'learned' has no setting phase_order
     """
     calibrator = method_class(options.method)()
     defaults = calibrator.get_params()

@@ -18,7 +18,14 @@ import numpy as np
 from ..exceptions import InputError
 from ..reference import ReferenceLines
 
-__all__ = ["CELL_OPTIONS", "cell_keywords", "cell_record", "check_cell_options"]
+__all__ = [
+    "CELL_OPTIONS",
+    "cell_channel",
+    "cell_keywords",
+    "cell_record",
+    "check_axes",
+    "check_cell_options",
+]
 
 #: the options of :class:`~wavemeter.jobs.CalibrateOptions` that describe the cell
 CELL_OPTIONS = (
@@ -70,6 +77,34 @@ def check_cell_options(options, calibrator, methods_offering) -> None:
             f"method {options.method!r} cannot take a reference cell in its fit; methods that "
             f"can: {', '.join(methods_offering('reference_cell'))}",
             parameter="method",
+        )
+
+
+def cell_channel(table, column: str, drop_invalid: bool):
+    """The valid rows' cell channel (float); rows where it is not finite are skipped with
+    ``drop_invalid``, else refused naming the file's line."""
+    channel = np.asarray(table.kept[column], dtype=float)
+    bad = np.flatnonzero(~np.isfinite(channel))
+    if bad.size and not drop_invalid:
+        raise InputError(
+            f"{table.source}: {column} is NaN, empty or inf on "
+            f"{table.row_label(int(table.row_index[bad[0]]))} ({bad.size} row(s)); fix or "
+            "delete them, or skip invalid rows (drop_invalid)",
+            parameter="reference_column",
+        )
+    if bad.size:
+        keep = np.isfinite(channel)
+        return table.select(keep), channel[keep]
+    return table, channel
+
+
+def check_axes(tables) -> None:
+    """The sweep files of one calibration have a frequency column in all or none."""
+    if len({table.x_hz is None for table in tables}) > 1:
+        raise InputError(
+            "some sweep files have a frequency column and some none; the sweeps of one "
+            "calibration need one in every file or in none",
+            parameter="x",
         )
 
 

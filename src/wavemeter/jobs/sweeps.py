@@ -26,6 +26,7 @@ from ..exceptions import InputError, WavemeterError
 from ..io import ColumnRequest, port_key, read_table
 from ..io.convert import NO_LIGHT_REASON
 from .readings import TEMPERATURE_COLUMN_NAMES
+from .reference_cell import cell_channel, check_axes
 
 __all__ = [
     "STDIN_LABEL",
@@ -105,6 +106,24 @@ class SweepRead:
         The first skipped rows with their reasons, ``line 5 (P2_mW is NaN)``.
     temperature_range_k : list of float or None
         Lowest and highest chip temperature of the valid rows (K), with a temperature column.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> from wavemeter.jobs import CalibrateOptions, calibrate_file
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> path = Path(tempfile.mkdtemp()) / "sweep.csv"
+    >>> write_table(path, {"wavelength_nm": 299792458e9 / f_hz,
+    ...                    **{f"p{k + 1}_mW": 1e3 * powers[:, k] for k in range(3)}})
+    >>> read = calibrate_file(path, options=CalibrateOptions(fsr_hz=50e9)).read
+    >>> record = read.records[0]
+    >>> record.x_column, record.x_unit, record.port_units, record.n_rows, record.dropped_rows
+    ('wavelength_nm', 'nm', ('mW', 'mW', 'mW'), 200, 0)
     """
 
     source: Path
@@ -155,6 +174,23 @@ class SweepsRead:
         (given) or the columns' names; None for a calibrator that needs none.
     dark : SweepRead or None
         What reading the dark readings' file found (no axis), when there was one.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> from wavemeter.jobs import CalibrateOptions, calibrate_file
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> path = Path(tempfile.mkdtemp()) / "sweep.csv"
+    >>> write_table(path, {"wavelength_nm": 299792458e9 / f_hz,
+    ...                    **{f"p{k + 1}_mW": 1e3 * powers[:, k] for k in range(3)}})
+    >>> read = calibrate_file(path, options=CalibrateOptions(fsr_hz=50e9)).read
+    >>> len(read.records), read.temperature_from, read.dark  # one file, no temperature, no dark
+    (1, None, None)
     """
 
     records: tuple[SweepRead, ...]
@@ -192,10 +228,8 @@ class Sweeps:
     read : SweepsRead
         What was read.
     reference : ndarray, shape (N,), or None
-        A reference cell's channel (``options.reference_column``), when asked for.
-
-    ``x_hz`` is None for sweeps without a frequency column, read for a self-calibration
-    (``options.band_hz`` given).
+        A reference cell's channel (``options.reference_column``); ``x_hz`` is None for
+        sweeps without a frequency column, read for a self-calibration (``band_hz``).
     """
 
     powers_w: np.ndarray
@@ -256,24 +290,6 @@ def _read_sweep(path, request, *, axis_optional: bool, **options):
         if not (axis_optional and exc.parameter == "x" and request.x is None and str(path) != "-"):
             raise
     return _read(path, request, need_x=False, **options)
-
-
-def _cell_channel(table, column: str, drop_invalid: bool):
-    """The valid rows' cell channel (float); rows where it is not finite are skipped with
-    ``drop_invalid``, else refused naming the file's line."""
-    channel = np.asarray(table.kept[column], dtype=float)
-    bad = np.flatnonzero(~np.isfinite(channel))
-    if bad.size and not drop_invalid:
-        raise InputError(
-            f"{table.source}: {column} is NaN, empty or inf on "
-            f"{table.row_label(int(table.row_index[bad[0]]))} ({bad.size} row(s)); fix or "
-            "delete them, or skip invalid rows (drop_invalid)",
-            parameter="reference_column",
-        )
-    if bad.size:
-        keep = np.isfinite(channel)
-        return table.select(keep), channel[keep]
-    return table, channel
 
 
 def _check_same_layout(tables, explicit_ports: bool) -> None:
@@ -342,17 +358,12 @@ def read_sweeps(
         )
         valid_rows = table.valid_only()
         if cell is not None:
-            valid_rows, channel = _cell_channel(valid_rows, cell, options.drop_invalid)
+            valid_rows, channel = cell_channel(valid_rows, cell, options.drop_invalid)
             channels.append(channel)
         tables.append((table, valid_rows))
     valid = [table for _, table in tables]
     _check_same_layout(valid, request.ports is not None)
-    if len({table.x_hz is None for table in valid}) > 1:
-        raise InputError(
-            "some sweep files have a frequency column and some none; the sweeps of one "
-            "calibration need one in every file or in none",
-            parameter="x",
-        )
+    check_axes(valid)
     temperature_k, source = None, None
     if temperature and given:
         temperature_k = np.concatenate(
