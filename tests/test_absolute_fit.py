@@ -254,3 +254,29 @@ def test_the_thermal_calibrator_on_the_corrected_axis():
     error = wrapped(calibration.predict(test, temperature_k=293.15) - test_hz, calibration.fsr_hz_)
     std = calibration.frequency_std_hz(test, temperature_k=293.15, absolute=True)
     assert rms(error) <= 1.2 * rms(std)
+
+
+def test_a_smooth_drift_within_the_axis_budget_is_set_aside_not_warned():
+    # these draws leave the corrected axis a smooth error that the misfit test names
+    # dispersion (a polynomial in frequency): within twice the axis budget it is the
+    # correction's own error, stated in the budget, and kept in the diagnostics
+    cell = ReferenceCell.simulated(rng=1)
+    sweep = laser_sweep(BAND_HZ, SAMPLES, "tls-spec", rng=2)
+    device = wm.Interferometer.table1(3, seed=1)
+    powers = device.powers(sweep.true_hz, POWER_W, NOISE_W, rng=3)
+    keywords = {
+        "reference_transmission": cell.transmission(sweep.true_hz, rng=4),
+        "reference_lines": cell.lines,
+        "reference_pressure_pa": cell.nominal_pressure_pa,
+        "reference_pressure_std_pa": cell.pressure_std_pa,
+    }
+    with warnings.catch_warnings(record=True) as plain_warnings:
+        warnings.simplefilter("always", wm.CalibrationWarning)
+        wm.Calibrator(50e9).fit(powers, sweep.true_hz)
+    assert not plain_warnings  # on the true axis the device fits without a misfit
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", wm.CalibrationWarning)
+        calibration = wm.Calibrator(50e9).fit(powers, sweep.recorded_hz, **keywords)
+    record = calibration.diagnostics_["reference_cell"]
+    assert [note["cause"] for note in record["explained_by_axis"]] == ["dispersion"]
+    assert record["phase_error_rms_hz"] <= 2.0 * record["axis_budget_rms_hz"]

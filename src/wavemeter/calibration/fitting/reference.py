@@ -45,6 +45,8 @@ __all__ = [
 #: a phase drift the fit on the corrected axis sees is the correction's own error up to
 #: this many times the axis budget's RMS
 EXPLAINED_AXIS_RMS = 2.0
+#: the causes such a drift is named by: smooth along the sweep, or smooth in frequency
+EXPLAINED_CAUSES = ("phase_drift", "dispersion")
 #: the keywords of ``fit`` that describe the reference cell
 REFERENCE_KEYWORDS = (
     "reference_transmission",
@@ -347,7 +349,8 @@ def fit_on_reference(
 
 
 def _unexplained(calibrator, notes: list, axis_rms_hz: float) -> list:
-    """The fit's warnings less a ``"phase_drift"`` the corrected axis explains: a phase
+    """The fit's warnings less a phase drift (:data:`EXPLAINED_CAUSES`: smooth in frequency,
+    it reads as dispersion) the corrected axis explains: a phase
     error (``diagnostics_["fit"]``) within ``EXPLAINED_AXIS_RMS`` times the axis budget's
     RMS is the correction's own smooth error, stated in the budget. What was set aside is
     kept in ``diagnostics_["reference_cell"]``."""
@@ -357,7 +360,7 @@ def _unexplained(calibrator, notes: list, axis_rms_hz: float) -> list:
         return notes
     error_hz = float(error_rad) * float(calibrator.fsr_hz_) / (2.0 * np.pi)
     explained = error_hz <= EXPLAINED_AXIS_RMS * axis_rms_hz
-    kept = [note for note in notes if not (explained and note.cause == "phase_drift")]
+    kept = [note for note in notes if not (explained and note.cause in EXPLAINED_CAUSES)]
     set_aside = [note.record() for note in notes if note not in kept]
     calibrator.diagnostics_ = {
         **calibrator.diagnostics_,
