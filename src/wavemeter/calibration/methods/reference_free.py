@@ -19,12 +19,23 @@ import numpy as np
 
 from ...exceptions import CalibrationWarning, InputError
 from ...validation import MIN_SAMPLES, check_dark, check_monitor, check_positive, check_powers
+from ..files import fields
 from ..files.document import state_array
 from ..fitting.sweep import checked_port_names
 from ..models.cone_fit import OFFSET_MODES, ConeFit, cone_phase_rad, fit_cone
 from .baselines._labels import LabelLockedCalibrator
 
 __all__ = ["ReferenceFreeCalibrator"]
+
+
+def _frame_power_w(frame) -> float | None:
+    """The power scale of a cone's frame (W): the inverse of its smallest singular value;
+    None for a frame that is not 3 x 3 (``_set_state`` refuses it)."""
+    frame = np.asarray(frame, dtype=float)
+    if frame.shape != (3, 3) or not np.all(np.isfinite(frame)):
+        return None
+    smallest = float(np.linalg.svd(frame, compute_uv=False)[-1])
+    return 1.0 / smallest if smallest > 0 else float("inf")
 
 
 class ReferenceFreeCalibrator(LabelLockedCalibrator):
@@ -82,6 +93,24 @@ class ReferenceFreeCalibrator(LabelLockedCalibrator):
     #: phase from the powers alone, for users without a frequency axis: its fit takes no
     #: reference cell (a cell makes another calibrator absolute: ``"reference_cell"``)
     capabilities = frozenset({"power_monitor"})
+    #: what each number of the file's state may hold (:mod:`~wavemeter.calibration.files.fields`)
+    state_rules = fields.rule_table(
+        {
+            "cone.frame": fields.ScaleRule(
+                "the cone's frame (1/W)",
+                lambda frame: _frame_power_w(frame),
+                "the largest power the frame's inverse maps to",
+            ),
+            "cone.vertex_w": fields.OFFSET_RULE,
+            "cone.basis": fields.FieldRule("a unit vector's entry", "", high=1.0, magnitude=True),
+            "cone.power_spread": fields.FieldRule(
+                "the source power's relative spread", "", 0.0, 10.0
+            ),
+            "cone.frame_std_rad": fields.FieldRule(
+                "the frame's RMS phase distortion", "rad", 0.0, fields.ANGLE_RAD
+            ),
+        }
+    )
 
     def __init__(self, fsr_hz: float = 50e9, anchor_hz=None, offsets: str = "none"):
         self.fsr_hz = fsr_hz
