@@ -287,7 +287,8 @@ def _read_sweep(path, request, *, axis_optional: bool, **options):
     try:
         return _read(path, request, **options)
     except InputError as exc:
-        if not (axis_optional and exc.parameter == "x" and request.x is None and str(path) != "-"):
+        missing = "no frequency or wavelength column" in str(exc)  # not an ambiguous one
+        if not (axis_optional and missing and request.x is None and str(path) != "-"):
             raise
     return _read(path, request, need_x=False, **options)
 
