@@ -29,6 +29,8 @@ __all__ = ["scenario_options", "FiniteFloat", "RampParam", "PLATFORMS", "SPECTRA
 
 #: thermal platforms of ``--platform``: the keys of wavemeter.THERMAL_PRESETS
 PLATFORMS = ("sin", "soi")
+#: laser presets of ``--sweep-axis``: the keys of wavemeter.simulation.SWEEP_PRESETS
+SWEEP_AXES = ("tls-spec", "tls-typical", "dfb")
 #: spectral platforms of ``--spectral``: the keys of wavemeter.simulation.SPECTRAL_PRESETS
 SPECTRAL_PLATFORMS = ("sin",)
 
@@ -336,6 +338,20 @@ _OPTIONS = [
         "The laser's linear frequency drift in Hz/s.",
         dest="laser_drift_hz_per_s",
         metavar="HZ_PER_S",
+    ),
+    click.option(
+        "--sweep-axis",
+        type=click.Choice(SWEEP_AXES),
+        help="The sweep's axis column is what a laser records: tls-spec (a tunable laser at "
+        "its +-10 pm specification), tls-typical (3.6 pm), dfb (tuned by current, nominal "
+        "coefficient only); the truth goes to simulated_true_frequency_hz (evaluation only).",
+    ),
+    click.option(
+        "--reference-cell",
+        metavar="NAME|FILE",
+        help="Record a reference gas cell beside the ports (cell_transmission column): a "
+        "simulated band (hcn-like: NOT real HCN lines; its table is written to OUT with "
+        "-lines.csv for calibrate --lines) or your line table file.",
     ),
 ]
 

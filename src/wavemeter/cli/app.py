@@ -132,6 +132,15 @@ OPTION_OF_PARAMETER = {
     "dark_w": "--dark-w",
     "dark_file": "--dark",
     "uncertainty": "--uncertainty",
+    "reference_column": "--reference-column",
+    "reference_transmission": "--reference-column",
+    "reference_lines": "--lines",
+    "band_hz": "--band",
+    "reference_pressure_pa": "--cell-pressure",
+    "reference_pressure_std_pa": "--cell-pressure-std",
+    "axis_error_hz": "--axis-error",
+    "sweep_axis": "--sweep-axis",
+    "reference_cell": "--reference-cell",
 }
 _OPTION_IN_COMMAND = {
     "simulate": {"x_unit": "--write-axis-unit", "power_unit": "--write-power-unit"},

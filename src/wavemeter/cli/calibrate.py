@@ -27,6 +27,7 @@ from ._common import (
 )
 from ._methods import calibrate_options, method_options
 from ._params import OFFSETS
+from ._reference import cell_fields, cell_options
 from ._streams import is_stdio, output_path
 from ._temperature import temperature_k_option
 from .app import WarningsRefused
@@ -56,18 +57,18 @@ def notes(quiet: bool, read) -> None:
             )
 
 
-def read_line(read) -> str:
-    """What was read: files, rows, axis, ports, monitor and temperature."""
+def read_line(read, reference_column=None) -> str:
+    """What was read: files, rows, axis, ports, monitor, reference cell and temperature."""
     first = read.first
     rows = f"{read.n_rows} rows"
     if len(read.records) > 1:
         rows += f" ({' + '.join(str(record.n_rows) for record in read.records)})"
-    text = (
-        f"calibrated {read.label}: {rows}, axis {first.x_column} ({first.x_unit}), "
-        f"ports {', '.join(first.port_names)}"
-    )
+    axis = f"axis {first.x_column} ({first.x_unit})" if first.x_column else "no frequency axis"
+    text = f"calibrated {read.label}: {rows}, {axis}, ports {', '.join(first.port_names)}"
     if first.monitor_column:
         text += f", monitor {first.monitor_column}"
+    if reference_column:
+        text += f", reference cell {reference_column}"
     if read.temperature_from is not None:
         low, high = read.temperature_range_k
         source = "--temperature-k" if read.given_k else f"column {read.temperature_from}"
@@ -106,6 +107,7 @@ def read_line(read) -> str:
     is_flag=True,
     help="Treat calibration warnings as errors: write nothing and exit with code 3.",
 )
+@cell_options
 @column_options()
 @FORCE
 @QUIET
@@ -144,6 +146,14 @@ def calibrate(sweeps, out_path, force, **options):
     (wrong-order rate above --max-order-error) is refused with the largest FSR ratio the
     noise allows.
 
+    A reference gas cell recorded beside the ports (--reference-column COL, its line
+    table --lines FILE) makes the calibration absolute: the cell's lines are fitted and
+    identified, the laser's recorded axis is corrected between them with the meter's own
+    phase, and the file keeps the axis correction and its uncertainty budget (info and
+    report show them). With --band and a sweep file without a frequency column the axis
+    is made from the lines alone (self-calibration). The methods that can: those with
+    the "reference_cell" capability (not reference_free).
+
     A method that can fit a sweep in chunks (the "fit_chunks" capability: learned, not
     --per-fsr) reads it in chunks, with a progress bar, in memory bounded by the chunk:
     files larger than memory work. Beyond 2^17 readings it is fitted on sums over every
@@ -163,6 +173,10 @@ def calibrate(sweeps, out_path, force, **options):
       wavemeter calibrate band.csv -o set.wmcal.json --per-fsr
       wavemeter calibrate --method cascade cband.csv -o cascade.wmcal.json \\
           --fsr 5THz,500GHz,50GHz --stage-ports 1-3/4-6/7-9
+      wavemeter calibrate --method wideband cell.csv -o abs.wmcal.json \\
+          --reference-column cell_transmission --lines lines.csv --cell-pressure 13.3kPa
+      wavemeter calibrate --method wideband nofreq.csv -o abs.wmcal.json \\
+          --reference-column cell_transmission --lines lines.csv --band 1527nm:1565nm
     """
     from ..jobs import CalibrationRefused, calibrate_file
 
@@ -176,6 +190,7 @@ def calibrate(sweeps, out_path, force, **options):
         dark_file=options["dark_file"],
         temperature_k=tuple(options["temperature_k"]),
         strict=options["strict"],
+        **cell_fields(options),
     )
     inputs = (*sweeps, *([job.dark_file] if job.dark_file else []))
     check_calibration_output(out_path, inputs, force)
@@ -190,7 +205,7 @@ def calibrate(sweeps, out_path, force, **options):
     for warning in result.fit_warnings:  # one "warning:" line each (app.main)
         warnings.warn(warning, stacklevel=1)
     to_stderr = is_stdio(out_path)
-    say(quiet, read_line(result.read), err=to_stderr)
+    say(quiet, read_line(result.read, job.reference_column), err=to_stderr)
     say(quiet, result.calibration.summary().text, err=to_stderr)
     say(quiet, f"wrote {'the calibration to stdout' if to_stderr else out_path}", err=to_stderr)
 

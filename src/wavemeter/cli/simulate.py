@@ -23,7 +23,7 @@ from click.core import ParameterSource
 from ..exceptions import InputError
 from ..io import write_table
 from ..progress import busy, progress_bar
-from ..simulation import Scenario
+from ..simulation import CELL_PRESETS, Scenario, simulated_band_lines
 from ..units import SENTINEL_DBM
 from ._common import FORCE, FORMAT, QUIET, note, output_format, printable, say
 from ._simulate_lines import summary_lines
@@ -90,6 +90,19 @@ def _targets(out_path: str, scenario: Scenario, outs: dict) -> dict[str, str]:
     return targets
 
 
+def _lines_target(out_path: str, scenario: Scenario, force: bool) -> str | None:
+    """Where the table of a simulated band goes: OUT with ``-lines.csv``; None for a cell
+    of the user's table or none."""
+    if scenario.reference_cell not in CELL_PRESETS:
+        return None
+    if is_stdio(out_path):
+        raise InputError("--reference-cell of a simulated band writes its table: give -o FILE")
+    path = str(Path(out_path).with_name(f"{Path(out_path).stem}-lines.csv"))
+    if Path(path).exists() and not force:
+        raise InputError(f"{path} exists: the band's table would replace it; use --force")
+    return path
+
+
 @click.command()
 @scenario_options
 @FORMAT
@@ -129,6 +142,10 @@ def simulate(
     every stage gets the platform's slopes and the dispersion of its delay. The single
     device's FSR, span, detector and thermal faults are not simulated for a cascade.
 
+    A sweep as a laser records it (--sweep-axis) with a reference gas cell beside the
+    ports (--reference-cell) is what `calibrate --reference-column cell_transmission
+    --lines FILE` makes absolute; the true frequencies are written for evaluation only.
+
     A laser record (--laser N) is N readings of a laser with white, flicker and
     random-walk FM and a drift (--white-fm, --flicker-fm, --random-walk-fm, --laser-drift)
     at --laser-rate, from the device's centre: `wavemeter noise` measures them with the
@@ -156,6 +173,8 @@ def simulate(
       wavemeter simulate -o s294.csv --platform sin --temperature-k 21C \\
           --laser 1000 --laser-out line21.csv --laser-frequency 193.4THz
       mkdir wafer7 && for s in 1 2; do wavemeter simulate -o wafer7/die$s.csv --seed $s; done
+      wavemeter simulate -o cell.csv --span-fsr 20 --samples 8000 --sweep-axis tls-spec \\
+          --reference-cell hcn-like
     """
     context = click.get_current_context()
     given = {
@@ -166,6 +185,7 @@ def simulate(
     with _in_option_words(context.command):
         scenario = Scenario(monitor=not no_monitor, **given)
     targets = _targets(out_path, scenario, {"test": test_out, "laser": laser_out, "dark": dark_out})
+    lines_path = _lines_target(out_path, scenario, force)
     formats = {
         name: output_format(path, file_format, force=force) for name, path in targets.items()
     }
@@ -199,6 +219,9 @@ def simulate(
                 f"the {SENTINEL_DBM:g} dBm no-reading code; read {path} with --drop-invalid, "
                 "or simulate with a lower --noise",
             )
+    if lines_path is not None:  # the simulated band's table, for calibrate --lines
+        simulated_band_lines(scenario.reference_cell)[0].to_csv(lines_path)
+        say(quiet, f"wrote {lines_path} (the SIMULATED {scenario.reference_cell} lines)")
     for line in summary_lines(scenario, sweep):
         say(quiet, line, err=to_stderr)
 

@@ -1,25 +1,22 @@
 """Calibrating a device from its sweep: the one job ``calibrate`` and ``fleet calibrate`` run.
 
 :func:`calibrate_file` builds the calibrator the :class:`CalibrateOptions` ask for
-(:func:`~wavemeter.jobs.calibrator.build_calibrator`), reads the sweep (in chunks, with
-progress and in memory bounded by the chunk, for a calibrator with the ``"fit_chunks"``
-capability; whole, one or several files, for the others), subtracts the dark readings,
-fits, makes the metadata and saves the calibration atomically. It returns a
-:class:`DeviceResult` with the numbers a fleet's summary shows: the fitted FSR, the
-detector noise estimate, the RMS error of the calibration on its own sweep, the RMS
-Cramer-Rao bound of the sweep (on every k-th reading beyond ``SAMPLE_ROWS``) and their
-ratio. :func:`calibrate_device` does the same for a fleet: bad input becomes a result with
-``status="error"``; :func:`saved_result` rebuilds a result from a saved file.
+(:func:`~wavemeter.jobs.calibrator.build_calibrator`), reads the sweep (in chunks, in memory
+bounded by the chunk, with the ``"fit_chunks"`` capability; else whole, one or several
+files), subtracts the dark readings,
+fits (with a reference cell: :mod:`~wavemeter.jobs.reference_cell`), makes the metadata
+and saves the calibration atomically. Its :class:`DeviceResult` has the numbers a fleet's
+summary shows (FSR, noise, RMS error on the sweep, RMS Cramer-Rao bound on every k-th
+reading beyond ``SAMPLE_ROWS``, their ratio). :func:`calibrate_device` does the same for a
+fleet (bad input: a result with ``status="error"``); :func:`saved_result` reads one back.
 
-The metadata (the same function for both commands): the sweep files and their columns,
-rows, temperatures, the dark readings' file (:func:`~wavemeter.jobs.sweeps.sweep_metadata`),
-``crlb_rms_hz`` and ``calibrate_options`` (:func:`~wavemeter.jobs.calibrator.options_record`).
-``calibrate`` and ``fleet calibrate`` of the same sweep with the same options write files
-that differ only in these fields:
+The metadata (the same for both commands): the sweeps' files, columns, rows, temperatures,
+dark readings (:func:`~wavemeter.jobs.sweeps.sweep_metadata`), ``crlb_rms_hz`` and
+``calibrate_options`` (:func:`~wavemeter.jobs.calibrator.options_record`). ``calibrate``
+and ``fleet calibrate`` of one sweep with the same options write files that differ only in:
 
 - ``created_utc``: when the file was written;
-- ``metadata.sweep_file``: the sweep as each command was given it (the fleet names the
-  files it found in a folder or by a pattern by their path there).
+- ``metadata.sweep_file``: the sweep as each command was given it (the fleet: its path).
 """
 
 from __future__ import annotations
@@ -37,10 +34,11 @@ import numpy as np
 from ..exceptions import InputError, WavemeterError, recorded_calibration_warnings
 from ..io import ColumnRequest, iter_readings
 from ..io.streaming import CHUNK_ROWS
-from .calibrator import CalibrateOptions, build_calibrator, options_record
+from .calibrator import CalibrateOptions, build_calibrator, methods_offering, options_record
 from .chunks import SAMPLE_ROWS, RowSample, fit_sweep_chunks
 from .measure import about_file
 from .readings import check_reading_options, needs_temperature
+from .reference_cell import cell_keywords, check_cell_options
 from .sweeps import SweepsRead, input_label, read_dark_w, read_sweeps, sweep_metadata
 
 __all__ = [
@@ -60,8 +58,7 @@ ERROR = "error"
 #: what may differ between the files ``calibrate`` and ``fleet calibrate`` write of the
 #: same sweep with the same options (module docstring)
 DIFFERING_FIELDS = ("created_utc", "metadata.sweep_file")
-#: Python records warnings process-wide (not per thread): fits in threads of one process
-#: record their warnings one at a time, so that each records its own
+#: warnings are recorded process-wide: fits in threads record theirs one at a time
 _WARNINGS_LOCK = threading.Lock()
 
 
@@ -271,6 +268,7 @@ def _check_inputs(calibrator, paths: tuple, options: CalibrateOptions) -> None:
             parameter="temperature_k",
         )
     check_reading_options(calibrator, temperature_k=given)
+    check_cell_options(options, calibrator, methods_offering)
     if given and len(given) != len(paths):
         raise InputError(
             f"temperature_k is given {len(given)} time(s) for {len(paths)} sweep file(s); "
@@ -327,6 +325,7 @@ def _fit_whole(calibrator, paths: tuple, options: CalibrateOptions, progress, ch
         check(first)
     dark_w, dark = read_dark_w(options, first, progress=progress)
     inputs = {} if sweeps.temperature_k is None else {"temperature_k": sweeps.temperature_k}
+    cell = {} if sweeps.reference is None else cell_keywords(options, sweeps.reference)
     label = sweeps.read.label
     busy = progress(f"calibrating on {label}", None, "") if progress else contextlib.nullcontext()
     with busy, _recorded(label) as caught:
@@ -336,11 +335,12 @@ def _fit_whole(calibrator, paths: tuple, options: CalibrateOptions, progress, ch
             sweeps.monitor_w,
             list(first.port_names),
             dark_w=dark_w,
-            **inputs,
+            **(inputs | cell),
         )
-    stride = max(1, math.ceil(len(sweeps.x_hz) / SAMPLE_ROWS))
+    stride = max(1, math.ceil(len(sweeps.powers_w) / SAMPLE_ROWS))
     sample = RowSample(SAMPLE_ROWS)
-    sample.add(sweeps.powers_w[::stride], sweeps.x_hz[::stride])
+    if sweeps.x_hz is not None:  # self-calibrated: no known frequencies, no bound
+        sample.add(sweeps.powers_w[::stride], sweeps.x_hz[::stride])
     inputs = {name: values[::stride] for name, values in inputs.items()}
     return dataclasses.replace(sweeps.read, dark=dark), sample, inputs, caught
 
@@ -428,6 +428,7 @@ def calibrate_file(
     record = options_record(options, calibrator)
     # in chunks: a calibrator that can (a set cannot), of one sweep, needing no inputs
     chunked = "fit_chunks" in calibrator.capabilities and not calibrator.requires
+    chunked = chunked and options.reference_column is None  # and without a cell
     fit = _fit_in_chunks if chunked and len(paths) == 1 else _fit_whole
     read, sample, inputs, caught = fit(calibrator, paths, options, progress, check)
     if options.strict and caught:

@@ -24,6 +24,7 @@ import numpy as np
 from ..exceptions import InputError
 from ..io import ColumnRequest
 from ..units import frequency_text
+from .reference_cell import cell_record
 from .sweeps import input_label
 
 __all__ = [
@@ -73,6 +74,21 @@ class CalibrateOptions:
     strict : bool
         A fit that warns is refused (:class:`~wavemeter.jobs.calibrate.CalibrationRefused`)
         and nothing is saved.
+    reference_column : str, optional
+        The sweep file's column with a reference cell's channel, recorded beside the ports
+        (:mod:`~wavemeter.jobs.reference_cell`); with ``reference_lines``.
+    reference_lines : str, Path or ReferenceLines, optional
+        The cell's line table: a file :meth:`wavemeter.ReferenceLines.read_csv` reads.
+    band_hz : (float, float), optional
+        The band the sweep covers (Hz): where the cell's lines are identified; with it a
+        sweep file without a frequency column is self-calibrated from the lines.
+    reference_pressure_pa : float, optional
+        The cell's pressure (Pa), for a table of zero-pressure centres with shifts.
+    reference_pressure_std_pa : float
+        Its standard uncertainty (Pa).
+    axis_error_hz : float, optional
+        A bound on the recorded axis's error (Hz): below a quarter of the line spacing the
+        nearest table line identifies each line; None: the pattern of spacings does.
 
     Examples
     --------
@@ -81,6 +97,13 @@ class CalibrateOptions:
     >>> calibrator = build_calibrator(options)  # unfitted, the method's settings applied
     >>> calibrator.method, calibrator.get_params()["phase_order"]
     ('wideband', 2)
+
+    A reference cell recorded beside the ports makes the calibration absolute (the line
+    table is the user's file; none ships):
+
+    >>> options = CalibrateOptions(reference_column="cell", reference_lines="lines.csv")
+    >>> "reference_cell" in build_calibrator(options).capabilities
+    True
     """
 
     method: str = "learned"
@@ -95,6 +118,12 @@ class CalibrateOptions:
     dark_file: str | None = None
     temperature_k: tuple[float, ...] = ()
     strict: bool = False
+    reference_column: str | None = None
+    reference_lines: object = None
+    band_hz: tuple[float, float] | None = None
+    reference_pressure_pa: float | None = None
+    reference_pressure_std_pa: float = 0.0
+    axis_error_hz: float | None = None
 
     @classmethod
     def from_keywords(cls, **keywords) -> CalibrateOptions:
@@ -275,7 +304,8 @@ def options_record(options: CalibrateOptions, calibrator) -> dict:
     """What a calibration file keeps of the options (``calibrate_options``), as JSON reads
     it back (tuples as lists): the method, the calibrator's settings (every one, defaults
     included; a set's window as its method and settings), ``per_fsr``, the columns, the
-    treatment of invalid rows, the dark readings and the temperatures given. Two runs
+    treatment of invalid rows, the dark readings, the temperatures given and the reference
+    cell's options (``reference_cell``, only where a cell was given). Two runs
     with the same record make the same calibration of the same sweep.
 
     Raises
@@ -296,6 +326,9 @@ def options_record(options: CalibrateOptions, calibrator) -> dict:
         "dark_file": None if options.dark_file is None else input_label(options.dark_file),
         "temperature_k": list(options.temperature_k),
     }
+    cell = cell_record(options)
+    if cell is not None:  # kept only where a cell was given: other files are unchanged
+        record["reference_cell"] = cell
     try:
         return json.loads(json.dumps(record, default=_json_ready, allow_nan=False))
     except (TypeError, ValueError) as exc:

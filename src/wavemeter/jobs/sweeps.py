@@ -4,11 +4,12 @@
 ``<stdin>``) into memory, valid rows only, concatenated in the order given, and checks that
 they agree (the same ports, a power monitor in all or none); a calibrator that needs the
 chip temperature of each reading gets it from each file's temperature column or from one
-temperature per file. :func:`read_dark_w` gives the per-port dark readings from values or
-a file of readings with the source off (averaged). :class:`SweepRead` is what reading one
-file found, :class:`SweepsRead` what reading all of them found; :func:`sweep_metadata` is
-what a calibration file keeps of them. Reading a sweep in chunks is
-:mod:`wavemeter.jobs.chunks`.
+temperature per file; a reference cell's channel is read beside the ports, and a sweep
+without a frequency column is read for a self-calibration. :func:`read_dark_w` gives the
+per-port dark readings from values or a file of readings with the source off (averaged).
+:class:`SweepRead` is what reading one file found, :class:`SweepsRead` what reading all of
+them found; :func:`sweep_metadata` is what a calibration file keeps of them. Reading a
+sweep in chunks is :mod:`wavemeter.jobs.chunks`.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from ..exceptions import InputError, WavemeterError
 from ..io import ColumnRequest, port_key, read_table
 from ..io.convert import NO_LIGHT_REASON
 from .readings import TEMPERATURE_COLUMN_NAMES
+from .reference_cell import cell_channel, check_axes
 
 __all__ = [
     "STDIN_LABEL",
@@ -225,13 +227,17 @@ class Sweeps:
         Power monitor (W) and, for a calibrator that needs it, chip temperature (K).
     read : SweepsRead
         What was read.
+    reference : ndarray, shape (N,), or None
+        A reference cell's channel (``options.reference_column``); ``x_hz`` is None for
+        sweeps without a frequency column, read for a self-calibration (``band_hz``).
     """
 
     powers_w: np.ndarray
-    x_hz: np.ndarray
+    x_hz: np.ndarray | None
     monitor_w: np.ndarray | None
     temperature_k: np.ndarray | None
     read: SweepsRead
+    reference: np.ndarray | None = None
 
 
 def _port_list(table) -> str:
@@ -243,15 +249,17 @@ def _busy(progress: Callable | None, description: str):
     return progress(description, None, "") if progress else contextlib.nullcontext()
 
 
-def _read(path, request, *, drop_invalid: bool, find_temperature, progress, light=True):
+def _read(
+    path, request, *, drop_invalid: bool, find_temperature, progress, light=True, need_x=None
+):
     """One file read whole (``light=False``: readings with the source off, whose rows may
-    sum to zero or less)."""
+    sum to zero or less; ``need_x``: default ``light``)."""
     label = input_label(path)
     with _busy(progress, f"reading {label}"), stdin_named(path):
         table = read_table(
             path,
             request,
-            need_x=light,
+            need_x=light if need_x is None else need_x,
             find_extras=light,
             allow_invalid=drop_invalid or not light,
             find_temperature=find_temperature,
@@ -271,6 +279,18 @@ def _read(path, request, *, drop_invalid: bool, find_temperature, progress, ligh
                 parameter="allow_invalid",
             )
     return table
+
+
+def _read_sweep(path, request, *, axis_optional: bool, **options):
+    """A sweep file read whole; with ``axis_optional`` (a self-calibration), a file without
+    a frequency column too (read again without one; standard input is read once)."""
+    try:
+        return _read(path, request, **options)
+    except InputError as exc:
+        missing = "no frequency or wavelength column" in str(exc)  # not an ambiguous one
+        if not (axis_optional and missing and request.x is None and str(path) != "-"):
+            raise
+    return _read(path, request, need_x=False, **options)
 
 
 def _check_same_layout(tables, explicit_ports: bool) -> None:
@@ -323,19 +343,28 @@ def read_sweeps(
         calibrator needs.
     """
     request = options.request or ColumnRequest()
+    cell = options.reference_column
+    if cell is not None:
+        request = dataclasses.replace(request, keep=(*request.keep, cell))
     given = tuple(float(value) for value in options.temperature_k)
-    tables = []
+    tables, channels = [], []
     for path in paths:
-        table = _read(
+        table = _read_sweep(
             path,
             request,
+            axis_optional=options.band_hz is not None,
             drop_invalid=options.drop_invalid,
             find_temperature=None if not temperature else not given,
             progress=progress,
         )
-        tables.append((table, table.valid_only()))
+        valid_rows = table.valid_only()
+        if cell is not None:
+            valid_rows, channel = cell_channel(valid_rows, cell, options.drop_invalid)
+            channels.append(channel)
+        tables.append((table, valid_rows))
     valid = [table for _, table in tables]
     _check_same_layout(valid, request.ports is not None)
+    check_axes(valid)
     temperature_k, source = None, None
     if temperature and given:
         temperature_k = np.concatenate(
@@ -363,10 +392,11 @@ def read_sweeps(
     monitor = valid[0].monitor_w is not None
     return Sweeps(
         powers_w=np.concatenate([table.powers_w for table in valid]),
-        x_hz=np.concatenate([table.x_hz for table in valid]),
+        x_hz=None if valid[0].x_hz is None else np.concatenate([table.x_hz for table in valid]),
         monitor_w=np.concatenate([table.monitor_w for table in valid]) if monitor else None,
         temperature_k=temperature_k,
         read=SweepsRead(records, extent, given, source),
+        reference=np.concatenate(channels) if channels else None,
     )
 
 

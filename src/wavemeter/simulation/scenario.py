@@ -28,6 +28,7 @@ import numpy as np
 from ..units import hz_to_axis
 from . import scenario_checks as checks
 from .cascade import CascadeInterferometer
+from .cell_recording import CELL_COLUMN, TRUE_COLUMN, cell_sweep, check_cell
 from .drift import slow_power_drift, thermal_ramp_rad
 from .interferometer import DEFAULT_FSR_HZ, Interferometer
 from .laser import laser_frequency_hz
@@ -160,6 +161,14 @@ class Scenario:
         The laser's linear drift (Hz/s).
     dark : int
         Readings with the source off (0: none): the detectors' dark offset and noise.
+    sweep_axis : str, optional
+        A :data:`~wavemeter.simulation.SWEEP_PRESETS` key: the sweep's axis column is what
+        that laser records, and ``simulated_true_frequency_hz`` (Hz) the truth the meter
+        saw, for evaluation only (:mod:`~wavemeter.simulation.cell_recording`).
+    reference_cell : str, optional
+        A :data:`~wavemeter.simulation.CELL_PRESETS` key or a line table file: a
+        ``cell_transmission`` column, the cell recorded beside the ports at the true
+        frequencies (with ``simulated_true_frequency_hz`` too).
 
     Raises
     ------
@@ -227,6 +236,8 @@ class Scenario:
     random_walk_fm_hz2_per_s: float = 0.0
     laser_drift_hz_per_s: float = 0.0
     dark: int = 0
+    sweep_axis: str | None = None
+    reference_cell: str | None = None
     #: drawn when the scenario is made: the device, its spectral preset, the noise std (W)
     _device: Interferometer | CascadeInterferometer = field(init=False, repr=False, compare=False)
     _preset: SpectralPreset | None = field(init=False, repr=False, compare=False)
@@ -237,6 +248,9 @@ class Scenario:
             item.name: getattr(self, item.name) for item in dataclasses.fields(self) if item.init
         }
         values = checks.normalised(given)
+        values["sweep_axis"], values["reference_cell"] = check_cell(
+            values["sweep_axis"], values["reference_cell"]
+        )
         checks.check_related(values)
         for name, value in values.items():
             object.__setattr__(self, name, value)
@@ -403,8 +417,19 @@ class Scenario:
         if self.platform is not None and self.ramp_k is not None:
             test_k = rng.uniform(min(self.ramp_k), max(self.ramp_k), self.test)
         power_factor, bias_drift_rad = self._sweep_drift(sweep_hz.size)
+        absolute = {}
+        if self.sweep_axis is not None or self.reference_cell is not None:
+            swept = cell_sweep(self.sweep_hz(), self.seed, self.sweep_axis, self.reference_cell)
+            sweep_hz = np.tile(swept.true_hz, self.repeat)
+            recorded_hz = np.tile(swept.recorded_hz, self.repeat)
+            absolute[TRUE_COLUMN] = sweep_hz
+            if swept.transmission is not None:
+                absolute[CELL_COLUMN] = np.tile(swept.transmission, self.repeat)
         sweep = {
-            axis_column(self.x_unit): hz_to_axis(sweep_hz, self.x_unit),
+            axis_column(self.x_unit): hz_to_axis(
+                recorded_hz if absolute else sweep_hz, self.x_unit
+            ),
+            **absolute,
             **self._readings(
                 sweep_hz,
                 rng,

@@ -34,6 +34,7 @@ from ..files.fields import (
     rule_table,
 )
 from ..files.registry import register
+from .absolute import AbsoluteMixin
 from .figures import FigureData, FringePanel
 from .params import ParamsMixin
 from .reading import ReadingMixin
@@ -58,6 +59,7 @@ CAPABILITIES = (
     "power_monitor",  # fit takes a source-power monitor
     "reanchor",  # reanchor: a corrected copy from readings of reference lines
     "fit_chunks",  # fit_chunks: a sweep read in chunks, in bounded memory
+    "reference_cell",  # fit takes a reference cell: the axis corrected, or none needed
 )
 
 
@@ -112,7 +114,7 @@ class Part:
     range_hz: tuple
 
 
-class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
+class BaseCalibrator(AbsoluteMixin, ParamsMixin, ReadingMixin, StreamMixin):
     """Common machinery of every calibrator; not used on its own (module docstring).
 
     Examples
@@ -302,8 +304,10 @@ class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
 
     def report_figures(self, noise_std_hz: float | None = None) -> tuple[FigureData, ...]:
         """Figures of the fit the method adds to its report (``noise_std_hz``: the bound's
-        RMS on the evaluation readings, as the noise level to judge them by)."""
-        return ()
+        RMS on the evaluation readings, as the noise level to judge them by); here those
+        of a reference cell's axis correction, where there was one (a method that adds
+        its own includes these)."""
+        return self._absolute_figures()
 
     def evaluation_checks(self, powers_w, frequency_hz) -> tuple[Check, ...]:
         """Checks of its own on readings of known frequency (Hz), beyond their error."""
@@ -344,6 +348,7 @@ class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
             diagnostics=self.diagnostics_,
             windows=tuple(part.calibration.summary() for part in parts),
             windows_are=f"{parts[0].kind}s" if parts else "windows",
+            tables=self._absolute_tables(),
         )
 
     describe = summary

@@ -223,13 +223,15 @@ class ReadingMixin:
         coarse_hz=None,
         temperature_k=None,
         include_calibration=True,
+        absolute=False,
         errors="coerce",
     ):
         """Standard deviation (Hz) of each reading's frequency estimate, where
         ``"frequency_std"`` is a capability.
 
         ``(estimate - true) / frequency_std_hz`` has unit standard deviation for in-model
-        readings.
+        readings; with ``absolute=True`` that holds of the error against the absolute
+        frequency, for a calibration made absolute by a reference cell.
 
         Parameters
         ----------
@@ -237,6 +239,10 @@ class ReadingMixin:
             As for :meth:`predict`.
         include_calibration : bool
             Add the calibration's own uncertainty (default) or give the reading noise only.
+        absolute : bool
+            Add the uncertainty of the sweep's corrected axis at the reading's frequency
+            (``uncertainty_budget_``, its axis terms) in quadrature: the absolute
+            uncertainty. Only for a calibration fitted with a reference cell.
 
         Returns
         -------
@@ -245,11 +251,21 @@ class ReadingMixin:
         Raises
         ------
         InputError
-            For a class that does not provide it; as for :meth:`predict`.
+            For a class that does not provide it; with ``absolute=True`` for a calibration
+            fitted without a reference cell; as for :meth:`predict`.
         """
         self._require_capability("frequency_std", "gives no per-reading uncertainty")
         prepared = self._prepared(powers, coarse_hz, temperature_k, errors)
-        return self._computed(prepared, self._frequency_std, include_calibration)
+        if not absolute:
+            return self._computed(prepared, self._frequency_std, include_calibration)
+        self._absolute_std_hz(np.zeros(0))  # refuses a calibration without a budget
+        return self._computed(prepared, self._absolute_frequency_std, include_calibration)
+
+    def _absolute_frequency_std(self, readings, inputs: ReadingInputs, include_calibration):
+        """:meth:`frequency_std_hz` with ``absolute=True`` of readable readings: the own
+        standard deviation and the axis budget at the frequency read, in quadrature."""
+        own = self._frequency_std(readings, inputs, include_calibration)
+        return np.hypot(own, self._absolute_std_hz(self._frequency_hz(readings, inputs)))
 
     def crlb_hz(
         self, powers, *, coarse_hz=None, temperature_k=None, frequency_hz=None, errors="coerce"

@@ -70,10 +70,14 @@ class FittedCalibrator(Protocol):
 
     def get_params_for_file(self) -> dict: ...
 
+    def _absolute_state(self) -> dict | None: ...
+
 
 FORMAT = "wavemeter.calibration"
 #: 2 (wavemeter 0.3): the reading model (dark readings, fitted offsets, total power range),
-#: per-port noise and the fit's parameter covariance; a reader of 1 would ignore the offsets
+#: per-port noise and the fit's parameter covariance; a reader of 1 would ignore the offsets.
+#: Optional field ``absolute`` (after 0.7.1): a reference cell's axis correction and absolute
+#: budget; a reader that ignores it predicts the same, so the version stays 2
 SCHEMA_VERSION = 2
 UNITS = {"frequency": "Hz", "power": "W", "phase": "rad", "delay": "s"}
 #: largest calibration file read (a calibration set of 1,000 windows is about 2 MB)
@@ -114,6 +118,8 @@ def calibrator_fields(calibrator: FittedCalibrator) -> dict:
     :class:`wavemeter.CalibrationSet`'s window method, does not replace it).
     """
     check_fitted(calibrator)
+    # a reference cell's axis correction and budget, only where there was a cell
+    absolute = calibrator._absolute_state()
     return {
         "method": type(calibrator).method,
         "params": calibrator.get_params_for_file(),
@@ -127,6 +133,7 @@ def calibrator_fields(calibrator: FittedCalibrator) -> dict:
         "reading_model": calibrator._reading_model_state(),
         "state": calibrator._state(),
         "diagnostics": calibrator.diagnostics_,
+        **({} if absolute is None else {"absolute": absolute}),
     }
 
 
@@ -351,6 +358,7 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
         calibrator._set_reading_model_state(reading_model)
         calibrator._set_state(state)
         calibrator._check_state()
+        calibrator._set_absolute_state(document.get("absolute"))
     except _STATE_ERRORS as exc:
         raise _fail(path, f"invalid {method!r} calibration state: {exc}") from exc
     if abs(calibrator.fsr_hz_ / fsr - 1.0) > DELAY_RTOL:

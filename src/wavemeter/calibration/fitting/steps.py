@@ -29,7 +29,8 @@ from ..contract.records import ReadingInputs
 from ..models.delay_search import DEFAULT_FSR_TOLERANCE
 from ..models.learned_fit import AFFINE_MIN_POWER_SPREAD
 from ..models.linear_map import fit_map, object_vectors
-from .sweep import FitContext, Sweep, checked_sweep
+from .reference import ReferenceCellMixin, cell_inputs
+from .sweep import FitContext, Sweep, checked_powers, checked_sweep
 
 __all__ = [
     "AFFINE_MIN_POWER_SPREAD",
@@ -141,11 +142,14 @@ def issue(notes, stacklevel: int = 3) -> None:
         warnings.warn(note, stacklevel=stacklevel)
 
 
-class SweepFitMixin:
+class SweepFitMixin(ReferenceCellMixin):
     """``fit`` as the steps above, for a calibrator that learns in one step.
 
     The class writes ``_learn(sweep)``: set the learned attributes (``fsr_hz_`` and its
     own) from the validated sweep, whose layout ``_start_fit`` has already recorded.
+    ``fit`` takes a reference cell (:mod:`~wavemeter.calibration.fitting.reference`): the
+    ``"reference_cell"`` capability, declared here by default (a class that declares its
+    own capabilities lists it where it offers it).
 
     Examples
     --------
@@ -182,6 +186,8 @@ class SweepFitMixin:
     ['diagnostic_samples', 'fit', 'fsr_estimate_hz']
     """
 
+    capabilities = frozenset({"power_monitor", "reference_cell"})
+
     def fit(
         self,
         powers,
@@ -191,15 +197,22 @@ class SweepFitMixin:
         *,
         dark_w=None,
         temperature_k=None,
+        reference_transmission=None,
+        reference_lines=None,
+        band_hz=None,
+        reference_pressure_pa=None,
+        reference_pressure_std_pa=0.0,
+        axis_error_hz=None,
     ):
-        """Learn the calibration from a sweep of known frequencies.
+        """Learn the calibration from a sweep of known frequencies (or of a reference cell).
 
         Parameters
         ----------
         powers : array_like, shape (N, n)
             Port readings (W, or any unit linear in power), ``N >= 4``, ``n >= 3``.
-        frequency_hz : array_like, shape (N,)
-            Known source frequency of each reading (Hz).
+        frequency_hz : None or array_like, shape (N,)
+            Known source frequency of each reading (Hz): the laser's recorded axis. None
+            (with a reference cell and ``band_hz``): self-calibrate, no axis at all.
         power_monitor_w : None or array_like, shape (N,)
             Source-power monitor reading (W, or any unit linear in power).
         port_names : None or sequence of str, length n
@@ -211,6 +224,24 @@ class SweepFitMixin:
             Chip temperature of each reading (K): required by a calibrator that names
             ``temperature_k`` in ``requires`` (the thermal one); its range is kept in
             ``diagnostics_["temperature_range_k"]`` by every calibrator.
+        reference_transmission : None or array_like, shape (N,)
+            A reference gas cell's channel recorded beside the ports, one reading per
+            sweep reading: the sweep's axis is corrected with its lines (or made from them
+            without ``frequency_hz``) and the calibration fitted on it; ``axis_correction_``
+            and ``uncertainty_budget_`` record how. Needs ``"reference_cell"`` among the
+            capabilities (:mod:`wavemeter.calibration.fitting.reference`).
+        reference_lines : None or ReferenceLines
+            The cell's line table (``wm.ReferenceLines.read_csv``).
+        band_hz : None or (float, float)
+            The band the sweep covers (Hz): the lines are identified among the table's in
+            it; required without ``frequency_hz``.
+        reference_pressure_pa, reference_pressure_std_pa : None or float
+            The cell's pressure and its standard uncertainty (Pa), for a table of
+            zero-pressure centres with pressure shifts.
+        axis_error_hz : None or float
+            Bound on the recorded axis's error (Hz): below a quarter of the line spacing
+            each line is the nearest table line; None: the lines are identified by the
+            pattern of their spacings.
 
         Returns
         -------
@@ -222,7 +253,8 @@ class SweepFitMixin:
             For readings or settings that are wrong; with ``parameter="fsr_hz"`` when the
             design FSR cannot be right for this sweep (the message gives the sweep's own
             FSR); naming the ports when too few carry a fringe; naming ``temperature_k``
-            when the class requires it and it is missing.
+            when the class requires it and it is missing; naming ``reference_lines`` when
+            the cell's lines cannot be identified uniquely (the reason).
         EdgeMinimumError
             When the best delay lies outside the FSR bracket searched.
 
@@ -235,17 +267,38 @@ class SweepFitMixin:
         """
         self._check_params()
         required = type(self).__name__ if "temperature_k" in self.requires else None
-        sweep = checked_sweep(
-            powers,
-            frequency_hz,
-            power_monitor_w,
-            port_names,
-            dark_w=dark_w,
-            temperature_k=temperature_k,
-            temperature_required_by=required,
-        )
+        raw = checked_powers(powers)
+        reference = {
+            "reference_transmission": reference_transmission,
+            "reference_lines": reference_lines,
+            "band_hz": band_hz,
+            "reference_pressure_pa": reference_pressure_pa,
+            "reference_pressure_std_pa": reference_pressure_std_pa,
+            "axis_error_hz": axis_error_hz,
+        }
+
+        def fit_on(axis_hz):
+            sweep = checked_sweep(
+                raw,
+                axis_hz,
+                power_monitor_w,
+                port_names,
+                dark_w=dark_w,
+                temperature_k=temperature_k,
+                temperature_required_by=required,
+            )
+            return self._fit_sweep(sweep)
+
         with one_blas_thread():
-            notes = self._fit_sweep(sweep)
+            notes = self._fit_with_cell(
+                raw,
+                frequency_hz,
+                reference,
+                fit_on,
+                fsr_tolerance=self._fsr_tolerance(),
+                dark_w=dark_w,
+                inputs=cell_inputs(raw.shape[0], temperature_k, required),
+            )
         issue(notes)
         return self
 

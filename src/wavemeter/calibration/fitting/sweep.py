@@ -29,6 +29,7 @@ __all__ = [
     "FitContext",
     "Sweep",
     "checked_port_names",
+    "checked_powers",
     "checked_sweep",
     "checked_temperature",
     "value_range",
@@ -157,6 +158,11 @@ def checked_temperature(temperature_k, samples: int, required_by: str | None) ->
             parameter="temperature_k",
         )
     return temperature
+
+
+def checked_powers(powers) -> np.ndarray:
+    """A sweep's readings checked (N, n): finite, at least ``MIN_SAMPLES`` rows."""
+    return check_powers(powers, min_samples=MIN_SAMPLES)
 
 
 def checked_sweep(

@@ -32,6 +32,7 @@ from ..contract.base import BaseCalibrator, Part
 from ..contract.summary import FitValue
 from ..files import fields
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
+from ..fitting.reference import ReferenceCellMixin
 from ..models.band_reading import band_cone_distance
 from .cascade_chain import ChainReadingMixin
 from .cascade_handover import HandoverChecksMixin, handover_rules, stage_label
@@ -46,7 +47,7 @@ __all__ = ["CascadeCalibrator", "DEFAULT_FSRS_HZ"]
 DEFAULT_FSRS_HZ = (5e12, 500e9, 50e9)
 
 
-class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
+class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, ReferenceCellMixin, BaseCalibrator):
     """Absolute frequency from interferometer stages of decreasing FSR (module docstring).
 
     Parameters
@@ -131,7 +132,7 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
 
     method = "cascade"
     absolute_frequency = True
-    capabilities = frozenset({"frequency_std", "crlb", "power_monitor"})
+    capabilities = frozenset({"frequency_std", "crlb", "power_monitor", "reference_cell"})
     #: the stages' numbers are checked as each stage's file (:func:`calibrator_from_fields`)
     state_rules = fields.rule_table(
         {
@@ -221,6 +222,7 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
         *,
         dark_w=None,
         temperature_k=None,
+        **cell,
     ):
         """Calibrate every stage from one sweep over the band and check the hand-overs.
 
@@ -240,6 +242,12 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
             Per-column dark readings (W), subtracted from every reading.
         temperature_k : None, float or array_like, shape (N,)
             Chip temperature of each reading (K): its range is kept in the diagnostics.
+        **cell
+            A reference cell recorded beside the ports (``reference_transmission``,
+            ``reference_lines``, ``band_hz``, ``reference_pressure_pa``,
+            ``reference_pressure_std_pa``, ``axis_error_hz``), as :meth:`Calibrator.fit
+            <wavemeter.Calibrator.fit>` takes it; the finest stage's phase corrects the
+            axis (``frequency_hz`` None: makes it).
 
         Returns
         -------
@@ -264,6 +272,30 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
         """
         self._check_params()
         raw = check_powers(powers, min_samples=MIN_SAMPLES)
+        columns = self._stage_columns(raw.shape[1])
+
+        def fit_on(axis_hz):
+            return self._fit_stages(
+                raw, axis_hz, power_monitor_w, port_names, dark_w, temperature_k
+            )
+
+        notes = self._fit_with_cell(
+            raw,
+            frequency_hz,
+            cell,
+            fit_on,
+            fsr_tolerance=self.fsr_tolerance,
+            design_fsr_hz=self._design_fsrs_hz()[-1],
+            columns=columns[-1],
+            dark_w=dark_w,
+        )
+        for note in notes:
+            warnings.warn(note, stacklevel=2)
+        return self
+
+    def _fit_stages(self, raw, frequency_hz, power_monitor_w, port_names, dark_w, temperature_k):
+        """Every stage fitted and the hand-overs checked (the steps of :meth:`fit`); the
+        warnings."""
         frequency = check_frequency(frequency_hz, raw.shape[0])
         monitor = check_monitor(power_monitor_w, raw.shape[0])
         ports = raw.shape[1]
@@ -340,9 +372,7 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
             },
             "warnings": [note.record() for note in notes],
         }
-        for note in notes:
-            warnings.warn(note, stacklevel=2)
-        return self
+        return notes
 
     def _stage_offsets_w(self) -> np.ndarray:
         """Every column's fitted offset (W), from the stage that reads it."""

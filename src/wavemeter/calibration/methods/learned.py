@@ -173,7 +173,9 @@ class Calibrator(
     """
 
     method = "learned"
-    capabilities = frozenset({"frequency_std", "crlb", "power_monitor", "reanchor", "fit_chunks"})
+    capabilities = frozenset(
+        {"frequency_std", "crlb", "power_monitor", "reanchor", "fit_chunks", "reference_cell"}
+    )
     #: nonlinear parameters after the map in ``parameter_covariance_`` (the delay)
     nonlinear_parameters: ClassVar[int] = 1
     #: most readings the checks and diagnostics see (:mod:`~wavemeter.calibration.models.subsample`)

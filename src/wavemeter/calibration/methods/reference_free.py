@@ -28,6 +28,16 @@ from .baselines._labels import LabelLockedCalibrator
 __all__ = ["ReferenceFreeCalibrator"]
 
 
+def _frame_power_w(frame) -> float | None:
+    """The power scale of a cone's frame (W): the inverse of its smallest singular value;
+    None for a frame that is not 3 x 3 (``_set_state`` refuses it)."""
+    frame = np.asarray(frame, dtype=float)
+    if frame.shape != (3, 3) or not np.all(np.isfinite(frame)):
+        return None
+    smallest = float(np.linalg.svd(frame, compute_uv=False)[-1])
+    return 1.0 / smallest if smallest > 0 else float("inf")
+
+
 class ReferenceFreeCalibrator(LabelLockedCalibrator):
     """Reference-free calibration: the cone from the readings alone.
 
@@ -80,16 +90,24 @@ class ReferenceFreeCalibrator(LabelLockedCalibrator):
     """
 
     method = "reference_free"
+    #: phase from the powers alone, for users without a frequency axis: its fit takes no
+    #: reference cell (a cell makes another calibrator absolute: ``"reference_cell"``)
+    capabilities = frozenset({"power_monitor"})
+    #: what each number of the file's state may hold (:mod:`~wavemeter.calibration.files.fields`)
     state_rules = fields.rule_table(
         {
+            "cone.frame": fields.ScaleRule(
+                "the cone's frame (1/W)",
+                lambda frame: _frame_power_w(frame),
+                "the largest power the frame's inverse maps to",
+            ),
             "cone.vertex_w": fields.OFFSET_RULE,
-            "cone.basis": fields.FieldRule("the cone's basis", "", high=1.0, magnitude=True),
-            "cone.frame": fields.FieldRule("the cone's frame", "1/W"),
+            "cone.basis": fields.FieldRule("a unit vector's entry", "", high=1.0, magnitude=True),
             "cone.power_spread": fields.FieldRule(
-                "the source power's relative spread", "", 0.0, 1.0
+                "the source power's relative spread", "", 0.0, 10.0
             ),
             "cone.frame_std_rad": fields.FieldRule(
-                "the frame's phase distortion", "rad", 0.0, np.pi
+                "the frame's RMS phase distortion", "rad", 0.0, fields.ANGLE_RAD
             ),
         }
     )

@@ -42,6 +42,7 @@ from ..contract.summary import FitValue
 from ..files import fields
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
 from ..files.registry import calibrator_class
+from ..fitting.reference import ReferenceCellMixin
 from .learned import Calibrator
 from .set_checks import adjacent_check, adjacent_evaluation, window_label
 from .set_reading import WindowReadingMixin
@@ -54,7 +55,7 @@ __all__ = ["CalibrationSet", "WINDOW_FSR_TOLERANCE"]
 WINDOW_FSR_TOLERANCE = 0.15
 
 
-class CalibrationSet(WindowReadingMixin, BaseCalibrator):
+class CalibrationSet(WindowReadingMixin, ReferenceCellMixin, BaseCalibrator):
     """A calibration per FSR-wide window of a sweep spanning many FSRs.
 
     Parameters
@@ -213,7 +214,9 @@ class CalibrationSet(WindowReadingMixin, BaseCalibrator):
         return params
 
     # ------------------------------------------------------------------ fitting
-    def fit(self, powers, frequency_hz, power_monitor_w=None, port_names=None, *, dark_w=None):
+    def fit(
+        self, powers, frequency_hz, power_monitor_w=None, port_names=None, *, dark_w=None, **cell
+    ):
         """Fit the global delay, cut the sweep into one-FSR windows, calibrate each window.
 
         Parameters
@@ -229,6 +232,12 @@ class CalibrationSet(WindowReadingMixin, BaseCalibrator):
             Names of the port columns, kept in the calibration file.
         dark_w : None or array_like, shape (n,)
             Per-port dark readings (W), subtracted from every reading.
+        **cell
+            A reference cell recorded beside the ports (``reference_transmission``,
+            ``reference_lines``, ``band_hz``, ``reference_pressure_pa``,
+            ``reference_pressure_std_pa``, ``axis_error_hz``), as :meth:`Calibrator.fit
+            <wavemeter.Calibrator.fit>` takes it: the set is fitted on the corrected axis
+            (``frequency_hz`` None: on the self-calibrated one).
 
         Returns
         -------
@@ -251,6 +260,20 @@ class CalibrationSet(WindowReadingMixin, BaseCalibrator):
             the message names the window.
         """
         self._check_params()
+        raw = check_powers(powers, min_samples=MIN_SAMPLES)
+
+        def fit_on(axis_hz):
+            return self._fit_windows(raw, axis_hz, power_monitor_w, port_names, dark_w)
+
+        notes = self._fit_with_cell(
+            raw, frequency_hz, cell, fit_on, fsr_tolerance=self.fsr_tolerance, dark_w=dark_w
+        )
+        for note in notes:
+            warnings.warn(note, stacklevel=2)
+        return self
+
+    def _fit_windows(self, powers, frequency_hz, power_monitor_w, port_names, dark_w) -> list:
+        """The global fit and the windows' (the steps of :meth:`fit`); the warnings."""
         with recorded_calibration_warnings() as caught:
             whole = Calibrator(fsr_hz=self.fsr_hz, fsr_tolerance=self.fsr_tolerance).fit(
                 powers, frequency_hz, power_monitor_w, port_names, dark_w=dark_w
@@ -321,9 +344,7 @@ class CalibrationSet(WindowReadingMixin, BaseCalibrator):
         read = self._frequency_hz(powers, ReadingInputs(coarse_hz=frequency))
         error = wrap_to_period(read - frequency, fsr)
         self.calibration_rms_hz_ = float(np.sqrt(np.mean(error**2)))
-        for note in notes:
-            warnings.warn(note, stacklevel=2)
-        return self
+        return notes
 
     def reanchor(self, powers, frequency_hz, *, coarse_hz=None, temperature_k=None):
         """A copy whose windows are re-anchored to readings of reference lines.

@@ -139,7 +139,9 @@ class ThermalCalibrator(ThermalReadingMixin, Calibrator):
     requires = frozenset({"temperature_k"})
     comparison_misfits_expected = True
     #: every reading of the sweep is fitted at once, with its temperature: no fit in chunks
-    capabilities = frozenset({"frequency_std", "crlb", "power_monitor", "reanchor"})
+    capabilities = frozenset(
+        {"frequency_std", "crlb", "power_monitor", "reanchor", "reference_cell"}
+    )
     nonlinear_parameters: ClassVar[int] = 3
     #: the phase follows the temperature too: predicted step by step
     plain_delay_phase: ClassVar[bool] = False

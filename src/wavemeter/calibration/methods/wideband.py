@@ -180,7 +180,7 @@ class WidebandCalibrator(
     method = "wideband"
     requires = frozenset({"coarse_hz"})
     comparison_misfits_expected = True
-    capabilities = frozenset({"frequency_std", "crlb", "power_monitor"})
+    capabilities = frozenset({"frequency_std", "crlb", "power_monitor", "reference_cell"})
     diagnostics_rules = BAND_RECORD_RULES
 
     def __init__(

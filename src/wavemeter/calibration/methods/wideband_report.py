@@ -224,7 +224,8 @@ class BandReportMixin:
 
     def report_figures(self, noise_std_hz=None):
         record = (self.diagnostics_ or {}).get("wideband")
+        common = super().report_figures(noise_std_hz)
         if not record:
-            return ()
+            return common
         noise_rad = None if noise_std_hz is None else 2.0 * np.pi * noise_std_hz / self.fsr_hz_
-        return band_figures(record, self.center_hz_, noise_rad)
+        return (*band_figures(record, self.center_hz_, noise_rad), *common)
