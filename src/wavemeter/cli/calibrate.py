@@ -174,9 +174,8 @@ def calibrate(sweeps, out_path, force, **options):
       wavemeter calibrate --method cascade cband.csv -o cascade.wmcal.json \\
           --fsr 5THz,500GHz,50GHz --stage-ports 1-3/4-6/7-9
       wavemeter calibrate --method wideband cell.csv -o abs.wmcal.json \\
-          --reference-column cell_transmission --lines lines.csv --cell-pressure 13.3kPa
-      wavemeter calibrate --method wideband nofreq.csv -o abs.wmcal.json \\
-          --reference-column cell_transmission --lines lines.csv --band 1527nm:1565nm
+          --reference-column cell_transmission --lines cell-lines.csv --cell-pressure 13.3kPa \\
+          --axis-error 1.3GHz
     """
     from ..jobs import CalibrationRefused, calibrate_file
 
