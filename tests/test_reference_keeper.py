@@ -39,6 +39,7 @@ def _check(times, error, std, flags, **changes):
 def test_a_good_window_passes_and_its_line_is_extrapolated():
     check = _check(*_window(np.random.default_rng(1)))
     assert check.ok, check.reason
+    assert check.fitted == 1000
     true_offset = 5e6 + 2e7 * 1.05
     assert abs(check.offset_hz - true_offset) < 5 * check.offset_std_hz
     assert abs(check.drift_hz_per_s - 2e7) < 5 * SIGMA_HZ / np.sqrt(1000 / 12)
@@ -50,15 +51,16 @@ def test_good_windows_are_almost_never_refused():
     """2000 windows of 30 readings: each check refuses a good one with p = 1e-6, so no
     refusal is expected (the chance of one is under 1 %)."""
     rng = np.random.default_rng(2)
-    refused = [_check(*_window(rng, n=30, seconds=0.03)).ok for _ in range(2000)].count(False)
-    assert refused == 0
+    checks = [_check(*_window(rng, n=30, seconds=0.03)) for _ in range(2000)]
+    assert [check.ok for check in checks].count(False) == 0
+    assert all(check.fitted == 30 for check in checks)
 
 
 @pytest.mark.parametrize(
     "spoil, reason",
     [
         (lambda w: w[1].__setitem__(500, w[1][500] + 50 * SIGMA_HZ), "standard deviations"),
-        (lambda w: w[1].__setitem__(500, w[1][500] - 8 * SIGMA_HZ), "standard deviations"),
+        (lambda w: w[1].__setitem__(500, w[1][500] - 10 * SIGMA_HZ), "standard deviations"),
         (lambda w: w[3].__setitem__(10, int(wm.ReadingFlag.OFF_MODEL)), "flagged OFF_MODEL"),
         (lambda w: w[2].__setitem__(slice(None), SIGMA_HZ / 2), "scatter by"),
         (lambda w: w[2].__setitem__(slice(None), SIGMA_HZ * 2), "scatter by"),
@@ -71,6 +73,19 @@ def test_a_spoilt_window_is_refused_with_its_reason(spoil, reason):
     spoil(window)
     check = _check(*window)
     assert not check.ok and reason in check.reason
+
+
+def test_a_bend_in_the_drift_is_left_behind():
+    """The drift stops half-way through the window: the line is fitted to the latest part
+    (where the offset is flat), not across the bend."""
+    times, error, std, flags = _window(np.random.default_rng(7), drift=0.0)
+    error += 3e8 * np.minimum(times, 0.5)  # 300 MHz/s until 0.5 s, then still
+    check = _check(times, error, std, flags, allowance_hz=3e8)
+    assert check.ok, check.reason
+    assert check.fitted <= 500
+    assert abs(check.offset_hz - (5e6 + 1.5e8)) < 5 * check.offset_std_hz
+    straight = _check(times[:1], error[:1], std[:1], flags[:1])
+    assert not straight.ok and "fewer than" in straight.reason
 
 
 @pytest.fixture(scope="module")

@@ -4,12 +4,13 @@ A :class:`ReferenceKeeper` watches the readings of one channel that sees a laser
 frequency. Every ``interval_s``, or as soon as the readings since the last attempt stray
 from the known frequency by more than ``threshold_hz``, it reads the latest ``window_s`` of
 the reference's port readings with the *base* calibration (the one loaded, so corrections
-never pile up), fits the meter's offset as a line in time and extrapolates it to the middle
-of the coming interval (a meter that drifts is corrected where it will be, not where it
-was), and judges the window (:func:`~.reference_checks.check_window`; the allowance is
-``max_drift_hz_per_s`` times the time since the last accepted anchor). If it passes, the base
-is re-anchored with its own ``reanchor`` so that it reads the reference true at that time,
-and the window is read again to confirm it. A refusal (a check, an error or a warning of
+never pile up), fits the meter's offset as a line in time (over the latest part of the
+window that is one) and extrapolates it to the middle of the coming interval (a meter that
+drifts is corrected where it will be, not where it was), and judges the window
+(:func:`~.reference_checks.check_window`; the allowance is ``max_drift_hz_per_s`` times the
+time since the last accepted anchor). If it passes, the base is re-anchored with its own
+``reanchor`` so that it reads the reference true at that time, and the window is read again
+to confirm it. A refusal (a check, an error or a warning of
 ``reanchor``, a failed confirmation) keeps the anchor in force and raises the alarm until
 the next accepted re-anchor. Every attempt is a :class:`ReanchorEvent` with the offset left
 before and after. The keeper knows no sockets or clocks (times come with the readings).
@@ -26,7 +27,7 @@ import numpy as np
 from scipy import stats
 
 from ..exceptions import InputError, WavemeterError
-from .reference_checks import P_FALSE, check_window
+from .reference_checks import MIN_FIT_READINGS, P_FALSE, check_window
 
 __all__ = [
     "ReferenceKeeper",
@@ -38,10 +39,10 @@ __all__ = [
 ]
 
 #: fewest readings in a window that is judged
-MIN_READINGS = 5
+MIN_READINGS = MIN_FIT_READINGS
 #: seconds between attempts, and seconds of readings each fits, by default
-DEFAULT_INTERVAL_S = 0.2
-DEFAULT_WINDOW_S = 2.0
+DEFAULT_INTERVAL_S = 0.05
+DEFAULT_WINDOW_S = 1.0
 #: the fastest drift of the meter the check allows by default (Hz/s): a silicon-nitride chip
 #: (2.6 GHz/K) warming by 0.1 K/s
 DEFAULT_MAX_DRIFT_HZ_PER_S = 2.6e8
@@ -190,6 +191,7 @@ class ReferenceKeeper:
         ]
         self._chunks: deque = deque()  # (time_s, powers, frequency, flags, inputs)
         self._attempt_s = None
+        self._spacing_s = self.interval_s
         self._anchored_hz = 0.0  # the offset (base terms) the anchor in force corrects
         self._anchored_s = None  # the time it is for
 
@@ -261,8 +263,12 @@ class ReferenceKeeper:
         times, powers, flags, inputs = self._window(now)
         if len(times) < MIN_READINGS:
             return None
+        if self._attempt_s is not None and now > self._attempt_s:
+            # the time between attempts as it is (readings come in batches): the anchor is
+            # for the middle of the coming one
+            self._spacing_s += 0.2 * (now - self._attempt_s - self._spacing_s)
         self._attempt_s = now
-        at_s = now + 0.5 * self.interval_s
+        at_s = now + 0.5 * self._spacing_s
         base = self.base.readout(powers, **inputs)
         error = np.asarray(base.frequency_hz) - self.frequency_hz
         check = check_window(
