@@ -184,6 +184,24 @@ def test_an_output_at_its_limit_alarms_after_the_rail_time_and_does_not_wind_up(
     assert loop.alarm_counts[RAILING] == 1
 
 
+def test_every_railing_alarms_when_setpoints_out_of_reach_alternate_with_ones_in_reach():
+    """Re-engaging clears the rail timer; the alarm must clear with it, or the next railing
+    (the same alarm still raised) would go uncounted."""
+    settings = _settings(output_limits_v=(-1.0, 1.0), rail_s=0.5, bandwidth_hz=5.0)
+    loop = _locked(settings)
+    laser = _Laser(SETPOINT_HZ)
+    start = 0
+    for _ in range(3):
+        loop.engage(settings.with_setpoint(SETPOINT_HZ + 8e8))  # needs 1.6 V
+        _run(loop, laser, 2000, start=start)
+        assert loop.output_v == 1.0 and RAILING in loop.alarms
+        loop.engage(settings)
+        _run(loop, laser, 1000, start=start + 2000)
+        assert RAILING not in loop.alarms
+        start += 3000
+    assert loop.alarm_counts[RAILING] == 3
+
+
 def test_a_hold_freezes_the_output_until_released():
     loop = _locked()
     laser = _Laser(SETPOINT_HZ + 2e8)

@@ -445,6 +445,6 @@ class LockLoop:
                     f"the output has sat at its limit {self.output_v:.6g} V for "
                     f"{time_s - self._rail_since:.3g} s",
                 )
-        elif self._rail_since is not None:
+        else:
             self._rail_since = None
             self.clear(RAILING)
