@@ -13,12 +13,37 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+from hypothesis import HealthCheck, settings  # noqa: E402
 
 import wavemeter as wm  # noqa: E402
 from wavemeter.cli import main  # noqa: E402
 
 POWER_W = 1e-3
 NOISE_W = 5e-7  # Table 1: 5e-4 mW at 1 mW
+
+#: the default run's property tests: the same examples on every run and machine (drawn from
+#: each test's own source, not a clock), no example database carrying a failure from one run
+#: to the next, and no check that depends on timing (a deadline, the too-slow health check)
+DEFAULT_PROFILE = "wavemeter"
+#: ``make fuzz``: new examples from the seed it prints (``--hypothesis-seed``), still without
+#: a database: a failure is repeated with ``make fuzz FUZZ_SEED=<seed>``
+FUZZ_PROFILE = "fuzz"
+settings.register_profile(
+    DEFAULT_PROFILE,
+    derandomize=True,
+    database=None,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile(
+    FUZZ_PROFILE,
+    derandomize=False,
+    database=None,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+# `--hypothesis-profile` (make fuzz) loads its profile after this module
+settings.load_profile(DEFAULT_PROFILE)
 
 
 @pytest.fixture

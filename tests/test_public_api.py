@@ -50,5 +50,15 @@ def test_dir_lists_the_public_names_and_subpackages_only():
 
     listed = {name for name in dir(wm) if not name.startswith("__")}
     public = {name for name in wm.__all__ if not name.startswith("__")}
-    subpackages = {"analysis", "calibration", "fleet", "io", "jobs", "model", "report", "service"}
+    subpackages = {
+        "analysis",
+        "calibration",
+        "fleet",
+        "io",
+        "jobs",
+        "model",
+        "reference",
+        "report",
+        "service",
+    }
     assert public | subpackages | {"simulation"} == listed

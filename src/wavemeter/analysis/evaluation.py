@@ -79,6 +79,21 @@ def crlb_per_reading_hz(
     ------
     InputError
         When the readings or frequencies are malformed.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.analysis import crlb_per_reading_hz
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(device.powers(f_hz, 1e-3, 5e-7, rng=1), f_hz)
+    >>> test = device.powers(f_hz[:4], 1e-3, 5e-7, rng=2)
+
+    The bound under the calibration's own map and noise: near the 14 MHz of the device
+
+    >>> print(np.round(crlb_per_reading_hz(cal, test, f_hz[:4]) / 1e6, 1))
+    [13.3 13.2 13.2 13.2]
     """
     if "crlb" not in calibration.capabilities:
         return None
@@ -185,6 +200,29 @@ def evaluate_calibrations(
     InputError
         When no calibration is given, the readings or frequencies are malformed, or a
         calibration cannot retrieve them (wrong port count) or reads none of them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.analysis import evaluate_calibrations
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, 1e-3, 5e-7, rng=1)
+    >>> calibrations = {
+    ...     "learned": wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz),
+    ...     "conventional": wm.ConventionalCalibrator(fsr_hz=50e9).fit(powers, f_hz),
+    ... }
+    >>> test_hz = f_hz[5::10] + 1e8
+    >>> test = device.powers(test_hz, 1e-3, 5e-7, rng=2)
+    >>> result = evaluate_calibrations(calibrations, test, test_hz)
+
+    The learned map reads at the bound, the conventional one tens of times above it:
+
+    >>> for label, numbers in result["methods"].items():
+    ...     print(f"{label}: {numbers['rms_abs_hz'] / 1e6:.0f} MHz RMS")
+    learned: 13 MHz RMS
+    conventional: 543 MHz RMS
     """
     if not calibrations:
         raise InputError("no calibration to evaluate; give at least one", parameter="calibrations")

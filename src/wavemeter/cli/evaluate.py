@@ -14,6 +14,7 @@ import click
 
 from ..calibration.contract.flags import flag_summary
 from ..exceptions import InputError
+from ..jobs.readings import check_reading_options
 from ._common import (
     PORT_PHASES,
     QUIET,
@@ -341,12 +342,8 @@ def evaluate(
                 f"{calibration_file} names none ({exc}): leave --sweep out, or pass another "
                 "calibration file with --compare"
             ) from exc
-    if coarse_column is not None and calibration.absolute_frequency and not compare_files:
-        raise InputError(
-            f"{calibration_file} is a {calibration.method_label} calibration: it reads the "
-            "absolute frequency and picks every fringe order itself, so it has no use for a "
-            "coarse frequency; leave --coarse out"
-        )
+    if coarse_column is not None and not compare_files:
+        check_reading_options(calibration, name=str(calibration_file), coarse_column=coarse_column)
     request = column_request(options, coarse=coarse_column)
     table = read(
         test,
@@ -362,6 +359,14 @@ def evaluate(
         other = load(path)
         check_ports(other, path, table, explicit)
         calibrations.setdefault(f"{other.method_label} ({Path(path).name})", other)
+    if coarse_column is not None and not any(
+        "coarse_hz" in each.requires for each in calibrations.values()
+    ):
+        raise InputError(
+            "coarse names a coarse-frequency column, and none of the calibrations evaluated "
+            "uses one (a set of windows or a wide band does): leave coarse out",
+            parameter="coarse",
+        )
     if sweep is not None:
         other = _other_method(calibration, sweep, options, port_phases_rad(port_phases_deg))
         calibrations[f"{other.method_label} (fitted on {Path(sweep).name})"] = other

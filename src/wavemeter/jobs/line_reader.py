@@ -25,6 +25,20 @@ class LineReader:
     ----------
     header : StreamHeader
         The stream's header.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from wavemeter.jobs import read_header
+    >>> lines = ["# the meter's log", "frequency_hz,p1_mW,p2_mW,p3_mW", "1,0.5,0.25,0.25"]
+    >>> numbered = iter(enumerate(lines, start=1))
+    >>> header = read_header(numbered, Path("<stdin>"), None, find_temperature=False)
+    >>> from wavemeter.jobs import LineReader
+    >>> reader = LineReader(header)
+    >>> reader.values(lines[2])  # the numbers by field, as read (units come later)
+    ({'p1_mW': 0.5, 'p2_mW': 0.25, 'p3_mW': 0.25}, None)
+    >>> reader.values("1,0.5,0.25")  # a line that is no reading, and why
+    (None, '3 cells, the header has 4')
     """
 
     def __init__(self, header: StreamHeader):

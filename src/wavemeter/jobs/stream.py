@@ -39,7 +39,8 @@ from ..io.source import Source
 from ..io.text_layout import LineCells, column_names, excel_separator
 from ..units import SPEED_OF_LIGHT_M_S
 from .line_reader import LineReader
-from .measure import about_file, check_stream
+from .measure import about_file
+from .readings import check_reading_options, check_readings
 
 __all__ = [
     "stream_lines",
@@ -80,6 +81,16 @@ class StreamHeader:
         What to read from each line and how to convert it.
     cells : LineCells
         How a line is split into cells and a cell read as a number.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from wavemeter.jobs import read_header
+    >>> lines = ["# the meter's log", "frequency_hz,p1_mW,p2_mW,p3_mW", "1,0.5,0.25,0.25"]
+    >>> numbered = iter(enumerate(lines, start=1))
+    >>> header = read_header(numbered, Path("<stdin>"), None, find_temperature=False)
+    >>> header.source.name, header.names
+    ('<stdin>', ('frequency_hz', 'p1_mW', 'p2_mW', 'p3_mW'))
     """
 
     source: Path
@@ -96,7 +107,7 @@ class StreamHeader:
 
 @dataclass
 class StreamSummary:
-    """What :func:`stream_lines` did.
+    r"""What :func:`stream_lines` did.
 
     Attributes
     ----------
@@ -112,6 +123,33 @@ class StreamSummary:
         Readings with any flag.
     interrupted : bool
         The stream was ended by Ctrl-C (KeyboardInterrupt), not by the end of the lines.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> import io
+    >>> import warnings
+    >>> from wavemeter.jobs import stream_lines
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> good = ",".join(f"{p:.6e}" for p in powers[100]) + "\n"
+    >>> lines = ["p1_w,p2_w,p3_w\n", "1e-4,nan,2e-4\n", good]  # the first reading is broken
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     summary = stream_lines(cal, lines, io.StringIO())
+    >>> print(str(caught[0].message))  # the line is written as NaN, flagged, and said
+    <input> line 2: p2_w is NaN, empty or inf: written as NaN with the INVALID flag
+    >>> summary.rows, summary.flagged, summary.flag_counts, summary.interrupted
+    (2, 1, {'INVALID': 1}, False)
     """
 
     source: Path
@@ -133,7 +171,7 @@ def stream_lines(
     name: str = "<input>",
     check: Callable[[StreamHeader], None] | None = None,
 ) -> StreamSummary:
-    """Turn lines of port readings into lines of frequency, each as soon as it arrives.
+    r"""Turn lines of port readings into lines of frequency, each as soon as it arrives.
 
     Parameters
     ----------
@@ -182,17 +220,50 @@ def stream_lines(
     CalibrationWarning
         Cause :data:`~wavemeter.calibration.contract.base.INVALID_READING_CAUSE` for each of the
         first :data:`MAX_LINE_WARNINGS` invalid lines, naming the line and what is wrong.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> import io
+    >>> from wavemeter.jobs import stream_lines
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> rows = [",".join(f"{p:.6e}" for p in row) + "\n" for row in powers[:3]]
+    >>> lines = ["p1_w,p2_w,p3_w\n", *rows]  # a header, then one reading a line, in W
+    >>> out = io.StringIO()
+    >>> summary = stream_lines(cal, lines, out)  # each line is read and written as it comes
+    >>> out.getvalue().splitlines()[0]
+    'frequency_hz,wavelength_nm,frequency_std_hz,flags'
+    >>> summary.rows, summary.flagged
+    (3, 0)
     """
     source = Path(name)
     summary = StreamSummary(source=source)
     numbered = iter(enumerate(lines, start=1))
     thermal = "temperature_k" in calibration.requires
+    check_reading_options(calibration, coarse_hz=coarse_hz, temperature_k=temperature_k)
+    ports_given = request is not None and request.ports is not None
     try:
         with about_file(source):
             header = read_header(numbered, source, request, thermal and temperature_k is None)
             if check is not None:
                 check(header)
-            check_stream(calibration, header, coarse_hz, temperature_k)
+            check_readings(
+                calibration,
+                header,
+                coarse_hz=coarse_hz,
+                temperature_k=temperature_k,
+                ports_given=ports_given,
+            )
         _Stream(calibration, header, out, coarse_hz, temperature_k).run(numbered, summary)
     except KeyboardInterrupt:
         summary.interrupted = True
@@ -222,6 +293,18 @@ def read_header(numbered, source: Path, request, find_temperature: bool) -> Stre
     ------
     InputError
         When the lines end before a header, or its columns cannot be found as in files.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from wavemeter.jobs import read_header
+    >>> lines = ["# the meter's log", "frequency_hz,p1_mW,p2_mW,p3_mW", "1,0.5,0.25,0.25"]
+    >>> numbered = iter(enumerate(lines, start=1))
+    >>> header = read_header(numbered, Path("<stdin>"), None, find_temperature=False)
+    >>> header.line, header.delimiter, header.port_names, header.port_units
+    (2, ',', ('p1_mW', 'p2_mW', 'p3_mW'), ('mW', 'mW', 'mW'))
+    >>> next(numbered)  # the header consumed; the data lines follow
+    (3, '1,0.5,0.25,0.25')
     """
     request = request or ColumnRequest()
     declared = None
@@ -382,7 +465,7 @@ def _line_label(row: int) -> str:
 
 
 def follow_lines(path, *, poll_s: float = 0.05, stop=None) -> Iterator[str]:
-    """The lines of a file, then those appended to it later, like ``tail -n +1 -f``.
+    r"""The lines of a file, then those appended to it later, like ``tail -n +1 -f``.
 
     Parameters
     ----------
@@ -404,6 +487,18 @@ def follow_lines(path, *, poll_s: float = 0.05, stop=None) -> Iterator[str]:
     ------
     InputError
         When the file does not exist or is a folder.
+
+    Examples
+    --------
+    >>> import tempfile, threading
+    >>> from pathlib import Path
+    >>> from wavemeter.jobs import follow_lines
+    >>> path = Path(tempfile.mkdtemp()) / "live.csv"
+    >>> _ = path.write_text("p1_w,p2_w,p3_w\n5e-4,2.5e-4,2.5e-4\n")
+    >>> done = threading.Event()
+    >>> done.set()  # stop once every line written so far was given (else: follow forever)
+    >>> list(follow_lines(path, stop=done))
+    ['p1_w,p2_w,p3_w\n', '5e-4,2.5e-4,2.5e-4\n']
     """
     path = Path(path)
     if not path.exists():

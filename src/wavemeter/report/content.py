@@ -143,10 +143,7 @@ def _compared(calibration, sweep: _Readings, port_phases_rad):
             other = comparison_calibration(
                 calibration, sweep.powers_w, sweep.frequency_hz, sweep.monitor_w, port_phases_rad
             )
-        except InputError as exc:
-            # a calibration with a bound of its own is reported alone
-            if "crlb" not in calibration.capabilities:
-                raise
+        except InputError as exc:  # a calibration no other method compares with: alone
             reason = str(exc)
     if not calibration.comparison_misfits_expected:
         for warning in noted:
@@ -245,8 +242,10 @@ def report_content(
         sweep_readings.monitor_w,
         sweep_readings.temperature_k,
     )
-    figures = {
-        "fringes": plot_panels(panels, reference.port_names_, model_label=reference_name),
+    figures = {}
+    if panels:  # a method with no model of the fringes draws none
+        figures["fringes"] = plot_panels(panels, reference.port_names_, model_label=reference_name)
+    figures |= {
         "object_space": plotting.plot_object_space(samples),
         "retrieved": plotting.plot_retrieved_frequency(kept.frequency_hz, retrieved, center),
         "residual": plotting.plot_residuals(

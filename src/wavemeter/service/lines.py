@@ -23,7 +23,7 @@ from ..exceptions import InputError
 from ..io import ColumnRequest
 from ..io.checks import ColumnChecks
 from ..io.convert import PlainRowConverter, convert_rows
-from ..jobs import LineReader, check_stream, read_header
+from ..jobs import LineReader, check_readings, read_header
 from .blocks import RowBlock
 
 __all__ = ["LineParser", "MAX_CHANNELS", "LineCounts"]
@@ -139,7 +139,13 @@ class LineParser:
         """Raise InputError when ``calibration`` cannot read this source's lines."""
         header = header or self.header
         try:
-            check_stream(calibration, header, self.coarse_hz, self.temperature_k)
+            check_readings(
+                calibration,
+                header,
+                coarse_hz=self.coarse_hz,
+                temperature_k=self.temperature_k,
+                ports_given=self.request is not None and self.request.ports is not None,
+            )
         except InputError as exc:
             raise InputError(f"{self.name}: {exc}", parameter=exc.parameter) from None
 
