@@ -72,6 +72,30 @@ class CalibrationRefused(WavemeterError):
     ----------
     warnings : tuple of CalibrationWarning
         The fit's warnings, in order.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> from wavemeter.jobs import CalibrateOptions, CalibrationRefused, calibrate_file
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(800, span_fsr=3.0)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> powers[:, 1] *= np.linspace(1.0, 1.05, len(f_hz))  # port 2: 5 % over the band
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> write_table(folder / "sweep.csv",
+    ...             {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}})
+    >>> try:
+    ...     calibrate_file(folder / "sweep.csv", folder / "chip.wmcal.json",
+    ...                    options=CalibrateOptions(fsr_hz=50e9, strict=True))
+    ... except CalibrationRefused as error:
+    ...     print([warning.cause for warning in error.warnings])
+    ['dispersion']
+    >>> (folder / "chip.wmcal.json").exists()  # nothing saved
+    False
     """
 
     def __init__(self, source: str, refused):

@@ -73,6 +73,14 @@ class CalibrateOptions:
     strict : bool
         A fit that warns is refused (:class:`~wavemeter.jobs.calibrate.CalibrationRefused`)
         and nothing is saved.
+
+    Examples
+    --------
+    >>> from wavemeter.jobs import CalibrateOptions, build_calibrator
+    >>> options = CalibrateOptions(method="wideband", fsr_hz=50e9, settings={"phase_order": 2})
+    >>> calibrator = build_calibrator(options)  # unfitted, the method's settings applied
+    >>> calibrator.method, calibrator.get_params()["phase_order"]
+    ('wideband', 2)
     """
 
     method: str = "learned"
@@ -127,7 +135,17 @@ def method_class(method: str) -> type:
 
 def method_settings(method: str) -> dict:
     """The settings of a method's calibrator with their defaults: ``get_params()`` of an
-    unfitted one (``method_settings("cascade")["fsr_hz"]``: its stages' default FSRs)."""
+    unfitted one (``method_settings("cascade")["fsr_hz"]``: its stages' default FSRs).
+
+    Examples
+    --------
+    >>> from wavemeter.jobs import method_settings
+    >>> sorted(method_settings("learned").items())  # doctest: +NORMALIZE_WHITESPACE
+    [('fsr_hz', 50000000000.0), ('fsr_tolerance', 0.2), ('retrieval', 'pinv'),
+     ('search', 'golden'), ('xtol', 1e-12)]
+    >>> [fsr_hz / 1e9 for fsr_hz in method_settings("cascade")["fsr_hz"]]  # stages, in GHz
+    [5000.0, 500.0, 50.0]
+    """
     return method_class(method)().get_params()
 
 
@@ -207,6 +225,18 @@ def build_calibrator(options: CalibrateOptions):
         For an unknown method (``parameter="method"``), a setting the method does not have
         (``parameter`` names it), several design FSRs for a method of one, a method that
         cannot be fitted per FSR window with ``per_fsr``.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> from wavemeter.jobs import CalibrateOptions, build_calibrator
+    >>> build_calibrator(CalibrateOptions(fsr_hz=50e9, per_fsr=True)).method  # a set of windows
+    'calibration_set'
+    >>> try:  # a setting of another method is named, with the method that has it
+    ...     build_calibrator(CalibrateOptions(method="learned", settings={"phase_order": 2}))
+    ... except wm.InputError as error:
+    ...     print(error.parameter, "-", str(error).split(";")[0])
+    phase_order - method 'learned' has no setting phase_order
     """
     calibrator = method_class(options.method)()
     defaults = calibrator.get_params()

@@ -40,6 +40,18 @@ class RowSample:
     powers_w : ndarray, shape (M, n)
     frequency_hz : ndarray, shape (M,)
         The rows kept, in order (empty before any is added).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.jobs import RowSample
+    >>> sample = RowSample(limit=4)
+    >>> sample.add(np.ones((6, 3)), np.arange(6.0))  # 6 rows > 4: every 2nd kept
+    >>> sample.stride, sample.frequency_hz
+    (2, array([0., 2., 4.]))
+    >>> sample.add(np.ones((4, 3)), np.arange(6.0, 10.0))  # 5 of 10 > 4: every 4th
+    >>> sample.stride, sample.frequency_hz
+    (4, array([0., 4., 8.]))
     """
 
     def __init__(self, limit: int = SAMPLE_ROWS):
@@ -120,6 +132,27 @@ def fit_sweep_chunks(
     -----
     CalibrationWarning
         As ``fit``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import iter_readings, write_table
+    >>> from wavemeter.jobs import fit_sweep_chunks
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(2000)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> path = Path(tempfile.mkdtemp()) / "sweep.csv"
+    >>> write_table(path, {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}})
+    >>> chunked = wm.Calibrator(fsr_hz=50e9)
+    >>> read = fit_sweep_chunks(chunked, iter_readings(path, need_x=True, chunk_rows=256))
+    >>> read.n_rows
+    2000
+    >>> whole = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)  # the same calibration
+    >>> abs(chunked.fsr_hz_ - whole.fsr_hz_) < 1e-9 * whole.fsr_hz_
+    True
     """
     if "fit_chunks" not in calibrator.capabilities:
         raise InputError(

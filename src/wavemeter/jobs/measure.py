@@ -274,6 +274,28 @@ class ReadingsRefused(WavemeterError):
         Readings that could not be read.
     examples : list of str
         The first of them by file line, with their flags (``line 12 (OUTSIDE_SPAN)``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import iter_readings, write_table
+    >>> from wavemeter.jobs import ReadingsRefused, measure_file
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(device.powers(f_hz, 1e-3, 5e-7, rng=1), f_hz)
+    >>> readings = device.powers(f_hz[:5], power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> readings[3] = np.nan  # a row the instrument could not read
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> write_table(folder / "readings.csv", {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> stream = iter_readings(folder / "readings.csv", allow_invalid=True)
+    >>> try:
+    ...     measure_file(cal, stream, folder / "out.csv", errors="raise")
+    ... except ReadingsRefused as error:
+    ...     print(error.unread, error.examples, (folder / "out.csv").exists())
+    1 ['line 5 (INVALID)'] False
     """
 
     def __init__(self, source, unread: int, rows: int, examples: list[str]):

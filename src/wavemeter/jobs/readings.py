@@ -91,6 +91,20 @@ def check_reading_options(
     ------
     InputError
         ``parameter`` names the input refused.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> from wavemeter.jobs import check_reading_options
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(device.powers(f_hz, 1e-3, 5e-7, rng=1), f_hz)
+    >>> check_reading_options(cal, uncertainty=True)  # a learned calibration states one
+    >>> try:  # but reads within its FSR: a coarse frequency would go unused
+    ...     check_reading_options(cal, coarse_hz=193.4e12)
+    ... except wm.InputError as error:
+    ...     print(error.parameter)
+    coarse_hz
     """
     if calibration.absolute_frequency and (coarse_column is not None or coarse_hz is not None):
         parameter = "coarse" if coarse_column is not None else "coarse_hz"
@@ -159,11 +173,32 @@ def check_ports(
         The calibration as messages name it.
     remedy : str, optional
         How to choose the ports, for the message (default: the parameter ``ports``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import iter_readings, write_table
+    >>> from wavemeter.jobs import check_ports
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)  # ports p1, p2, p3
+    >>> path = Path(tempfile.mkdtemp()) / "readings.csv"
+    >>> write_table(path, {f"p{k + 1}_w": powers[:5, k] for k in range(3)})
+    >>> check_ports(cal, iter_readings(path))  # p1_w is p1 in W: the same ports
+    >>> write_table(path, {f"p{k + 1}_w": powers[:5, k % 3] for k in range(4)})
+    >>> try:
+    ...     check_ports(cal, iter_readings(path))
+    ... except wm.InputError as error:
+    ...     print(str(error).split(" has ", 1)[1].split(";")[0])
+    4 ports (p1_w, p2_w, p3_w, p4_w) but the calibration reads 3 (p1, p2, p3)
     """
     found = ", ".join(source.port_names)
     expected = ", ".join(calibration.port_names_)
     remedy = remedy or REMEDIES["ports"]
-    calibrated = f"{name or 'the calibration'} was calibrated on"
+    calibrated = f"{name} was calibrated on" if name else "the calibration reads"
     if len(source.port_names) != calibration.n_ports_:
         raise InputError(
             f"{source.source} has {len(source.port_names)} ports ({found}) but {calibrated} "
@@ -240,6 +275,28 @@ def check_readings(
         calibration that needs it (``"temperature_k"``), no coarse frequency for one that
         needs it (``"coarse_hz"``), a coarse column for one that reads the absolute
         frequency (``"coarse"``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import iter_readings, write_table
+    >>> from wavemeter.jobs import check_readings
+    >>> chip = wm.Interferometer.table1(ports=3, seed=7).with_thermal("sin")
+    >>> temperatures_k = np.repeat([293.0, 295.0], 200)  # two sweeps, 2 K apart
+    >>> f_hz = np.tile(chip.sweep_hz(200), 2)
+    >>> powers = chip.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1, temperature_k=temperatures_k)
+    >>> thermal = wm.ThermalCalibrator(fsr_hz=50e9).fit(powers, f_hz, temperature_k=temperatures_k)
+    >>> path = Path(tempfile.mkdtemp()) / "readings.csv"
+    >>> write_table(path, {f"p{k + 1}_w": powers[:5, k] for k in range(3)})  # no temperature
+    >>> try:  # refused before any reading is read
+    ...     check_readings(thermal, iter_readings(path))
+    ... except wm.InputError as error:
+    ...     print(error.parameter)
+    temperature_k
+    >>> check_readings(thermal, iter_readings(path), temperature_k=294.0)  # one for the file
     """
     check_ports(
         calibration,

@@ -104,6 +104,24 @@ class SweepRead:
         The first skipped rows with their reasons, ``line 5 (P2_mW is NaN)``.
     temperature_range_k : list of float or None
         Lowest and highest chip temperature of the valid rows (K), with a temperature column.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> from wavemeter.jobs import CalibrateOptions, calibrate_file
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> path = Path(tempfile.mkdtemp()) / "sweep.csv"
+    >>> write_table(path, {"wavelength_nm": 299792458e9 / f_hz,
+    ...                    **{f"p{k + 1}_mW": 1e3 * powers[:, k] for k in range(3)}})
+    >>> read = calibrate_file(path, options=CalibrateOptions(fsr_hz=50e9)).read
+    >>> record = read.records[0]
+    >>> record.x_column, record.x_unit, record.port_units, record.n_rows, record.dropped_rows
+    ('wavelength_nm', 'nm', ('mW', 'mW', 'mW'), 200, 0)
     """
 
     source: Path
@@ -154,6 +172,23 @@ class SweepsRead:
         (given) or the columns' names; None for a calibrator that needs none.
     dark : SweepRead or None
         What reading the dark readings' file found (no axis), when there was one.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> from wavemeter.jobs import CalibrateOptions, calibrate_file
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> path = Path(tempfile.mkdtemp()) / "sweep.csv"
+    >>> write_table(path, {"wavelength_nm": 299792458e9 / f_hz,
+    ...                    **{f"p{k + 1}_mW": 1e3 * powers[:, k] for k in range(3)}})
+    >>> read = calibrate_file(path, options=CalibrateOptions(fsr_hz=50e9)).read
+    >>> len(read.records), read.temperature_from, read.dark  # one file, no temperature, no dark
+    (1, None, None)
     """
 
     records: tuple[SweepRead, ...]
