@@ -58,6 +58,27 @@ class ActuatedLaser:
         ``tuning_hz_per_v * actuator_v``.
     hops : int
         Mode hops so far.
+
+    Examples
+    --------
+    A quiet laser on an actuator of 500 MHz/V with a 1 ms response, read at 1 kHz; 2 V at
+    the input tune it by 1 GHz, approached as ``1 - exp(-t / 1 ms)`` (the first reading is
+    the mean over its millisecond, ``exp(-1)`` = 0.368 of the way):
+
+    >>> import numpy as np
+    >>> from wavemeter.simulation import ActuatedLaser
+    >>> laser = ActuatedLaser(193.4e12, 1e3, noise="reference", tuning_hz_per_v=5e8,
+    ...                       response_s=1e-3, rng=1)
+    >>> free_hz = laser.take(5)
+    >>> laser.set_voltage(2.0)
+    2.0
+    >>> print(np.round((laser.take(6) - 193.4e12) / 1e6))
+    [368. 767. 914. 969. 988. 996.]
+
+    A voltage beyond the input range is clipped to it:
+
+    >>> laser.set_voltage(25.0)
+    10.0
     """
 
     def __init__(
