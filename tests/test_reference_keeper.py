@@ -135,9 +135,15 @@ def test_the_keeper_keeps_the_meter_true_while_the_chip_warms(meter):
     device, calibration = meter
     keeper = ReferenceKeeper(calibration, REFERENCE_HZ, interval_s=0.2, window_s=1.0)
     rng = np.random.default_rng(4)
-    events, _, _ = _feed(keeper, device, 8.0, rng=rng)
+    events, in_force, _ = _feed(keeper, device, 8.0, rng=rng)
     assert len(events) == 39 and keeper.refused == 0 and keeper.alarm is None
     assert all(abs(event.after_hz) < event.offset_std_hz for event in events)
+    # the window handed to reanchor in bins along the fitted drift (0.26 GHz/s: about 35 of
+    # ~29 ms), each of which the calibration's own scatter test finds one line
+    records = {id(c): c.diagnostics_["reanchor"] for c in in_force if c is not calibration}
+    assert len(records) == 39
+    assert all(r["reference_check"]["verdict"] == "ok" for r in records.values())
+    assert min(len(r["lines_hz"]) for r in records.values()) > 1
     assert all(0 < event.before_hz < 4 * (0.26e9 * 0.2) for event in events[5:])
     # the last anchor is for the middle of the interval after it
     temperature = device.reference_temperature_k + 0.1 * (events[-1].time_s + 0.1)

@@ -9,9 +9,11 @@ window that is one) and extrapolates it to the middle of the coming interval (a 
 drifts is corrected where it will be, not where it was), and judges the window
 (:func:`~.reference_checks.check_window`; the allowance is ``max_drift_hz_per_s`` times the
 time since the last accepted anchor). If it passes, the base is re-anchored with its own
-``reanchor`` so that it reads the reference true at that time, and the window is read again
-to confirm it. A refusal (a check, an error or a warning of
-``reanchor``, a failed confirmation) keeps the anchor in force and raises the alarm until
+``reanchor`` so that it reads the reference true at that time (the fitted readings given
+in bins along the fitted drift, each bin a line), and the readings are read again to
+confirm it. A refusal (a check, an error or a warning of ``reanchor`` other than its
+scatter test's, which the window's check makes at ``p_false``, a failed confirmation)
+keeps the anchor in force and raises the alarm until
 the next accepted re-anchor. Every attempt is a :class:`ReanchorEvent` with the offset left
 before and after. The keeper knows no sockets or clocks (times come with the readings).
 """
@@ -28,6 +30,13 @@ from scipy import stats
 
 from ..exceptions import InputError, WavemeterError
 from .reference_checks import MIN_FIT_READINGS, P_FALSE, check_window
+
+#: bins of the window in which the fitted drift moves by at most this fraction of the
+#: per-reading noise are each re-anchored as one line (a spread within a bin of at most 0.15
+#: of the noise: 2 % more variance)
+_BIN_DRIFT = 0.5
+#: the cause of the calibration's warning that a line's readings scatter beyond its noise
+_SCATTER_CAUSE = "reference_scatter"
 
 __all__ = [
     "ReferenceKeeper",
@@ -284,12 +293,17 @@ class ReferenceKeeper:
         )
         reason, anchored, shift = check.reason, math.nan, math.nan
         if check.ok:
-            # the base shifted by -offset reads the window's mean as known + mean - offset
-            target_hz = self.frequency_hz + float(np.mean(error)) - check.offset_hz
-            new, reason = self._reanchor(powers, target_hz, inputs)
+            # the readings the line was fitted to, each as a reading of what the base
+            # shifted by -offset reads there: known + drift (t - at_s), in bins short enough
+            # for the drift to stay well inside the noise (each bin one line to reanchor)
+            fitted = slice(len(times) - check.fitted, None)
+            noise_hz = float(np.median(base.frequency_std_hz))
+            offsets = self._offsets_hz(times[fitted], check.drift_hz_per_s, noise_hz, at_s)
+            used = {name: value[fitted] for name, value in inputs.items()}
+            new, reason = self._reanchor(powers[fitted], offsets, used)
             if new is not None:
-                read = float(np.mean(new.readout(powers, **inputs).frequency_hz))
-                anchored = check.offset_hz + (read - target_hz)
+                read = new.readout(powers[fitted], **used).frequency_hz
+                anchored = check.offset_hz + float(np.mean(read - self.frequency_hz - offsets))
                 limit = check.offset_std_hz * float(stats.norm.isf(self.p_false / 2))
                 if not abs(anchored - check.offset_hz) <= limit:
                     left = check.offset_hz - anchored
@@ -329,15 +343,37 @@ class ReferenceKeeper:
         self.events.append(event)
         return event
 
-    def _reanchor(self, powers, frequency_hz: float, inputs):
-        """The base re-anchored on these readings, or None and the reason it was not."""
+    @staticmethod
+    def _offsets_hz(times, drift_hz_per_s: float, noise_hz: float, at_s: float) -> np.ndarray:
+        """Per reading, what the re-anchored calibration should read off the known
+        frequency: the fitted drift since ``at_s`` (Hz), constant over bins in which the
+        drift moves by at most ``_BIN_DRIFT`` of the noise ``noise_hz``."""
+        span = float(times[-1] - times[0])
+        width = _BIN_DRIFT * noise_hz / abs(drift_hz_per_s) if drift_hz_per_s else math.inf
+        if not width < span:
+            return np.full(len(times), drift_hz_per_s * (float(np.mean(times)) - at_s))
+        _, bins = np.unique(((times - times[0]) // width).astype(int), return_inverse=True)
+        centers = np.bincount(bins, weights=times) / np.bincount(bins)
+        return drift_hz_per_s * (centers[bins] - at_s)
+
+    def _reanchor(self, powers, offsets_hz, inputs):
+        """The base re-anchored on these readings (each of the known frequency plus its
+        offset), or None and the reason it was not."""
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
-                new = self.base.reanchor(powers, frequency_hz, **inputs)
+                new = self.base.reanchor(powers, self.frequency_hz + offsets_hz, **inputs)
             except WavemeterError as exc:
                 return None, f"the calibration refused to re-anchor: {exc}"
-        doubts = [w for w in caught if issubclass(w.category, UserWarning)]
+        # the reference's scatter is judged by check_window, at p_false and blind to the
+        # drift; the calibration's own scatter test (at p = 1e-3 per attempt, many a minute)
+        # would refuse good windows every few minutes
+        doubts = [
+            w
+            for w in caught
+            if issubclass(w.category, UserWarning)
+            and getattr(w.message, "cause", None) != _SCATTER_CAUSE
+        ]
         if doubts:
             return None, f"the calibration doubts the reference: {doubts[0].message}"
         return new, ""
