@@ -1,10 +1,12 @@
 """Smoke test of ``benchmarks/lock.py`` in its quick configuration (one seed of 12 s, no run
 through ``serve``): the bound's table, a row per scenario, and every target met on this
-seed, the fault counts among them (the full run is ``make lock-bench``)."""
+seed, the fault counts among them, and the output's step at a re-anchor below the correction
+(the full run is ``make lock-bench``)."""
 
 from __future__ import annotations
 
 import importlib
+import re
 from pathlib import Path
 
 import pytest
@@ -43,6 +45,10 @@ def test_the_quick_lock_benchmark_prints_its_tables_and_meets_its_targets(capsys
     rms = {row[0]: float(row[1]) for row in table[2:]}
     assert rms["locked"] <= 1.3 * bound_mhz
     assert rms["chip ramp, no reference"] > 100 * rms["chip ramp, reference"]
+    # locks run through the re-anchors: the output's step at one is a fraction of the
+    # correction (the loop's gain per reading on the moved reading, and its noise)
+    step = re.search(r"Re-anchors per run: (\d+) accepted, (\d+) refused; .* is (\S+) of its", text)
+    assert int(step[1]) > 100 and int(step[2]) == 0 and float(step[3]) < 1.0
     targets = _rows(text, "## Targets")[2:]
     assert len(targets) == 8
     assert [row[1] for row in targets] == ["PASS"] * 8, targets

@@ -16,6 +16,7 @@ from ._service import wait_for
 pytest.importorskip("zmq", reason="the serve extra (pyzmq) is not installed")
 
 from wavemeter.service import Client, Server, ServiceError, read_log  # noqa: E402
+from wavemeter.service.setpoints import Scan  # noqa: E402
 from wavemeter.service.simulated import NOISE_W, POWER_W, simulated_meter  # noqa: E402
 
 LOCAL = "tcp://127.0.0.1:0"
@@ -289,3 +290,30 @@ def test_the_lock_fields_start_a_new_log_segment_read_back_in_order(served, tmp_
     log = read_log(tmp_path, channel=0)
     assert log["sequence"].to_pylist() == list(range(20))
     assert log["lock_state"].to_pylist() == [None] * 10 + [1.0] * 10
+
+
+def test_a_scan_set_through_the_client_moves_the_published_setpoint(served):
+    """A triangle of 100 MHz and 0.2 s from the client: each reading's published setpoint is
+    the scan at its source time from the first locked reading, and the settings say so."""
+    server, _, device = served
+    (client,) = _clients(server)
+    feeder = Feeder(server, device, device.center_hz)
+    scan = Scan(device.center_hz, amplitude_hz=1e8, period_s=0.2, shape="triangle")
+    with client:
+        readings = client.readings(0, timeout_s=10)
+        assert wait_for(lambda: client.status()["subscribers"], 10)
+        status = client.lock(
+            0,
+            scan={"center_hz": device.center_hz, "amplitude_hz": 1e8, "period_s": 0.2},
+            actuator_hz_per_v=5e8,
+            bandwidth_hz=2.0,
+        )
+        assert status["settings"]["setpoint_hz"] is None
+        assert status["settings"]["scan"]["shape"] == "triangle"
+        feeder.feed(300)
+        got = [next(readings) for _ in range(300)]
+    times = np.array([r.source_time_ns for r in got]) * 1e-9
+    setpoints = np.array([r.lock_setpoint_hz for r in got])
+    expected = np.array([scan.at(t) for t in times - times[0]])
+    assert np.max(np.abs(setpoints - expected)) < 1.0  # Hz: the same function of time
+    assert np.ptp(setpoints) == pytest.approx(2e8, rel=0.02)  # +-100 MHz over 1.5 periods
