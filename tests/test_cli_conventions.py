@@ -22,7 +22,7 @@ import pytest
 import wavemeter as wm
 from wavemeter.cli import main
 from wavemeter.cli._common import error_text, printable
-from wavemeter.cli.app import _option_hint
+from wavemeter.cli.app import _with_options
 from wavemeter.exceptions import InputError
 from wavemeter.progress import busy, chunked, progress_bar, progress_line
 
@@ -183,9 +183,11 @@ def test_hints_follow_the_running_command(tmp_path, capsys, monkeypatch):
     err = one_error(*run(capsys, f"simulate -o {tmp_path / 's.csv'} --samples 10")[::2])
     assert err.rstrip().endswith("bad (use --write-axis-unit)")
     exists = InputError("x.csv exists", parameter="force")
-    assert _option_hint(exists, str(exists), "measure") == " (use --force)"
-    assert _option_hint(exists, str(exists), "info") == ""  # info has no --force
-    assert _option_hint(exists, str(exists), None) == ""  # no command ran
+    assert _with_options(exists, str(exists), "measure") == "x.csv exists (use --force)"
+    assert _with_options(exists, str(exists), "info") == "x.csv exists"  # info has no --force
+    assert _with_options(exists, str(exists), None) == "x.csv exists"  # no command ran
+    few = InputError("found 2 port columns; name them (ports)", parameter="ports")
+    assert _with_options(few, str(few), "measure") == "found 2 port columns; name them (--ports)"
 
 
 @pytest.mark.parametrize(
