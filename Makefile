@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint docs bench trust offmodel thermal wideband cascade scale noise absolute peers fuzz serve-bench clean
+.PHONY: demo test lint docs bench trust offmodel thermal wideband cascade scale noise absolute peers fuzz serve-bench lock-bench clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -81,6 +81,12 @@ noise: $(BIN)/wavemeter
 # CPU per 1 kHz channel, the highest sustained rate with logging (a few minutes)
 serve-bench: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/serve.py
+
+# issue 31: locks on the simulated laser and meter, free-running / locked / 1 GHz away / a 2 K
+# chip ramp without and with a reference, against the PI bound; fault counts; a run through
+# serve (three seeds of 60 s at 1 kHz, a few minutes)
+lock-bench: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/lock.py
 
 # issue 32: absolute accuracy from a reference cell: plain, axis-corrected and self-calibrated
 # over a simulated cell's band, three laser presets, 3/4/5 ports, three seeds (15-35 min)

@@ -42,6 +42,10 @@ NEVER_ENDING = {
         "source tcp://127.0.0.1:5570",
     ),
     "wavemeter serve chip.wmcal.json --source line.csv --follow": ("text", "serving "),
+    "wavemeter serve --simulate --channels 2 --reference 1=193.414THz --chip-ramp 2K/60s": (
+        "text",
+        "serving simulated",
+    ),
 }
 #: examples that start a service in the background, used by the examples after them
 BACKGROUND = {

@@ -113,3 +113,49 @@ def test_the_dashboard_shows_live_values_in_chromium():
     assert "readings/s" in details and status == "ok" and connection == "live"
     assert plotted == 4  # a trace and an Allan deviation per channel
     assert problems == []
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="LOUD SKIP: chromium is not installed")
+def test_the_dashboard_shows_a_lock_and_the_reference_in_chromium():
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+    from wavemeter.service import Client
+
+    args = ["--simulate", "--channels", "2", "--reference", "1=193.414THz", *EPHEMERAL]
+    with serving(args) as service:
+        url = service.addresses["http"]
+        control = {k: service.addresses[k] for k in ("publish", "control")}
+        with Client(**control) as client, sync_api.sync_playwright() as playwright:
+            assert wait_for(lambda: len(client.status()["channels"]) == 2, 20)
+            truth = wait_for(lambda: (client.latest(0) or {}).get("true_frequency_hz"), 20)
+            client.lock(0, truth + 2e8)
+            browser = playwright.chromium.launch(
+                executable_path=CHROMIUM, args=["--no-sandbox", "--disable-gpu"]
+            )
+            try:
+                page = browser.new_page()
+                problems = []
+                page.on("pageerror", lambda error: problems.append(str(error)))
+                page.goto(url)
+                page.wait_for_function(
+                    "document.querySelectorAll('.channel .lock').length == 2 && "
+                    "document.querySelector('.channel .lock').textContent.includes('output')",
+                    timeout=20000,
+                )
+                lock = page.inner_text(".channel:nth-child(1) .lock")
+                lock_class = page.get_attribute(".channel:nth-child(1) .lock", "class")
+                reference = page.inner_text(".channel:nth-child(2) .lock")
+                client.lock(0, truth + 5e9, capture_range_hz=3e9)  # beyond: unlocks, alarms
+                page.wait_for_function(
+                    "document.querySelector('.channel .alarms').textContent"
+                    ".includes('capture range')",
+                    timeout=20000,
+                )
+                alarms = page.inner_text(".channel:nth-child(1) .alarms")
+                unlocked = page.inner_text(".channel:nth-child(1) .lock")
+            finally:
+                browser.close()
+    assert lock.startswith("lock locked") and "setpoint" in lock and " V" in lock
+    assert f"owner {client.owner}" in lock and "locked" in lock_class
+    assert reference.startswith("reference 193.414000 THz") and "re-anchors" in reference
+    assert "lock capture range: error" in alarms and unlocked.startswith("lock unlocked")
+    assert problems == []

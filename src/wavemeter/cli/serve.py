@@ -1,23 +1,25 @@
 """`wavemeter serve`: the live instrument, a service many clients read and control at once.
 
 Builds a :class:`wavemeter.service.Server` from the options (a calibration file and a line
-source, or the simulated meter of ``--simulate``), prints the addresses it bound, and serves
-until SIGTERM or Ctrl-C, which flush the logs and exit 0. Bad options, an address other than
-the loopback without a token, and a source whose header the calibration cannot read are
-one ``error:`` line and exit code 2.
+source, or the simulated meter of ``--simulate``; lock outputs, a reference channel),
+prints the addresses it bound, and serves until SIGTERM or Ctrl-C, which flush the logs and
+exit 0. Bad options, an address other than the loopback without a token, and a source whose
+header the calibration cannot read are one ``error:`` line and exit code 2.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import sys
 from pathlib import Path
 
 import click
 
 from ..exceptions import InputError
+from ..units import parse_optical_frequency_hz, parse_time_s
 from ._common import QUIET, column_options, column_request, say
-from ._params import DURATION, FREQUENCY
+from ._params import DURATION, FREQUENCY, FrequencyParam
 from ._readings import checked_calibration, reading_input_options
 
 #: the service's defaults (wavemeter.service.addresses; not imported here, so that
@@ -141,6 +143,56 @@ DEFAULT_HTTP = "127.0.0.1:8560"
     "--seed", type=int, default=7, show_default=True, help="Seed of the simulated meter and lasers."
 )
 @click.option(
+    "--output",
+    "outputs",
+    multiple=True,
+    metavar="N=NAME[:KEY=VALUE,...]",
+    help="Lock channel N through the output plug-in NAME (entry-point group "
+    "wavemeter.outputs) with its options; --simulate drives every laser by its lock.",
+)
+@click.option(
+    "--reference",
+    metavar="N=FREQUENCY",
+    help="Channel N sees a reference laser of this frequency (e.g. 1=193.414THz): the "
+    "calibration is re-anchored to it, after a sanity check of its readings.",
+)
+@click.option(
+    "--reference-interval",
+    "reference_interval_s",
+    type=DURATION,
+    default="50ms",
+    show_default=True,
+    help="Time between re-anchors to the --reference.",
+)
+@click.option(
+    "--reference-window",
+    "reference_window_s",
+    type=DURATION,
+    default="1s",
+    show_default=True,
+    help="Time of reference readings each re-anchor fits a drift to.",
+)
+@click.option(
+    "--reference-threshold",
+    "reference_threshold_hz",
+    type=FrequencyParam(),
+    help="Also re-anchor as soon as the reference reads this far off its frequency.",
+)
+@click.option(
+    "--max-meter-drift",
+    "max_drift_hz_per_s",
+    type=FrequencyParam("a drift rate"),
+    default="260MHz",
+    show_default=True,
+    help="The fastest the meter drifts, per second: a re-anchor correcting more than this "
+    "explains is refused.",
+)
+@click.option(
+    "--chip-ramp",
+    metavar="KELVIN/DURATION",
+    help="With --simulate: the chip warms by KELVIN over DURATION from the start (e.g. 2K/60s).",
+)
+@click.option(
     "--open/--no-open",
     "open_browser",
     default=None,
@@ -170,6 +222,13 @@ def serve(
     hwm,
     names,
     seed,
+    outputs,
+    reference,
+    reference_interval_s,
+    reference_window_s,
+    reference_threshold_hz,
+    max_drift_hz_per_s,
+    chip_ramp,
     open_browser,
     coarse_column,
     coarse_hz,
@@ -184,9 +243,10 @@ def serve(
     input, in a file (--follow to keep reading it) or from TCP connections. Each
     reading is published on its channel's topic (ch/N/) with its sequence number, source
     and service times, frequency_hz, frequency_std_hz, flags and the calibration's extra
-    outputs; clients read them with wavemeter.service.Client. Every address binds to
-    127.0.0.1 unless told otherwise, and anything else needs --token. SIGTERM or Ctrl-C
-    flush the logs and exit 0.
+    outputs; clients read them with wavemeter.service.Client. A channel with an output
+    (--output, or every laser of --simulate) can be locked by a client; a --reference
+    channel keeps the calibration true. Every address binds to 127.0.0.1 unless told
+    otherwise, and anything else needs --token. SIGTERM or Ctrl-C flush the logs and exit 0.
 
     \b
     Example:
@@ -194,14 +254,29 @@ def serve(
       cat sweep-test.csv | wavemeter serve chip.wmcal.json --log logs/
       wavemeter serve chip.wmcal.json --source tcp://127.0.0.1:5570 --channels 4
       wavemeter serve chip.wmcal.json --source line.csv --follow
+      wavemeter serve --simulate --channels 2 --reference 1=193.414THz --chip-ramp 2K/60s
     """
     quiet = options["quiet"]
     token = _token(token, token_file)
     _check_choices(calibration_file, simulate, source, follow, log_dir, log_powers, channel_column)
     from ..service.server import Server
 
+    if chip_ramp is not None and not simulate:
+        raise InputError("--chip-ramp warms the simulated chip: give it with --simulate")
     http = None if http.strip().lower() in ("off", "none", "") else http
     names = _names(names)
+    ramp = None if chip_ramp is None else _chip_ramp(chip_ramp)
+    reference_settings = None
+    if reference is not None:
+        number, frequency_hz = _reference(reference, channels if simulate else None)
+        reference_settings = {
+            "channel": number,
+            "frequency_hz": frequency_hz,
+            "interval_s": reference_interval_s,
+            "window_s": reference_window_s,
+            "threshold_hz": reference_threshold_hz,
+            "max_drift_hz_per_s": max_drift_hz_per_s,
+        }
     if simulate:
         from ..service.simulated import simulated_meter
 
@@ -212,6 +287,23 @@ def serve(
             calibration_file, coarse_column, coarse_hz, temperature_k, None, options
         )
         label = calibration_file
+    sinks = {}
+    if simulate:
+        from ..service.simulated import SimulatedSource
+
+        references = {} if reference_settings is None else {number: frequency_hz}
+        simulated = SimulatedSource(
+            device,
+            calibration,
+            lambda block: server.submit_threadsafe(block),
+            rate_hz=rate_hz,
+            channels=channels,
+            seed=seed,
+            references=references,
+            chip_ramp=ramp,
+        )
+        sinks = simulated.actuators()
+    sinks.update(_plugin_outputs(outputs))
     server = Server(
         calibration,
         publish=publish,
@@ -225,20 +317,11 @@ def serve(
         log_options={"rotate_s": log_rotate_s, "rotate_bytes": int(log_rotate_mb * 2**20)},
         channel_names=names,
         calibration_path=None if simulate else str(calibration_file),
+        outputs=sinks,
+        reference=reference_settings,
     )
     if simulate:
-        from ..service.simulated import SimulatedSource
-
-        server.add_source(
-            SimulatedSource(
-                device,
-                calibration,
-                server.submit_threadsafe,
-                rate_hz=rate_hz,
-                channels=channels,
-                seed=seed,
-            )
-        )
+        server.add_source(simulated)
     else:
         request = column_request(options, coarse=coarse_column)
         server.add_source(
@@ -302,6 +385,49 @@ def _check_choices(
         raise InputError("--follow reads a file: give it with --source FILE")
     if log_powers and log_dir is None:
         raise InputError("--log-powers adds the port powers to the log: give --log DIR")
+
+
+def _reference(text: str, channels: int | None) -> tuple[int, float]:
+    number, _, frequency = text.partition("=")
+    if not number.strip().isdigit() or not frequency.strip():
+        raise InputError(f"--reference {text!r}: expected N=FREQUENCY, e.g. 1=193.414THz")
+    frequency_hz = parse_optical_frequency_hz(frequency.strip(), "--reference")
+    if channels is not None and int(number) >= channels:
+        raise InputError(
+            f"--reference {text!r}: the simulated switch has channels 0 .. {channels - 1} "
+            "(--channels)"
+        )
+    return int(number), frequency_hz
+
+
+def _chip_ramp(text: str) -> tuple[float, float]:
+    match = re.fullmatch(r"\s*([-+]?[0-9.eE+-]+)\s*K?\s*/\s*(.+)", text)
+    try:
+        kelvin = float(match[1]) if match else float("nan")
+    except ValueError:
+        kelvin = float("nan")
+    if match is None or not abs(kelvin) < 100:
+        raise InputError(
+            f"--chip-ramp {text!r}: expected KELVIN/DURATION, e.g. 2K/60s (within 100 K)"
+        )
+    seconds = parse_time_s(match[2].strip(), "--chip-ramp duration")
+    if not seconds > 0:
+        raise InputError(f"--chip-ramp {text!r}: the duration must be > 0")
+    return kelvin, seconds
+
+
+def _plugin_outputs(texts) -> dict:
+    if not texts:
+        return {}
+    from ..service.outputs import load_output, parse_output
+
+    sinks = {}
+    for text in texts:
+        channel, name, options = parse_output(text)
+        if channel in sinks:
+            raise InputError(f"--output {text!r}: channel {channel} has an output already")
+        sinks[channel] = (load_output(name, channel, options), f"output plug-in {name}")
+    return sinks
 
 
 def _names(pairs) -> dict[int, str]:

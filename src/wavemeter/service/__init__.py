@@ -1,9 +1,11 @@
 """The live instrument: ``wavemeter serve`` as a library, and its clients.
 
 :class:`Server` owns the meter (a calibration and its sources), publishes every reading to
-many subscribers (ZeroMQ), answers control requests, logs to Parquet and serves metrics and
-a live dashboard over HTTP; :class:`Client` and :class:`AsyncClient` read and control it;
-:func:`read_log` reads a log folder back. This is the only package that imports pyzmq,
+many subscribers (ZeroMQ), answers control requests, locks lasers (:class:`LockLoop` per
+channel, output to an :class:`OutputSink`), keeps the calibration anchored to a reference
+laser (:class:`ReferenceKeeper`), logs to Parquet and serves metrics and a live dashboard
+over HTTP; :class:`Client` and :class:`AsyncClient` read and control it; :func:`read_log`
+reads a log folder back. This is the only package that imports pyzmq,
 aiohttp and prometheus_client; the names below load on first use. The user guide's page
 on the service (``docs/user-guide/service.rst``) describes the wire format and the sockets.
 """
@@ -21,6 +23,11 @@ _WHERE = {
     "Reading": "records",
     "ReadingBatch": "records",
     "ChannelProcessor": "channels",
+    "LockLoop": "lock_loop",
+    "LockSettings": "lock_loop",
+    "Scan": "setpoints",
+    "OutputSink": "outputs",
+    "ReferenceKeeper": "reference",
     "read_log": "parquet_log",
     "VERSION": "encoding",
     "decode_message": "encoding",

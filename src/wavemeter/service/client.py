@@ -1,16 +1,22 @@
 """Clients of a service: :class:`Client` (blocking) and :class:`AsyncClient` (asyncio).
 
 Both subscribe on the publish socket (a DEALER that sends ``wavemeter.subscribe``) and ask
-the control socket (JSON requests). They rejoin a restarted service by themselves: the
-service sends a heartbeat every 0.25 s, and a client that hears nothing for
-:data:`SILENCE_S` subscribes again (ZeroMQ reconnects the socket underneath). A restart
-shows as a new ``run`` and sequences from 0 again (counted in ``restarts``); readings lost
-to a full queue show as gaps in the sequence (counted in ``missed``).
+the control socket (JSON requests); both lock, unlock and ask for the status of a channel's
+lock, as ``owner`` (a name unique to the client unless given), and keep their locks alive
+(:mod:`.keepalive`) so that the service holds them if the client goes silent. They rejoin a
+restarted service by themselves: the service sends a heartbeat every 0.25 s, and a client
+that hears nothing for :data:`SILENCE_S` subscribes again (ZeroMQ reconnects the socket
+underneath). A restart shows as a new ``run`` and sequences from 0 again (counted in
+``restarts``); readings lost to a full queue show as gaps in the sequence (counted in
+``missed``).
 """
 
 from __future__ import annotations
 
 import json
+import os
+import secrets
+import socket as sockets
 import time
 
 import zmq
@@ -26,6 +32,7 @@ from .encoding import (
     encode_message,
     encode_request,
 )
+from .keepalive import AsyncKeepAlive, KeepAlive
 from .records import ReadingBatch
 
 __all__ = ["Client", "AsyncClient", "ServiceError", "SILENCE_S", "RECEIVE_BUFFER_BYTES"]
@@ -39,6 +46,117 @@ RECEIVE_BUFFER_BYTES = 256 * 1024
 
 class ServiceError(WavemeterError):
     """The service refused a request or a subscription; the message says why."""
+
+
+def _owner_name() -> str:
+    """A name unique to a client: host, process and a random part."""
+    return f"{sockets.gethostname()}:{os.getpid()}:{secrets.token_hex(3)}"
+
+
+def _lock_request(channel, setpoint_hz, scan, owner, options) -> dict:
+    """The arguments of a ``lock`` request."""
+    if scan is not None and not isinstance(scan, dict):
+        scan = scan.describe()  # a Scan
+    arguments = {"channel": channel, "owner": owner, **options}
+    if setpoint_hz is not None:
+        arguments["setpoint_hz"] = setpoint_hz
+    if scan is not None:
+        arguments["scan"] = scan
+    if arguments.get("output_limits_v") is not None:
+        arguments["output_limits_v"] = list(arguments["output_limits_v"])
+    return {k: v for k, v in arguments.items() if v is not None or k == "owner_timeout_s"}
+
+
+class _Locks:
+    """The lock requests both clients share (``request`` sync or async)."""
+
+    def lock(
+        self,
+        channel: int,
+        setpoint_hz: float | None = None,
+        *,
+        scan=None,
+        capture_range_hz: float = 3e9,
+        bandwidth_hz: float | None = None,
+        actuator_hz_per_v: float | None = None,
+        response_s: float | None = None,
+        kp_v_per_hz: float | None = None,
+        ki_v_per_hz_s: float | None = None,
+        kd_v_s_per_hz: float | None = None,
+        average: int = 1,
+        output_limits_v=None,
+        rail_s: float = 1.0,
+        owner_timeout_s: float | None = 30.0,
+        take_over: bool = False,
+    ):
+        """Lock ``channel`` to ``setpoint_hz`` (Hz) or to a ``scan``; the lock's status.
+
+        Parameters
+        ----------
+        channel : int
+            A channel with an output.
+        setpoint_hz : float, optional
+            The frequency to hold (Hz).
+        scan : Scan or dict, optional
+            A scan instead: ``center_hz``, ``amplitude_hz``, ``period_s``, ``shape``
+            (``"triangle"`` or ``"ramp"``).
+        capture_range_hz : float
+            An error beyond it unlocks the channel with an alarm (Hz).
+        bandwidth_hz : float, optional
+            The loop bandwidth (Hz; default 1 Hz when no gains are given), with
+            ``actuator_hz_per_v`` (the laser's tuning, Hz/V) and ``response_s`` (the
+            actuator's time constant, s) where the output does not know them.
+        kp_v_per_hz, ki_v_per_hz_s, kd_v_s_per_hz : float, optional
+            Explicit gains instead of a bandwidth (V/Hz, V/(Hz s), V s/Hz).
+        average : int
+            Readings averaged per update.
+        output_limits_v : (float, float), optional
+            The output's range (V), within the output's own (its own by default).
+        rail_s : float
+            Seconds at a limit before the railing alarm.
+        owner_timeout_s : float or None
+            Seconds of silence after which the service holds the lock (this client keeps
+            it alive meanwhile); None: never.
+        take_over : bool
+            Take the lock over from another owner.
+
+        Returns
+        -------
+        dict
+            The status (:meth:`lock_status`).
+
+        Raises
+        ------
+        ServiceError
+            When the service refuses (another owner's lock, a bad setting; nothing changed).
+        """
+        options = {
+            "capture_range_hz": capture_range_hz,
+            "bandwidth_hz": bandwidth_hz,
+            "actuator_hz_per_v": actuator_hz_per_v,
+            "response_s": response_s,
+            "kp_v_per_hz": kp_v_per_hz,
+            "ki_v_per_hz_s": ki_v_per_hz_s,
+            "kd_v_s_per_hz": kd_v_s_per_hz,
+            "average": average,
+            "output_limits_v": output_limits_v,
+            "rail_s": rail_s,
+            "owner_timeout_s": owner_timeout_s,
+            "take_over": take_over,
+        }
+        arguments = _lock_request(channel, setpoint_hz, scan, self.owner, options)
+        return self._locked(self.request("lock", **arguments), owner_timeout_s)
+
+    def unlock(self, channel: int, *, take_over: bool = False):
+        """Unlock ``channel`` (its output stays where it is); the lock's status."""
+        return self.request("unlock", channel=channel, owner=self.owner, take_over=take_over)
+
+    def lock_status(self, channel: int | None = None):
+        """The lock of ``channel`` (every lock for None): a mapping with ``state``
+        (``"locked"``, ``"unlocked"``, ``"holding"``), ``output_v``, ``error_hz``,
+        ``error_mean_hz``, ``setpoint_hz``, ``owner``, ``alarms`` (name -> message),
+        ``alarm_counts``, ``held_readings``, ``settings`` and more."""
+        return self.request("lock_status", channel=channel)
 
 
 class _Tracker:
@@ -81,7 +199,7 @@ class _Tracker:
         return batch
 
 
-class Client:
+class Client(_Locks):
     """A blocking client of ``wavemeter serve``.
 
     Parameters
@@ -95,6 +213,8 @@ class Client:
     receive_buffer_bytes : int
         The kernel's receive buffer of the data socket; raise it for a far service (more
         than the rate times the round trip).
+    owner : str, optional
+        The name its locks are owned under (default: host, process and a random part).
 
     Attributes
     ----------
@@ -112,7 +232,10 @@ class Client:
         *,
         timeout_s: float = 5.0,
         receive_buffer_bytes: int = RECEIVE_BUFFER_BYTES,
+        owner: str | None = None,
     ):
+        self.owner = owner or _owner_name()
+        self._keepalive = None
         self.publish = publish
         self.control = control
         self.token = token
@@ -229,8 +352,18 @@ class Client:
         """The latest reading of a channel, as a dict (None before the first)."""
         return self.request("latest", channel=channel)
 
+    def _locked(self, status: dict, timeout_s) -> dict:
+        if timeout_s is not None:
+            if self._keepalive is None:
+                self._keepalive = KeepAlive(self._context, self.control, self.token, self.owner)
+            self._keepalive.every(timeout_s)
+        return status
+
     def close(self) -> None:
-        """Close the sockets."""
+        """Close the sockets (its locks are no longer kept alive)."""
+        if self._keepalive is not None:
+            self._keepalive.stop()
+            self._keepalive = None
         for socket in (self._data, self._request_socket):
             if socket is not None:
                 socket.close(linger=0)
@@ -251,9 +384,10 @@ def _result(body: bytes):
     return reply.get("result")
 
 
-class AsyncClient:
+class AsyncClient(_Locks):
     """The asyncio twin of :class:`Client`: ``async for reading in client.readings()``,
-    ``await client.request(name, **arguments)``, ``await client.status()``."""
+    ``await client.request(name, **arguments)``, ``await client.status()``, ``await
+    client.lock(...)`` (its locks kept alive by a task)."""
 
     def __init__(
         self,
@@ -262,7 +396,10 @@ class AsyncClient:
         token=None,
         *,
         timeout_s: float = 5.0,
+        owner: str | None = None,
     ):
+        self.owner = owner or _owner_name()
+        self._keepalive = None
         self.publish = publish
         self.control = control
         self.token = token
@@ -318,6 +455,14 @@ class AsyncClient:
     async def latest(self, channel: int) -> dict | None:
         return await self.request("latest", channel=channel)
 
+    async def _locked(self, status, timeout_s) -> dict:
+        status = await status
+        if timeout_s is not None:
+            if self._keepalive is None:
+                self._keepalive = AsyncKeepAlive(self.request, self.owner)
+            self._keepalive.every(timeout_s)
+        return status
+
     def _socket(self, kind, address, receive_buffer=False):
         socket = self._context.socket(kind)
         socket.setsockopt(zmq.LINGER, 0)
@@ -328,6 +473,9 @@ class AsyncClient:
         return socket
 
     def close(self) -> None:
+        if self._keepalive is not None:
+            self._keepalive.stop()
+            self._keepalive = None
         for socket in self._sockets:
             socket.close(linger=0)
         self._sockets.clear()

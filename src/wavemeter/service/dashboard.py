@@ -100,9 +100,10 @@ class Trace:
         return self._adev
 
 
-def channel_view(channel: Channel, trace: Trace, since: int) -> dict:
+def channel_view(channel: Channel, trace: Trace, since: int, *, lock=None, reference=None) -> dict:
     """A channel as the dashboard shows it (JSON-ready): latest values, status, alarms,
-    the trace bins from ``since`` and the Allan deviation."""
+    the trace bins from ``since``, the Allan deviation, and its lock's and reference's
+    views where it has them (their alarms join the channel's)."""
     latest = channel.latest
     alarms = []
     if channel.status == NO_SIGNAL:
@@ -113,6 +114,10 @@ def channel_view(channel: Channel, trace: Trace, since: int) -> dict:
         alarms.append("latest reading flagged: " + ", ".join(names))
     if channel.dropped:
         alarms.append(f"{channel.dropped} readings dropped to slow subscribers")
+    if lock is not None:
+        alarms += [f"lock {name}: {message}" for name, message in lock["alarms"].items()]
+    if reference is not None and reference["alarm"]:
+        alarms.append(f"reference refused: {reference['alarm']}")
 
     def number(value):
         return None if value is None or value != value else value
@@ -130,4 +135,6 @@ def channel_view(channel: Channel, trace: Trace, since: int) -> dict:
         "readings": channel.readings,
         "trace": trace.since(since),
         "adev": trace.adev(),
+        "lock": lock,
+        "reference": reference,
     }

@@ -209,6 +209,18 @@ def recover(folder: Path) -> None:
                 _join(parts, joined)
 
 
+def _order(path: Path) -> tuple:
+    """A log file's place: its segment's time, run and number (``<stamp>-<run>[-<n>]``, the
+    n-th segment of that run in that second), then its part. (By name alone ``x-2.parquet``
+    would sort before ``x.parquet``.)"""
+    match = _PART.match(path.name)
+    segment = match["segment"] if match else path.name.removesuffix(".parquet")
+    stamp, _, rest = segment.partition("-")
+    run, _, number = rest.partition("-")
+    part = int(match["part"]) if match else 0
+    return stamp, run, int(number) if number.isdigit() else 1, part
+
+
 def log_files(folder) -> list[Path]:
     """The log's files in order: by channel, then segment, then part; parts a segment file
     already holds are left out."""
@@ -218,7 +230,7 @@ def log_files(folder) -> list[Path]:
     found = []
     for channel in sorted(folder.glob("ch*"), key=lambda p: (len(p.name), p.name)):
         names = {p.name for p in channel.glob("*.parquet")}
-        for path in sorted(channel.glob("*.parquet")):
+        for path in sorted(channel.glob("*.parquet"), key=_order):
             match = _PART.match(path.name)
             if match and f"{match['segment']}.parquet" in names:
                 continue

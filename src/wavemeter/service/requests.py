@@ -54,6 +54,8 @@ def status_of(server) -> dict:
         if server.log is None
         else {"folder": str(server.log.folder), "rows": server.log.rows, "error": server.log.error},
         "control": {"requests": server.control.requests, "errors": server.control.errors},
+        "locks": server.locks.summary(),
+        "reference": None if server.anchoring is None else server.anchoring.describe(),
     }
 
 

@@ -7,7 +7,9 @@ on that loop: a block of raw readings from a source (a line source, the simulate
 published, queued for the log, counted in the metrics and folded into the dashboard's trace,
 before the next block. Threads hand their blocks over through :meth:`submit_threadsafe`
 (blocks waiting together are read out together: batching comes with load). A reload swaps
-the calibration between two blocks. Control requests are answered by :mod:`.requests`.
+the calibration between two blocks. Control requests are answered by :mod:`.requests` and
+:mod:`.lock_requests`; channels with an output can be locked (:mod:`.locks`), and a
+reference channel keeps the calibration anchored (:mod:`.anchoring`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import secrets
 import signal
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import zmq
@@ -31,12 +34,15 @@ from .addresses import (
     check_binds,
     http_host_port,
 )
+from .anchoring import Anchoring
 from .blocks import RowBlock
 from .channels import NO_SIGNAL, Channel
 from .control import Control
 from .dashboard import Trace, channel_view
 from .encoding import HEARTBEAT_S
 from .lines import LineCounts, LineParser
+from .lock_requests import register_lock_requests
+from .locks import LockManager
 from .metrics import Metrics
 from .parquet_log import ParquetLog
 from .publisher import DEFAULT_HWM, Publisher
@@ -78,11 +84,18 @@ class Server:
         Where the calibration came from (shown in status).
     log_options : dict, optional
         ``flush_s``, ``rotate_s``, ``rotate_bytes`` of the log.
+    outputs : mapping of int to (sink, str), optional
+        The channels that can be locked: each one's output sink (:mod:`.outputs`) and what
+        it is.
+    reference : dict, optional
+        A reference channel: ``channel``, ``frequency_hz`` and the settings of
+        :class:`~.reference.ReferenceKeeper`.
 
     Raises
     ------
     InputError
-        For an address other than the loopback without a token, or a malformed address.
+        For an address other than the loopback without a token, or a malformed address; a
+        reference the calibration cannot be re-anchored to.
     """
 
     def __init__(
@@ -100,6 +113,8 @@ class Server:
         channel_names=None,
         calibration_path: str | None = None,
         log_options: dict | None = None,
+        outputs: dict | None = None,
+        reference: dict | None = None,
     ):
         check_binds({"publish": publish, "control": control, "http": http}, token)
         if token is not None and not token.strip():
@@ -132,6 +147,8 @@ class Server:
         self._thread: threading.Thread | None = None
         self._ready = threading.Event()
         self._start_error: BaseException | None = None
+        self.locks = LockManager(self, outputs or {})
+        self.anchoring = None if reference is None else Anchoring(self, **reference)
 
     # ------------------------------------------------------------------ running
     def add_source(self, source) -> None:
@@ -169,9 +186,9 @@ class Server:
         return self
 
     def stop(self) -> None:
-        """Stop serving (any thread): sources stopped, readings waiting read out, logs
-        written, sockets closed."""
-        if self._loop is not None and self._stopping is not None:
+        """Stop serving (any thread; again does nothing): sources stopped, readings waiting
+        read out, logs written, sockets closed."""
+        if self._loop is not None and self._stopping is not None and not self._loop.is_closed():
             self._loop.call_soon_threadsafe(self._stopping.set)
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join()
@@ -216,6 +233,7 @@ class Server:
         self.control = Control(context, self.endpoints["control"], token=self.token)
         self.addresses["control"] = self.control.address
         register_requests(self)
+        register_lock_requests(self)
         runner = None
         if self.endpoints["http"] is not None:
             from aiohttp import web
@@ -231,7 +249,11 @@ class Server:
             self.addresses["http"] = f"http://{host}:{bound[1]}/"
         if self.log_folder is not None:
             self.log = ParquetLog(self.log_folder, self.run_id, **self.log_options)
+        if self.anchoring is not None:
+            self.anchoring.start(None if self.log is None else Path(self.log_folder))
         for source in self.sources:
+            if hasattr(source, "register_requests"):
+                source.register_requests(self.control)
             if hasattr(source, "start_async"):
                 await source.start_async()
                 self.addresses["source"] = source.name
@@ -253,6 +275,7 @@ class Server:
         await asyncio.gather(*tasks, return_exceptions=True)
         if runner is not None:
             await runner.cleanup()
+        self.locks.close()
         if self.log is not None:
             await asyncio.get_running_loop().run_in_executor(None, self.log.close)
         for part in ("publisher", "control"):
@@ -352,6 +375,8 @@ class Server:
                     }
                 self.log.append(index, columns)
             self.traces[index].add(batch)
+            if self.anchoring is not None and index == self.anchoring.channel:
+                self.anchoring.take(part, batch)
             latency = time.perf_counter() - block.arrived
             self.metrics.batch(
                 str(index), batch.columns["flags"], latency, channel.latest.frequency_hz
@@ -377,6 +402,7 @@ class Server:
         while True:
             now = time.monotonic()
             changed = [c.watch(self.signal_timeout_s, now) for c in list(self.channels.values())]
+            self.locks.watch(now)
             if any(changed):
                 self.publisher.publish_status(self.channel_list())
             if now - beat >= HEARTBEAT_S:
@@ -432,13 +458,26 @@ class Server:
             "subscribers": len(self.publisher.subscribers),
             "sources": [{"name": source.name, "state": source.state} for source in self.sources],
             "channels": [
-                channel_view(channel, self.traces[index], sent.get(index, 0))
+                channel_view(
+                    channel,
+                    self.traces[index],
+                    sent.get(index, 0),
+                    lock=self.locks.view(index),
+                    reference=self.anchoring and self.anchoring.view(index),
+                )
                 for index, channel in sorted(self.channels.items())
             ],
         }
 
     def use_calibration(self, calibration, path: str | None) -> None:
-        """Swap the calibration (on the loop, between two blocks)."""
+        """Swap the calibration (on the loop, between two blocks); a reference re-anchors
+        the new one from then on."""
+        self.anchor(calibration)
+        self.calibration_path = path
+        if self.anchoring is not None:
+            self.anchoring.rebase(calibration)
+
+    def anchor(self, calibration) -> None:
+        """Read with a re-anchored copy of the calibration from the next block on."""
         self._reader = CalibrationReader(calibration)
         self.calibration = calibration
-        self.calibration_path = path

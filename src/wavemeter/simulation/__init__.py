@@ -1,12 +1,14 @@
 """Simulated interferometers with the impairments of the paper's Table 1 and hardware faults,
-lasers with power-law frequency noise to measure with them, laser sweeps as recorded (true
-and logged axis), a reference gas cell recorded beside the ports, and the scenarios
-``wavemeter simulate`` records (:class:`Scenario`)."""
+lasers with power-law frequency noise to measure with them (and an actuator a lock drives),
+laser sweeps as recorded (true and logged axis), a reference gas cell recorded beside the
+ports, and the scenarios ``wavemeter simulate`` records (:class:`Scenario`)."""
 
+from .actuated_laser import ActuatedLaser
 from .cascade import ISSUE_CASCADE_FSRS_HZ, CascadeInterferometer
 from .drift import flicker_power_noise, slow_power_drift, thermal_ramp_rad
 from .interferometer import Interferometer
 from .laser import laser_frequency_hz
+from .laser_presets import LASER_PRESETS, LaserNoise
 from .reference_cell import CELL_PRESETS, ReferenceCell, simulated_band_lines
 from .scenario import Scenario
 from .spectral_presets import SPECTRAL_PRESETS, SpectralPreset
@@ -25,6 +27,9 @@ __all__ = [
     "flicker_power_noise",
     "thermal_ramp_rad",
     "laser_frequency_hz",
+    "LaserNoise",
+    "LASER_PRESETS",
+    "ActuatedLaser",
     "Scenario",
     "LaserSweep",
     "SweepPreset",

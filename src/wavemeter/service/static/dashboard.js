@@ -31,7 +31,7 @@
     element.innerHTML =
       '<h2><span class="name"></span><span class="status"></span></h2>' +
       '<div class="frequency">&ndash;</div><div class="details"></div>' +
-      '<div class="alarms"></div><div class="plots"><div class="trace"></div>' +
+      '<div class="lock"></div><div class="alarms"></div><div class="plots"><div class="trace"></div>' +
       '<div class="adev"></div></div>';
     document.getElementById("channels").appendChild(element);
     const width = Math.max(260, Math.floor((element.clientWidth - 30) / 2));
@@ -60,6 +60,7 @@
     text(element.querySelector(".details"),
          `± ${std} MHz · flags ${view.flags} · ${view.rate_hz.toFixed(1)} readings/s · ` +
          `${view.readings} readings · sequence ${view.sequence}`);
+    showLock(element.querySelector(".lock"), view.lock, view.reference);
     text(element.querySelector(".alarms"), view.alarms.join("; "));
     const trace = view.trace;
     if (trace.time_s.length) {
@@ -76,6 +77,33 @@
                            state.frequency.map((f) => (f - mean) / 1e6)]);
     }
     if (view.adev.tau_s.length) state.adev.setData([view.adev.tau_s, view.adev.adev_hz]);
+  }
+
+  function mhz(value) {
+    return value === null ? "-" : (value / 1e6).toFixed(3) + " MHz";
+  }
+
+  // the lock of a channel with an output (state, setpoint, output, error, owner), and a
+  // reference channel's re-anchors
+  function showLock(element, lock, reference) {
+    let line = "";
+    let state = "none";
+    if (lock) {
+      state = lock.state;
+      line = `lock ${lock.state}`;
+      if (lock.setpoint_hz !== null) {
+        line += ` · setpoint ${(lock.setpoint_hz / 1e12).toFixed(9)} THz`;
+      }
+      line += ` · output ${lock.output_v.toFixed(4)} V · error ${mhz(lock.error_mean_hz)}`;
+      if (lock.owner) line += ` · owner ${lock.owner}`;
+    }
+    if (reference) {
+      state = reference.alarm ? "holding" : "locked";
+      line = `reference ${(reference.frequency_hz / 1e12).toFixed(6)} THz · ` +
+        `${reference.accepted} re-anchors, ${reference.refused} refused`;
+    }
+    text(element, line);
+    element.className = "lock " + state;
   }
 
   function connect() {
