@@ -73,6 +73,12 @@ DEFAULT_HTTP = "127.0.0.1:8560"
     help="Where readings are published (port 0: a free one).",
 )
 @click.option(
+    "--pub",
+    metavar="tcp://HOST:PORT",
+    help="Also publish on a plain ZeroMQ PUB socket here, for SUB sockets (same topics "
+    "and messages; their losses are gaps in sequence, not counted by the service).",
+)
+@click.option(
     "--control",
     default=DEFAULT_CONTROL,
     show_default=True,
@@ -158,6 +164,7 @@ def serve(
     channels,
     channel_column,
     publish,
+    pub,
     control,
     http,
     log_dir,
@@ -215,6 +222,7 @@ def serve(
     server = Server(
         calibration,
         publish=publish,
+        pub=pub,
         control=control,
         http=http,
         log=log_dir,
@@ -256,6 +264,8 @@ def serve(
             + (f", source {addresses['source']}" if "source" in addresses else ""),
             err=True,
         )
+        if "pub" in addresses:
+            say(quiet, f"pub: {addresses['pub']} (ZeroMQ PUB, topics ch/N/)", err=True)
         if dashboard:
             say(
                 quiet,
