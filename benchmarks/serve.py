@@ -7,10 +7,12 @@ holds it decoded: for ``stream`` the output line read back from its standard out
 ``serve`` the reading a :class:`wavemeter.service.Client` subscriber got (its batch decoded).
 Lines go to ``serve`` over its TCP line source.
 
-- latency at 1 kHz: ``stream``; ``serve`` with 1 and 3 subscribers; ``serve`` with 3
+- latency at 1 kHz: ``stream``; ``serve`` with 1, 2 and 3 subscribers; ``serve`` with 3
   subscribers one of which is stopped (SIGSTOP) for the whole run. Each case runs
   ``--repeats`` times alternating with the others; the table gives the median over runs of
-  each run's median and p99.
+  each run's median and p99. The stopped subscriber's effect is the p99 of the 2 others
+  against the p99 with 2 subscribers and none stopped (the same processes reading; against
+  3 readers it would credit the stopped one with the CPU it no longer takes).
 - CPU per 1 kHz channel: the child's user + system CPU seconds per second of the 1 kHz run
   with one subscriber (``/proc/PID/stat``), and the same for ``stream``.
 - the highest sustained rate with one subscriber and ``--log`` on and no drop: lines sent at
@@ -356,7 +358,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as name:
         folder = Path(name)
         calibration, lines = calibration_and_lines(folder, readings)
-        runs = {key: [] for key in ("stream", "serve1", "serve3", "serve3stopped")}
+        runs = {key: [] for key in ("stream", "serve1", "serve2", "serve3", "serve3stopped")}
         cpu = {"stream": [], "serve1": []}
         service = Service(calibration)
         try:
@@ -368,6 +370,7 @@ def main(argv=None) -> int:
                 cpu["stream"].append(cpu_s_)
                 for key, count, stopped in (
                     ("serve1", 1, False),
+                    ("serve2", 2, False),
                     ("serve3", 3, False),
                     ("serve3stopped", 2, True),
                 ):
@@ -395,6 +398,7 @@ def print_table(runs, cpu, rate_results, readings, repeats, seconds, load) -> No
     labels = {
         "stream": "wavemeter stream (stdout)",
         "serve1": "serve, 1 subscriber",
+        "serve2": "serve, 2 subscribers",
         "serve3": "serve, 3 subscribers",
         "serve3stopped": "serve, 3 subscribers, 1 stopped (the 2 others)",
     }
@@ -405,7 +409,7 @@ def print_table(runs, cpu, rate_results, readings, repeats, seconds, load) -> No
             target = "median <= 0.5 ms, p99 <= 2 ms"
             result = verdict(median <= TARGET_MEDIAN_S and p99 <= TARGET_P99_S)
         rows.append((labels[key], f"{median * 1e3:.3f}", f"{p99 * 1e3:.3f}", target, result))
-    change = medians["serve3stopped"][1] / medians["serve3"][1] - 1
+    change = medians["serve3stopped"][1] / medians["serve2"][1] - 1
     print(
         f"## wavemeter serve vs stream: latency line written -> reader holds the reading, "
         f"1 kHz, {readings} readings x {repeats} runs (median over runs)\n"
@@ -415,7 +419,8 @@ def print_table(runs, cpu, rate_results, readings, repeats, seconds, load) -> No
     for row in rows:
         print("| " + " | ".join(row) + " |")
     print(
-        f"| stopped subscriber: change of the others' p99 | | {change * 100:+.1f} % | < 20 % | "
+        f"| stopped subscriber: the others' p99 vs 2 subscribers | | {change * 100:+.1f} % "
+        "| < 20 % | "
         f"{verdict(abs(change) < TARGET_STOPPED_CHANGE)} |"
     )
     print("\n## CPU per 1 kHz channel (CPU seconds per second, median over runs)\n")

@@ -7,6 +7,7 @@ then SIGKILL after a timeout), whatever the test does.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import re
 import signal
@@ -65,6 +66,8 @@ class Serve:
                 self.addresses.update(match.groupdict())
             if line.startswith("dashboard: "):
                 self.addresses["http"] = line.split()[1]
+            if line.startswith("pub: "):
+                self.addresses["pub"] = line.split()[1]
 
     def wait_ready(self, timeout_s: float = 30.0) -> Serve:
         deadline = time.monotonic() + timeout_s
@@ -109,9 +112,11 @@ def serving(args, **kwargs):
 
 @contextlib.contextmanager
 def child(code: str, *args):
-    """A Python child running ``code`` (stdout lines readable); killed on the way out."""
+    """A Python child running ``code`` (stdin writable, stdout lines readable); killed on
+    the way out."""
     process = subprocess.Popen(
         [sys.executable, "-c", code, *args],
+        stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -124,8 +129,9 @@ def child(code: str, *args):
                 process.send_signal(signal.SIGCONT)
             process.kill()
         process.wait()
-        process.stdout.close()
-        process.stderr.close()
+        for stream in (process.stdin, process.stdout, process.stderr):
+            with contextlib.suppress(OSError):
+                stream.close()
 
 
 def wait_for(predicate, timeout_s: float = 10.0, every_s: float = 0.05):
@@ -161,6 +167,63 @@ for batch in client.batches(timeout_s=20):
 print(json.dumps({"missed": client.missed, "restarts": client.restarts}), flush=True)
 client.close()
 """
+
+
+#: a subscriber child that reads one channel until its last sequence reaches a target the
+#: test writes to its standard input (so it is subscribed for as long as the test needs),
+#: then prints one JSON line: first and last sequence, readings, gaps (missed readings).
+#: It prints ``{"started": true}`` at its first reading (its subscription in force).
+#: argv: kind ("client": a wavemeter Client on the publish socket; "sub": a plain ZeroMQ
+#: SUB socket on --pub), the publish or pub address, the control address, a token or "-"
+UNTIL = """
+import json, sys, threading
+import numpy as np
+kind, address, control, token = sys.argv[1:5]
+token = None if token == "-" else token
+target = [None]
+def wait_target():
+    target[0] = int(sys.stdin.readline())
+threading.Thread(target=wait_target, daemon=True).start()
+if kind == "client":
+    from wavemeter.service import Client
+    client = Client(address, control, token)
+    batches = client.batches(channel=0, timeout_s=60)
+else:
+    import zmq
+    from wavemeter.service import decode_message
+    socket = zmq.Context().socket(zmq.SUB)
+    socket.setsockopt(zmq.RCVBUF, 256 * 1024)  # as a Client's: a stopped one loses in seconds
+    if token is not None:
+        socket.plain_username, socket.plain_password = b"wavemeter", token.encode()
+    socket.connect(address)
+    socket.setsockopt(zmq.SUBSCRIBE, b"ch/0/")
+    socket.setsockopt(zmq.RCVTIMEO, 60_000)
+    batches = (decode_message(socket.recv_multipart()[1])[1] for _ in iter(int, 1))
+first = last = None
+count = missed = 0
+for batch in batches:
+    numbers = batch.columns["sequence"]
+    if first is None:  # subscribed for sure: readings come
+        first = int(numbers[0])
+        print(json.dumps({"started": True}), flush=True)
+    else:
+        missed += int(numbers[0]) - last - 1
+    missed += int((np.diff(numbers) - 1).sum())
+    last = int(numbers[-1])
+    count += len(numbers)
+    if target[0] is not None and last >= target[0]:
+        break
+print(json.dumps({"first": first, "last": last, "count": count, "missed": missed}), flush=True)
+"""
+
+
+def stop_at(process, sequence: int) -> dict:
+    """Tell an :data:`UNTIL` child to stop at ``sequence``; its summary line."""
+    process.stdin.write(f"{sequence}\n")
+    process.stdin.flush()
+    out, err = process.communicate(timeout=120)
+    assert out.strip(), err[-2000:]
+    return json.loads(out.splitlines()[-1])
 
 
 def sequences(batches: list[dict]) -> dict[tuple[str, int], list[int]]:

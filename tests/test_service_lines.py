@@ -67,8 +67,10 @@ def test_the_service_publishes_what_stream_writes():
     parser.start(["P1_mW,P2_mW,P3_mW"], calibration)
     reader = CalibrationReader(calibration)
     channel = Channel(0)
-    # in one block (readout) and a line at a time (calibration.stream)
-    for blocks in ([lines], [[line] for line in lines]):
+    # in one block (readout), a line at a time (calibration.stream), and in blocks of 3 and
+    # 5 lines (converted row by row up to 4, some with an invalid line among them)
+    sizes = (len(lines), 1, 3, 5)
+    for blocks in ([lines[k : k + size] for k in range(0, len(lines), size)] for size in sizes):
         channel.next_sequence = 0
         batches = [channel.process(parser.rows(block, 0), reader, "run") for block in blocks]
         columns = {

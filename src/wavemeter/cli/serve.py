@@ -75,6 +75,12 @@ DEFAULT_HTTP = "127.0.0.1:8560"
     help="Where readings are published (port 0: a free one).",
 )
 @click.option(
+    "--pub",
+    metavar="tcp://HOST:PORT",
+    help="Also publish on a plain ZeroMQ PUB socket here, for SUB sockets (same topics "
+    "and messages; their losses are gaps in sequence, not counted by the service).",
+)
+@click.option(
     "--control",
     default=DEFAULT_CONTROL,
     show_default=True,
@@ -210,6 +216,7 @@ def serve(
     channels,
     channel_column,
     publish,
+    pub,
     control,
     http,
     log_dir,
@@ -307,6 +314,7 @@ def serve(
     server = Server(
         calibration,
         publish=publish,
+        pub=pub,
         control=control,
         http=http,
         log=log_dir,
@@ -339,6 +347,8 @@ def serve(
             + (f", source {addresses['source']}" if "source" in addresses else ""),
             err=True,
         )
+        if "pub" in addresses:
+            say(quiet, f"pub: {addresses['pub']} (ZeroMQ PUB, topics ch/N/)", err=True)
         if dashboard:
             say(
                 quiet,

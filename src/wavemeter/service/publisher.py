@@ -8,6 +8,7 @@ against it and the channel, while the others get theirs at once. A subscriber th
 is forgotten at the next message to it. Every subscriber gets a heartbeat every
 :data:`~wavemeter.service.encoding.HEARTBEAT_S`; it re-subscribes when they stop (a
 restarted service), which is how :class:`~wavemeter.service.Client` rejoins by itself.
+A plain PUB socket (:mod:`.plain_pub`), where bound, gets every message too.
 """
 
 from __future__ import annotations
@@ -111,12 +112,14 @@ class Publisher:
         self.dropped_messages = 0
         self.refused = 0
         self.on_dropped = None  # called with (channel, readings) for each dropped message
+        self.plain = None  # a PlainPublisher that gets every message too (--pub)
 
     def publish(self, batch: ReadingBatch) -> None:
         """Send a batch (split at :data:`MAX_BATCH` readings) to its subscribers."""
         topic = channel_topic(batch.channel)
         wanting = [s for s in self.subscribers.values() if s.wants(topic)]
-        if not wanting:
+        plain = self.plain
+        if not wanting and plain is None:
             return
         for start in range(0, len(batch), MAX_BATCH):
             part = batch
@@ -124,6 +127,8 @@ class Publisher:
                 columns = {k: v[start : start + MAX_BATCH] for k, v in batch.columns.items()}
                 part = ReadingBatch(batch.channel, columns, run=batch.run, name=batch.name)
             body = encode_batch(part)
+            if plain is not None:
+                plain.send(topic, body)
             for subscriber in wanting:
                 if not self._deliver(subscriber, topic, body):
                     subscriber.dropped_readings += len(part)
@@ -133,6 +138,8 @@ class Publisher:
     def publish_status(self, channels: list[dict]) -> None:
         """Send every channel's status to every subscriber of ``status/``."""
         body = encode_message("wavemeter.status", run=self.run, channels=channels)
+        if self.plain is not None:
+            self.plain.send(STATUS_TOPIC, body)
         for subscriber in list(self.subscribers.values()):
             if subscriber.wants(STATUS_TOPIC):
                 self._deliver(subscriber, STATUS_TOPIC, body)
@@ -140,6 +147,8 @@ class Publisher:
     def heartbeat(self) -> None:
         """Send a heartbeat to every subscriber."""
         body = encode_message(HEARTBEAT_FORMAT, run=self.run, time_ns=time.time_ns())
+        if self.plain is not None:
+            self.plain.send(HEARTBEAT_TOPIC, body)
         for subscriber in list(self.subscribers.values()):
             self._deliver(subscriber, HEARTBEAT_TOPIC, body, count=False)
 

@@ -65,6 +65,9 @@ class Server:
         The calibration readings are read out with.
     publish, control : str
         ZeroMQ endpoints to bind (``tcp://127.0.0.1:0``: a free port).
+    pub : str, optional
+        A plain ZeroMQ PUB socket to bind as well, for SUB sockets (:mod:`.plain_pub`);
+        None: none.
     http : str or None
         ``HOST:PORT`` of the dashboard and ``/metrics``; None: no HTTP.
     log : str or Path, optional
@@ -105,6 +108,7 @@ class Server:
         publish: str = DEFAULT_PUBLISH,
         control: str = DEFAULT_CONTROL,
         http: str | None = DEFAULT_HTTP,
+        pub: str | None = None,
         log=None,
         log_powers: bool = False,
         token: str | None = None,
@@ -116,12 +120,12 @@ class Server:
         outputs: dict | None = None,
         reference: dict | None = None,
     ):
-        check_binds({"publish": publish, "control": control, "http": http}, token)
+        check_binds({"publish": publish, "control": control, "http": http, "pub": pub}, token)
         if token is not None and not token.strip():
             raise InputError("the token is empty; give a non-empty token", parameter="token")
         self.calibration = calibration
         self.calibration_path = calibration_path
-        self.endpoints = {"publish": publish, "control": control, "http": http}
+        self.endpoints = {"publish": publish, "control": control, "http": http, "pub": pub}
         self.log_folder = log
         self.log_powers = log_powers
         self.log_options = log_options or {}
@@ -230,6 +234,13 @@ class Server:
         )
         self.publisher.on_dropped = self._dropped
         self.addresses["publish"] = self.publisher.address
+        if self.endpoints["pub"] is not None:
+            from .plain_pub import PlainPublisher
+
+            self.publisher.plain = PlainPublisher(
+                context, self.endpoints["pub"], token=self.token, hwm=self.hwm
+            )
+            self.addresses["pub"] = self.publisher.plain.address
         self.control = Control(context, self.endpoints["control"], token=self.token)
         self.addresses["control"] = self.control.address
         register_requests(self)
@@ -281,6 +292,8 @@ class Server:
         for part in ("publisher", "control"):
             if hasattr(self, part):
                 getattr(self, part).close()
+        if hasattr(self, "publisher") and self.publisher.plain is not None:
+            self.publisher.plain.close()
         context.term()
 
     def fail_threadsafe(self, error: WavemeterError) -> None:
