@@ -22,7 +22,7 @@ import numpy as np
 
 from ...exceptions import InputError, WavemeterError, shown
 from ...validation import check_fitted, check_positive
-from ..files.document import save_calibration, state_array
+from ..files.document import save_calibration
 from ..files.fields import (
     NOISE_RELATIVE,
     OFFSET_RULE,
@@ -34,6 +34,7 @@ from ..files.fields import (
     rule_table,
 )
 from ..files.registry import register
+from ..files.state import state_array
 from .absolute import AbsoluteMixin
 from .figures import FigureData, FringePanel
 from .params import ParamsMixin

@@ -22,8 +22,6 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Protocol
 
-import numpy as np
-
 from ...atomic import atomic_path
 from ...exceptions import FileFormatError, InputError, WavemeterError
 from ...validation import MIN_SAMPLES, check_fitted
@@ -37,6 +35,7 @@ from .fields import (
 )
 from .registry import calibrator_class, registered
 from .rules import shown
+from .state import is_real
 
 __all__ = [
     "CENTER_RANGE_HZ",
@@ -54,8 +53,6 @@ __all__ = [
     "parse_calibration_text",
     "read_calibration_file",
     "save_calibration",
-    "state_array",
-    "state_float",
 ]
 
 
@@ -175,71 +172,9 @@ def _fail(path, problem: str) -> FileFormatError:
     return FileFormatError(f"{path}: {problem}")
 
 
-def _is_real(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-def state_float(
-    state: dict,
-    key: str,
-    *,
-    minimum: float | None = None,
-    open_minimum: bool = False,
-    maximum: float | None = None,
-) -> float:
-    """A finite number from a loaded state, within ``[minimum, maximum]`` when given.
-
-    Raises
-    ------
-    InputError
-        Naming the field, when it is missing, not a number, not finite or out of range.
-    """
-    if key not in state:
-        raise InputError(f"field {key!r} is missing")
-    value = state[key]
-    if not _is_real(value) or not math.isfinite(value):
-        raise InputError(f"field {key!r} must be a finite number, got {shown(value)}")
-    value = float(value)
-    if minimum is not None and (value < minimum or (open_minimum and value == minimum)):
-        relation = ">" if open_minimum else ">="
-        raise InputError(f"field {key!r} must be {relation} {minimum:g}, got {value!r}")
-    if maximum is not None and value > maximum:
-        raise InputError(f"field {key!r} must be <= {maximum:g}, got {value!r}")
-    return value
-
-
-def state_array(state: dict, key: str, shape: tuple) -> np.ndarray:
-    """A finite float array of ``shape`` (None: any length) from a loaded state.
-
-    Raises
-    ------
-    InputError
-        Naming the field, when it is missing, ragged, not numeric, of another shape or
-        holds NaN or inf.
-    """
-    if key not in state:
-        raise InputError(f"field {key!r} is missing")
-    try:
-        array = np.asarray(state[key])
-    except (ValueError, TypeError) as exc:
-        raise InputError(
-            f"field {key!r} must be nested lists of numbers of equal lengths, got "
-            f"{shown(state[key])}"
-        ) from exc
-    if array.dtype.kind not in "iuf":
-        raise InputError(f"field {key!r} must hold numbers only, got {shown(state[key])}")
-    matches = array.ndim == len(shape) and all(
-        size is None or size == actual for size, actual in zip(shape, array.shape, strict=True)
-    )
-    if not matches or not np.all(np.isfinite(array)):
-        sizes = " x ".join("any" if size is None else str(size) for size in shape)
-        raise InputError(f"field {key!r} must be {sizes} finite numbers, got shape {array.shape}")
-    return array.astype(float)
-
-
 def _number(document: dict, key: str, path) -> float:
     value = document.get(key)
-    if not _is_real(value) or not math.isfinite(value):
+    if not is_real(value) or not math.isfinite(value):
         raise _fail(path, f"field {key!r} must be a finite number, got {shown(value)}")
     return float(value)
 
@@ -261,7 +196,7 @@ def _frequencies(document: dict, path) -> tuple[float, float, tuple[float, float
     if not (
         isinstance(span, list)
         and len(span) == 2
-        and all(_is_real(value) and math.isfinite(value) for value in span)
+        and all(is_real(value) and math.isfinite(value) for value in span)
         and span[0] <= span[1]
     ):
         raise _fail(path, f"field 'span_hz' must be [low, high] in Hz, got {shown(span)}")

@@ -31,7 +31,8 @@ from ...validation import (
 from ..contract.base import BaseCalibrator, Part
 from ..contract.summary import FitValue
 from ..files import fields
-from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
+from ..files.document import calibrator_fields, calibrator_from_fields
+from ..files.state import state_array, state_float
 from ..fitting.reference import ReferenceCellMixin
 from ..models.band_reading import band_cone_distance
 from .cascade_chain import ChainReadingMixin

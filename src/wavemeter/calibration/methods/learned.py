@@ -25,7 +25,7 @@ from ..contract.base import BaseCalibrator
 from ..contract.records import ReadingInputs
 from ..contract.summary import FitValue
 from ..files import fields
-from ..files.document import state_array, state_float
+from ..files.state import state_array, state_float
 from ..fitting.steps import (
     SweepFitMixin,
     check_ports,

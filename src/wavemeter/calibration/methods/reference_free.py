@@ -20,7 +20,7 @@ import numpy as np
 from ...exceptions import CalibrationWarning, InputError
 from ...validation import MIN_SAMPLES, check_dark, check_monitor, check_positive, check_powers
 from ..files import fields
-from ..files.document import state_array
+from ..files.state import state_array
 from ..fitting.sweep import checked_port_names
 from ..models.cone_fit import OFFSET_MODES, ConeFit, cone_phase_rad, fit_cone
 from .baselines._labels import LabelLockedCalibrator

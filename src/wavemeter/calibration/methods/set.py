@@ -40,8 +40,9 @@ from ..contract.params import clone
 from ..contract.records import ReadingInputs
 from ..contract.summary import FitValue
 from ..files import fields
-from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
+from ..files.document import calibrator_fields, calibrator_from_fields
 from ..files.registry import calibrator_class
+from ..files.state import state_array, state_float
 from ..fitting.reference import ReferenceCellMixin
 from .learned import Calibrator
 from .set_checks import adjacent_check, adjacent_evaluation, window_label

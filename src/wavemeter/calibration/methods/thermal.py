@@ -35,7 +35,7 @@ from ...validation import check_choice, check_positive
 from ..checks.misfit import detector_noise_w, phase_noise_variance_w2
 from ..contract.base import BaseCalibrator
 from ..contract.summary import FitValue
-from ..files.document import state_array, state_float
+from ..files.state import state_array, state_float
 from ..fitting.steps import check_ports, fits_offsets, guard_design_fsr
 from ..fitting.sweep import Sweep
 from ..models.learned_fit import RETRIEVALS, port_noise_std_w

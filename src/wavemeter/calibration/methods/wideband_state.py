@@ -14,7 +14,7 @@ import numpy as np
 
 from ...exceptions import InputError
 from ..files import fields
-from ..files.document import state_array, state_float
+from ..files.state import state_array, state_float
 from ..models.wideband_orders import MAX_MAP_ORDER, MAX_PHASE_ORDER, parameter_count
 
 __all__ = ["MAX_PHASE_TERM", "PHASE_DEFINITIONS", "BandStateMixin"]

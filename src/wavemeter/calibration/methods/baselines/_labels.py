@@ -21,7 +21,7 @@ from ....model.cone import wrap_phase_rad
 from ...contract.base import BaseCalibrator
 from ...contract.summary import FitValue
 from ...files import fields
-from ...files.document import state_float
+from ...files.state import state_float
 from ...fitting.steps import SweepFitMixin
 from ...models.delay_search import DEFAULT_FSR_TOLERANCE, EdgeMinimumError, search_delay
 from ._compared import ComparedWithLearnedMixin

@@ -13,7 +13,7 @@ import numpy as np
 from ....exceptions import InputError
 from ....model.couplers import equally_spaced_phases_rad, orthonormal_map
 from ...files import fields
-from ...files.document import state_array
+from ...files.state import state_array
 from ..figures import MapSamplesMixin
 from ._labels import LabelLockedCalibrator, phase_locking
 

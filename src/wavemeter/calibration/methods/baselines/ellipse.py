@@ -25,7 +25,7 @@ import numpy as np
 
 from ....exceptions import InputError
 from ...files import fields
-from ...files.document import state_float
+from ...files.state import state_float
 from ._labels import LabelLockedCalibrator
 
 __all__ = [

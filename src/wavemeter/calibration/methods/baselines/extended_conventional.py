@@ -24,7 +24,7 @@ from ....exceptions import InputError
 from ...contract.base import BaseCalibrator
 from ...contract.summary import FitValue
 from ...files import fields
-from ...files.document import state_array, state_float
+from ...files.state import state_array, state_float
 from ...fitting.steps import SweepFitMixin
 from ...models.delay_search import DEFAULT_FSR_TOLERANCE
 from ...models.learned_fit import fit_learned_map

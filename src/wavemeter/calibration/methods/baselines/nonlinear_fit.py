@@ -27,7 +27,7 @@ from ....validation import as_rng, check_positive
 from ...contract.base import MAX_MAP_CONDITION, BaseCalibrator
 from ...contract.summary import FitValue
 from ...files import fields
-from ...files.document import state_array, state_float
+from ...files.state import state_array, state_float
 from ...fitting.steps import SweepFitMixin
 from ._compared import ComparedWithLearnedMixin
 

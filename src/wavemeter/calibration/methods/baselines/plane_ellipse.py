@@ -29,7 +29,7 @@ import numpy as np
 
 from ....exceptions import InputError
 from ...files import fields
-from ...files.document import state_array
+from ...files.state import state_array
 from ._labels import LabelLockedCalibrator
 from .ellipse import MIN_ELLIPSE_POINTS, FringeEllipse, ellipse_phase, ellipse_rules, fit_ellipse
 
