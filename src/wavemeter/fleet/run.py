@@ -1,7 +1,7 @@
 """Calibrating a fleet of devices, in parallel on dask.distributed or in this process.
 
 The only module of the package that imports ``distributed``, and only when a fleet runs on
-it. One task per device (:func:`wavemeter.jobs.calibrate.calibrate_device`) runs on a
+it. One task per device (:func:`wavemeter.jobs.fleet_device.calibrate_device`) runs on a
 worker: it reads the device's sweep file (by path: on a cluster, the files must be where
 the workers see them) and returns the fitted calibration. The client writes every output:
 each device's ``<device>.wmcal.json`` as its result arrives, then ``summary.csv``,
@@ -40,8 +40,9 @@ from pathlib import Path
 
 from ..atomic import check_output
 from ..exceptions import FileFormatError, InputError, shown
-from ..jobs.calibrate import ERROR, DeviceResult, calibrate_device, saved_result
+from ..jobs.calibrate import ERROR, DeviceResult
 from ..jobs.calibrator import CalibrateOptions, build_calibrator, options_record
+from ..jobs.fleet_device import calibrate_device, saved_result
 from .page import write_page
 from .summary import write_summary
 

@@ -7,9 +7,10 @@ calibrations (``wavemeter.calibration``, asked what they declare), and nothing a
 command line.
 """
 
-from .calibrate import CalibrationRefused, DeviceResult, calibrate_device, calibrate_file
+from .calibrate import CalibrationRefused, DeviceResult, calibrate_file
 from .calibrator import CalibrateOptions, build_calibrator, method_settings
 from .chunks import RowSample, fit_sweep_chunks
+from .fleet_device import calibrate_device
 from .line_reader import LineReader
 from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, ReadingsRefused, measure_file
 from .noise import NoiseSeries, measure_series

@@ -7,8 +7,8 @@ files), subtracts the dark readings,
 fits (with a reference cell: :mod:`~wavemeter.jobs.reference_cell`), makes the metadata
 and saves the calibration atomically. Its :class:`DeviceResult` has the numbers a fleet's
 summary shows (FSR, noise, RMS error on the sweep, RMS Cramer-Rao bound on every k-th
-reading beyond ``SAMPLE_ROWS``, their ratio). :func:`calibrate_device` does the same for a
-fleet (bad input: a result with ``status="error"``); :func:`saved_result` reads one back.
+reading beyond ``SAMPLE_ROWS``, their ratio). :func:`~wavemeter.jobs.fleet_device.calibrate_device` does the same for a
+fleet (bad input: a result with ``status="error"``); :func:`~wavemeter.jobs.fleet_device.saved_result` reads one back.
 
 The metadata (the same for both commands): the sweeps' files, columns, rows, temperatures,
 dark readings (:func:`~wavemeter.jobs.sweeps.sweep_metadata`), ``crlb_rms_hz`` and
@@ -45,8 +45,6 @@ __all__ = [
     "CalibrationRefused",
     "DeviceResult",
     "calibrate_file",
-    "calibrate_device",
-    "saved_result",
     "OK",
     "ERROR",
     "DIFFERING_FIELDS",
@@ -208,7 +206,7 @@ def _crlb_rms_hz(calibration, powers_w, frequency_hz, inputs: dict) -> float:
     return float(np.sqrt(np.mean(np.square(bound))))
 
 
-def _result(device: str, source, calibration, crlb_rms_hz, metadata: dict, **extra):
+def result_of(device: str, source, calibration, crlb_rms_hz, metadata: dict, **extra):
     """The result of a fitted (or loaded) calibration."""
     records = (calibration.summary().diagnostics or {}).get("warnings") or []
     rms = float(calibration.calibration_rms_hz_)
@@ -440,7 +438,7 @@ def calibrate_file(
         "calibrate_options": record,
     }
     name = Path(input_label(paths[0])).stem if device is None else device
-    result = _result(
+    result = result_of(
         name, read.label, calibrator, crlb_rms_hz, metadata, read=read, fit_warnings=tuple(caught)
     )
     if out_path is not None:
@@ -448,77 +446,3 @@ def calibrate_file(
 
         save_calibration(calibrator, out_path, metadata)
     return result
-
-
-def calibrate_device(path, *, device: str | None = None, **options) -> DeviceResult:
-    r""":func:`calibrate_file` without saving, for a fleet: bad input is a result.
-
-    Parameters
-    ----------
-    path : str or Path
-        The sweep file.
-    device : str, optional
-        The device's name (default: the file's stem).
-    **options
-        As :func:`calibrate_file` takes them (``options=`` or keywords).
-
-    Returns
-    -------
-    DeviceResult
-        ``status="ok"`` with the fitted calibration, or ``status="error"`` with the message
-        of the :class:`~wavemeter.exceptions.WavemeterError` or ``OSError`` that stopped
-        it. Any other exception is a bug and is raised.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> from pathlib import Path
-    >>> import numpy as np
-    >>> import wavemeter as wm
-    >>> from wavemeter.io import write_table
-    >>> device = wm.Interferometer.table1(ports=3, seed=7)
-    >>> f_hz = device.sweep_hz(200)
-    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
-    >>> folder = Path(tempfile.mkdtemp())
-    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
-    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
-    >>> from wavemeter.jobs import calibrate_device
-    >>> _ = (folder / "broken.csv").write_text("frequency_hz,p1_w\n1,2\n")  # one port only
-    >>> results = [calibrate_device(folder / name) for name in ("sweep.csv", "broken.csv")]
-    >>> [(result.device, result.status) for result in results]  # one bad file stops nothing
-    [('sweep', 'ok'), ('broken', 'error')]
-    >>> print(results[1].error.split(": ", 1)[1].split("; ")[0])
-    found 1 port column(s) (p1_w)
-    """
-    name = Path(path).stem if device is None else device
-    try:
-        return calibrate_file(path, device=name, **options)
-    except (WavemeterError, OSError) as exc:
-        return DeviceResult(device=name, source=str(path), status=ERROR, error=_message(exc))
-
-
-def _message(exc: Exception) -> str:
-    """An error's message on one line; an OSError's without Python's ``[Errno N]``."""
-    text = str(exc) or type(exc).__name__
-    if isinstance(exc, OSError) and exc.strerror:
-        text = f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
-    return " ".join(text.split())
-
-
-def saved_result(cal_path, source, device: str) -> DeviceResult:
-    """The result of a device from the calibration an earlier run saved (``resumed``).
-
-    The numbers are those of the run that saved it: FSR, noise, RMS and warnings from the
-    calibration, the Cramer-Rao RMS from its metadata (NaN when the file has none).
-
-    Raises
-    ------
-    FileFormatError
-        When the file does not load (missing, corrupt, foreign).
-    """
-    from ..calibration.files.document import read_calibration_file
-
-    saved = read_calibration_file(cal_path)
-    crlb = saved.metadata.get("crlb_rms_hz")
-    crlb_rms_hz = float(crlb) if isinstance(crlb, (int, float)) else math.nan
-    return _result(device, source, saved.calibrator, crlb_rms_hz, saved.metadata, resumed=True)
