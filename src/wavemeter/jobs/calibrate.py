@@ -7,8 +7,9 @@ files), subtracts the dark readings,
 fits (with a reference cell: :mod:`~wavemeter.jobs.reference_cell`), makes the metadata
 and saves the calibration atomically. Its :class:`DeviceResult` has the numbers a fleet's
 summary shows (FSR, noise, RMS error on the sweep, RMS Cramer-Rao bound on every k-th
-reading beyond ``SAMPLE_ROWS``, their ratio). :func:`~wavemeter.jobs.fleet_device.calibrate_device` does the same for a
-fleet (bad input: a result with ``status="error"``); :func:`~wavemeter.jobs.fleet_device.saved_result` reads one back.
+reading beyond ``SAMPLE_ROWS``, their ratio). A fleet's device is calibrated the same way
+(:mod:`wavemeter.jobs.fleet_device`: bad input a result with ``status="error"``, a saved
+calibration read back).
 
 The metadata (the same for both commands): the sweeps' files, columns, rows, temperatures,
 dark readings (:func:`~wavemeter.jobs.sweeps.sweep_metadata`), ``crlb_rms_hz`` and
