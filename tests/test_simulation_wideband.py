@@ -13,7 +13,7 @@ from wavemeter.cli.simulate import SPECTRAL_PLATFORMS
 from wavemeter.io import ColumnRequest, read_table
 from wavemeter.simulation import SPECTRAL_PRESETS, Interferometer, SpectralPreset
 from wavemeter.simulation.coupler_draws import symmetry_classes
-from wavemeter.simulation.scenario import SPECTRAL_STREAM
+from wavemeter.simulation.scenario_defaults import SPECTRAL_STREAM
 
 from .conftest import NOISE_W, POWER_W, one_error, run_cli
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..simulation.recording import port_names
-from ..simulation.scenario import DEFAULT_LASER_RATE_HZ
+from ..simulation.scenario_defaults import DEFAULT_LASER_RATE_HZ
 from ._common import frequency_text, fsr_text, optical_text
 
 __all__ = ["summary_lines"]

@@ -11,7 +11,7 @@ import math
 
 import click
 
-from ..simulation.scenario import DEFAULT_THERMAL_RAD_PER_K
+from ..simulation.scenario_defaults import DEFAULT_THERMAL_RAD_PER_K
 from ._common import FSR, out_option, setting
 from ._params import (
     BAND,
