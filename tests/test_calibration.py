@@ -11,7 +11,7 @@ import wavemeter as wm
 from wavemeter.calibration.models.learned_fit import predict_frequency_hz
 from wavemeter.calibration.models.linear_map import fit_map, map_cost, object_vectors
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 
 def _rotation(angle):

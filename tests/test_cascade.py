@@ -21,7 +21,7 @@ from wavemeter.calibration.methods.cascade_handover import HANDOVER_CAUSE
 from wavemeter.calibration.methods.cascade_reading import noise_scale
 from wavemeter.model import handover_error_probability, wrap_error_probability
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 FSRS_HZ = (1e12, 100e9, 10e9)
 BAND_HZ = 0.8e12
@@ -55,6 +55,7 @@ def calibrated(noise_w: float = NOISE_W, spectral: str | None = "sin"):
     return cal, sweep, sweep_hz
 
 
+@pytest.mark.slow
 def test_noiseless_orders_are_exact_across_the_band():
     cal, _, _ = calibrated(0.0, None)
     cascade = device(None)
@@ -111,6 +112,7 @@ def test_uncertainty_is_honest_and_noise_limited():
     assert np.max(np.abs(z)) < 6.0
 
 
+@pytest.mark.slow
 def test_wrong_orders_seen_match_those_predicted_at_high_noise():
     """At 30x the calibration's noise the hand-overs and the coarsest stage's ends pick
     wrong orders for several % of the readings: the count seen agrees with the sum of the
@@ -218,6 +220,7 @@ def test_save_and_load_keep_every_reading_output(tmp_path):
     assert loaded.edge_margin_std_ == cal.edge_margin_std_
 
 
+@pytest.mark.slow
 def test_stage_ports_pick_the_columns_of_each_stage():
     cal, sweep, sweep_hz = calibrated()
     order = [6, 7, 8, 0, 1, 2, 3, 4, 5]  # stage 2's columns first, then 3's, then 1's
@@ -275,6 +278,7 @@ def test_bad_design_fsrs_are_named(fsr_hz, match):
     assert caught.value.parameter == "fsr_hz"
 
 
+@pytest.mark.slow
 def test_a_ratio_too_large_for_the_noise_is_refused_with_the_largest_usable_one():
     """Two stages 100x apart at 20x the noise: the coarse stage's noise is comparable to
     the fine stage's half FSR, so the fit refuses and says which stages, why, and the
@@ -299,6 +303,7 @@ def test_a_ratio_too_large_for_the_noise_is_refused_with_the_largest_usable_one(
     assert "add a stage between them" in message
 
 
+@pytest.mark.slow
 def test_a_coarsest_stage_narrower_than_the_band_is_refused():
     fsrs = (0.5e12, 50e9)
     cascade = wm.CascadeInterferometer.table1(fsrs, ports=3, seed=SEED)
@@ -309,6 +314,7 @@ def test_a_coarsest_stage_narrower_than_the_band_is_refused():
     assert caught.value.parameter == "fsr_hz"
 
 
+@pytest.mark.slow
 def test_stage_warnings_are_named_and_a_bad_handover_on_the_sweep_warns():
     cascade = device()
     sweep_hz = band_hz(cascade, SWEEP_READINGS)
@@ -335,6 +341,7 @@ def test_score_counts_a_wrong_order_as_the_whole_fsr_it_is():
     assert -cal.score(readings, shifted) > 0.9 * cal.fsr_hz_
 
 
+@pytest.mark.slow
 def test_a_misfit_of_the_coarsest_stage_says_what_it_means_in_a_cascade():
     """Over less than one of its FSRs the coarsest stage cannot follow its couplers' and
     detectors' slopes (here a common one reads as a power drift): the warning says so and
@@ -351,6 +358,7 @@ def test_a_misfit_of_the_coarsest_stage_says_what_it_means_in_a_cascade():
         assert "covers less than one of its FSRs" in str(note) and margin in note.remedy
 
 
+@pytest.mark.slow
 def test_a_stage_whose_model_misses_the_chip_widens_its_uncertainty_by_what_the_sweep_showed():
     """Over the C band the 5 THz stage cannot follow its spectral slopes: its sweep errors
     exceed its std, the excess is kept, and the z-scores of new readings of that stage

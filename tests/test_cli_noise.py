@@ -23,8 +23,8 @@ from wavemeter.cli import main
 from wavemeter.exceptions import recorded_calibration_warnings
 from wavemeter.simulation import laser_frequency_hz
 
-from .conftest import NOISE_W, POWER_W, one_error
-from .conftest import run_cli as run
+from .helpers import NOISE_W, POWER_W, one_error
+from .helpers import run_cli as run
 
 RATE_HZ = 10e6
 ROWS = 1 << 14
@@ -85,6 +85,7 @@ def library_analysis(calibration, powers):
         return frequency_noise(series, RATE_HZ, meter_std_hz=meter_std, fsr_hz=calibration.fsr_hz_)
 
 
+@pytest.mark.slow
 def test_report_and_json_hold_the_librarys_numbers(meter, laser, tmp_path, capsys):
     out = tmp_path / "noise.html"
     printed = ok(capsys, f"noise {meter['cal']} {laser['path']} --rate 10MHz -o {out} --json")
@@ -116,6 +117,7 @@ def test_report_and_json_hold_the_librarys_numbers(meter, laser, tmp_path, capsy
     assert html.escape(numbers["warnings"][0]) in page
 
 
+@pytest.mark.slow
 def test_json_alone_writes_nothing_and_the_summary_is_printed_without_it(
     meter, laser, tmp_path, capsys
 ):

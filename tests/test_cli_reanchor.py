@@ -23,7 +23,7 @@ from wavemeter.io import write_table
 from wavemeter.model.cone import wrap_to_period
 from wavemeter.units import SPEED_OF_LIGHT_M_S
 
-from .conftest import NOISE_W, POWER_W, one_error, random_test_frequencies, run_cli, simulated_files
+from .helpers import NOISE_W, POWER_W, one_error, random_test_frequencies, run_cli, simulated_files
 
 BIAS_SHIFT_RAD = 0.5
 LINE_READINGS = 50

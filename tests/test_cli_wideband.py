@@ -28,7 +28,7 @@ from wavemeter.cli import main
 from wavemeter.io import write_table
 from wavemeter.report.html import report_paths
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli
+from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
 FSR_COUNT = 12
 PER_FSR = 300
@@ -292,6 +292,7 @@ def test_evaluate_adjacent_needs_a_set(files, capsys):
 
 
 # ---------------------------------------------------------------------------- report
+@pytest.mark.slow
 def test_report_has_the_wide_band_section_and_figures(files, tmp_path, capsys):
     page = tmp_path / "report.html"
     ok(capsys, f"report {files['cal']} {files['sweep']} {files['test']} -o {page}")
@@ -305,6 +306,7 @@ def test_report_has_the_wide_band_section_and_figures(files, tmp_path, capsys):
     assert all(path.exists() for path in report_paths(page, files["calibration"]))
 
 
+@pytest.mark.slow
 def test_report_lists_the_comparisons_warnings_on_the_page_only(tmp_path, capsys):
     """With coupler slopes the per-FSR set's whole-sweep fit warns: that is about the
     comparison, not the user's calibration, so it goes to the page, not to stderr."""

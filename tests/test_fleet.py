@@ -26,7 +26,7 @@ from wavemeter.fleet import SUMMARY_COLUMNS, calibrate_fleet, die_position
 from wavemeter.io import read_table, write_table
 from wavemeter.jobs import calibrate_device, calibrate_file
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli
+from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
 SAMPLES = 300
 PORTS = 3
@@ -174,6 +174,7 @@ def test_page_has_the_histograms_the_wafer_map_and_the_failure(serial):
     assert "Failed devices (1)" in page and BROKEN in page
 
 
+@pytest.mark.slow
 def test_dask_and_serial_give_identical_results(serial, sweeps, client, tmp_path):
     result = calibrate_fleet(sweeps, tmp_path / "out", client=client)
     assert result.summary_csv.read_bytes() == serial.summary_csv.read_bytes()
@@ -185,6 +186,7 @@ def test_dask_and_serial_give_identical_results(serial, sweeps, client, tmp_path
             )
 
 
+@pytest.mark.slow
 def test_second_run_resumes_and_force_recalibrates(serial, sweeps, tmp_path):
     out = tmp_path / "out"
     shutil.copytree(serial.out_dir, out)
@@ -217,6 +219,7 @@ def test_saved_calibrations_of_other_options_are_left_alone(serial, sweeps, tmp_
     assert first.read_text() == text
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("runner", ["serial", "dask"])
 def test_interrupt_leaves_only_complete_files(runner, sweeps, tmp_path, monkeypatch, request):
     """The third calibration is interrupted half-way through its write: it is not there,
@@ -296,6 +299,7 @@ def test_a_scheduler_that_is_not_there_is_an_input_error(sweeps, tmp_path):
 
 
 # ---------------------------------------------------------------------------- command line
+@pytest.mark.slow
 def test_cli_calibrates_resumes_and_reports(sweeps, tmp_path, capsys):
     folder = sweeps[0].parent
     out = tmp_path / "out"

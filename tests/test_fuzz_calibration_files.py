@@ -23,7 +23,9 @@ from hypothesis import strategies as st
 
 import wavemeter as wm
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
+
+pytestmark = pytest.mark.slow
 
 EXAMPLES = int(os.environ.get("WAVEMETER_FUZZ_EXAMPLES", "200"))
 

@@ -97,6 +97,7 @@ def test_allan_deviation_of_white_and_random_walk_matches_the_analytic_value(noi
     assert np.all((ratio >= low) & (ratio <= high)), ratio
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("noise", ["flicker", "random_walk"])
 def test_regression_slope_variance_matches_the_simulated_spread(noise):
     """The variance of the least-squares slope of 400 simulated records agrees with

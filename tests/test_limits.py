@@ -8,7 +8,7 @@ import pytest
 import wavemeter as wm
 from wavemeter.exceptions import InputError
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 
 @pytest.mark.parametrize(("ports", "expected_mhz"), [(3, 9.75), (4, 11.25)])

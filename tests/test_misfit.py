@@ -88,6 +88,7 @@ def clean_reports() -> list[MisfitReport]:
     return reports
 
 
+@pytest.mark.slow
 def test_clean_sweeps_do_not_warn(clean_reports):
     # 50 in-model sweeps, 3-5 ports, 8-2001 readings, 1 and 3 FSR, Table 1 and ideal:
     # with a false-alarm rate of 10 % all would pass with probability 0.005 (the rate
@@ -98,6 +99,7 @@ def test_clean_sweeps_do_not_warn(clean_reports):
     assert warned == []
 
 
+@pytest.mark.slow
 def test_clean_p_values_are_not_too_small(clean_reports):
     """The null distributions behind the 1e-6 thresholds, checked at the 5 % level.
 
@@ -118,6 +120,7 @@ def test_clean_p_values_are_not_too_small(clean_reports):
     assert p_values.min() > TEST_P_VALUE
 
 
+@pytest.mark.slow
 def test_model_free_noise_within_its_standard_error(clean_reports):
     errors = []
     for report in clean_reports:
@@ -137,6 +140,7 @@ def test_model_free_noise_within_its_standard_error(clean_reports):
     assert bounds[0] < spread < bounds[1] * 1.05
 
 
+@pytest.mark.slow
 def test_short_or_coarse_sweeps_use_the_residual_and_say_so(clean_reports):
     methods = {
         (samples, span): report.noise_method

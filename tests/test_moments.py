@@ -39,7 +39,7 @@ from wavemeter.calibration.models.moments import (
     taylor_order,
 )
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 FSR_HZ = 50e9
 TOLERANCE = 0.2
@@ -119,7 +119,7 @@ def test_moment_cost_map_slope_and_curvature_equal_the_direct_ones(mode):
 
 
 @pytest.mark.parametrize("mode", MODES)
-@pytest.mark.parametrize("span_fsr", [1.0, 20.0])
+@pytest.mark.parametrize("span_fsr", [1.0, pytest.param(20.0, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("ports", [3, 4])
 def test_fit_equals_the_direct_golden_search(ports, span_fsr, mode):
     frequency, readings, monitor, affine = sweep(

@@ -82,7 +82,7 @@ def test_band_expectation_of_unit_white_noise_is_one_above_the_first_bins():
 
 
 @INCIDENTAL
-@pytest.mark.parametrize("laser_over_floor", [3.0, 30.0])
+@pytest.mark.parametrize("laser_over_floor", [3.0, pytest.param(30.0, marks=pytest.mark.slow)])
 def test_lorentzian_linewidth_is_recovered_within_its_std_and_5_percent_above_3x_floor(
     laser_over_floor,
 ):

@@ -43,3 +43,14 @@ def test_import_and_help_load_no_numpy():
         "sys.exit(('numpy' in sys.modules) + 2 * ('scipy' in sys.modules))"
     )
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_the_0_1_baselines_module_gives_the_public_baselines():
+    from wavemeter import baselines
+
+    classes = [name for name in baselines.__all__ if name.endswith("Calibrator")]
+    assert len(classes) == 5
+    for name in classes:
+        assert getattr(baselines, name) is getattr(wm, name)
+    for name in set(baselines.__all__) - set(classes):
+        assert callable(getattr(baselines, name))

@@ -23,7 +23,7 @@ from wavemeter.model.errors import error_summary_hz
 from wavemeter.report.content import comparison_calibration, retrieved_frequency_hz
 from wavemeter.report.html import report_paths, write_report
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 FSRS_HZ = (1e12, 100e9, 10e9)
 BAND_HZ = 0.8e12
@@ -99,6 +99,7 @@ def test_a_cascade_has_no_comparison_method(fitted):
         comparison_calibration(calibration, sweep.powers_w, sweep.frequency_hz)
 
 
+@pytest.mark.slow
 def test_the_page_shows_stages_hand_overs_and_the_wrong_orders(fitted, tmp_path):
     calibration, sweep, test = fitted
     page = tmp_path / "report.html"

@@ -11,7 +11,7 @@ import wavemeter as wm
 from wavemeter.model.couplers import mmi_matrix
 from wavemeter.simulation.coupler_draws import symmetry_classes
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 
 def _objects(device, frequency_hz, power_w=POWER_W):

@@ -17,7 +17,7 @@ import pytest
 import wavemeter as wm
 from wavemeter.calibration.models.thermal_fit import thermal_phase_rad
 
-from .conftest import NOISE_W, POWER_W, THERMAL_SWEEP_TEMPERATURES_K, thermal_sweep
+from .helpers import NOISE_W, POWER_W, THERMAL_SWEEP_TEMPERATURES_K, thermal_sweep
 
 SENSOR_STD_K = 1e-3
 TEST_READINGS = 3000
@@ -181,6 +181,7 @@ def test_readings_beyond_the_calibrated_temperatures_are_flagged(calibrated, tes
     assert np.all(below & wm.ReadingFlag.TEMPERATURE_RANGE)
 
 
+@pytest.mark.slow
 def test_a_recording_during_a_ramp_of_repeated_sweeps_fits_without_warnings():
     device = wm.Interferometer.table1(4, seed=3).with_thermal("sin")
     rng = np.random.default_rng(5)

@@ -80,6 +80,7 @@ def test_linear_phase_device_gives_order_one_and_the_papers_result():
     )
 
 
+@pytest.mark.slow
 def test_dispersion_is_found_as_phase_order_two():
     device = dispersive()
     cal = fitted(device, band_hz(device))
@@ -90,6 +91,7 @@ def test_dispersion_is_found_as_phase_order_two():
     assert cal.n_parameters_ == 3 * 3 * (cal.map_order_ + 1) + cal.phase_order_
 
 
+@pytest.mark.slow
 def test_coupler_slopes_are_found_as_a_map_order():
     device = dataclasses.replace(
         wm.Interferometer.table1(4, seed=6).with_spectral("sin", seed=2), dispersion_s2=0.0
@@ -112,7 +114,7 @@ def test_noiseless_band_is_recovered_to_rounding():
     assert cal.phase_coefficients_[1] == pytest.approx(device.dispersion_s2, rel=1e-6)
 
 
-@pytest.mark.parametrize("retrieval", ["pinv", "ml"])
+@pytest.mark.parametrize("retrieval", ["pinv", pytest.param("ml", marks=pytest.mark.slow)])
 def test_held_out_fsrs_of_a_sweep_with_gaps_are_read_at_the_bound(retrieval):
     """Calibrated on every 4th FSR, read in the FSRs between: the error and its stated
     standard deviation agree with the calibration's own bound."""
