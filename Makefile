@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test test-fast tiers lint docs bench trust thermal wideband cascade scale noise peers fuzz clean
+.PHONY: demo test test-fast tiers lint docs bench trust offmodel thermal wideband cascade scale noise absolute peers fuzz serve-bench clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -39,14 +39,16 @@ docs: $(BIN)/wavemeter
 	$(BIN)/sphinx-build -b html -W --keep-going docs docs/_build/html
 
 # 10,000 hypothesis examples per file reader (a tenth through `wavemeter measure`) and for the
-# calibration loader; the seed is printed: repeat a run with `make fuzz FUZZ_SEED=<seed>`,
-# change the count with FUZZ_EXAMPLES
+# calibration loader, new ones each run (the "fuzz" profile; `make test` draws the same ones
+# every run); the seed is printed: repeat a run with `make fuzz FUZZ_SEED=<seed>`, change the
+# count with FUZZ_EXAMPLES
 FUZZ_EXAMPLES ?= 10000
 fuzz: $(BIN)/wavemeter
 	@seed=$${FUZZ_SEED:-$$(od -An -N4 -tu4 /dev/urandom | tr -d ' ')}; \
 	echo "fuzz: $(FUZZ_EXAMPLES) examples per reader, seed $$seed (make fuzz FUZZ_SEED=$$seed)"; \
 	WAVEMETER_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) $(BIN)/python -m pytest -q -p no:cacheprovider \
-		tests/test_fuzz_readers.py tests/test_fuzz_calibration_files.py --hypothesis-seed=$$seed
+		tests/test_fuzz_readers.py tests/test_fuzz_calibration_files.py \
+		--hypothesis-profile=fuzz --hypothesis-seed=$$seed
 
 bench: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/precision.py
@@ -54,6 +56,11 @@ bench: $(BIN)/wavemeter
 # the fault catalogue of issue 9: every fault at three severities, warnings, flags, remedies
 trust: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/trust.py
+
+# issue 29: OFF_MODEL against the calibration's own distances, old and new rule side by side on
+# simulated devices (clean, with a model error) and the measured fibre coupler (about a minute)
+offmodel: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/offmodel.py
 
 # the thermally compensated calibration of issue 10: ThermalCalibrator against its bound, plain
 # and re-anchored plain calibrations; writes docs/figures/thermal_error_vs_temperature.png
@@ -77,6 +84,16 @@ scale: $(BIN)/wavemeter
 # docs/figures/noise_adev.png
 noise: $(BIN)/wavemeter
 	$(BIN)/python benchmarks/noise.py
+
+# issue 30: wavemeter serve vs stream, latency at 1 kHz with 1 and 3 subscribers (one stopped),
+# CPU per 1 kHz channel, the highest sustained rate with logging (a few minutes)
+serve-bench: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/serve.py
+
+# issue 32: absolute accuracy from a reference cell: plain, axis-corrected and self-calibrated
+# over a simulated cell's band, three laser presets, 3/4/5 ports, three seeds (15-35 min)
+absolute: $(BIN)/wavemeter
+	cd benchmarks && ../$(BIN)/python absolute.py
 
 peers: $(BIN)/wavemeter
 	$(BIN)/python -m pip install --quiet -e '.[dev,peers]'

@@ -92,7 +92,13 @@ from _montecarlo import NOISE_W, POWER_W, markdown_table, median, progress, stat
 from _script import Parser, check_writable, positive_int, save_png
 
 import wavemeter as wm
-from wavemeter.analysis import FrequencyNoise, beta_separation_line_hz2_per_hz, frequency_noise, power_law_deviations, power_law_psd_hz2_per_hz
+from wavemeter.analysis import (
+    FrequencyNoise,
+    beta_separation_line_hz2_per_hz,
+    frequency_noise,
+    power_law_deviations,
+    power_law_psd_hz2_per_hz,
+)
 from wavemeter.simulation import laser_frequency_hz
 from wavemeter.units import frequency_text
 

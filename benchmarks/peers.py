@@ -52,10 +52,21 @@ from external_peers import (
 )
 
 import wavemeter as wm
-from wavemeter.baselines import EllipseCalibrator, ExtendedConventionalCalibrator, NonlinearFitCalibrator, PlaneEllipseCalibrator
+from wavemeter.baselines import (
+    EllipseCalibrator,
+    ExtendedConventionalCalibrator,
+    NonlinearFitCalibrator,
+    PlaneEllipseCalibrator,
+)
 from wavemeter.calibration.methods.baselines.ellipse import ellipse_phase, fit_ellipse
-from wavemeter.calibration.methods.baselines.nonlinear_fit import NonlinearFitWarning, convergence_share
-from wavemeter.calibration.methods.baselines.plane_ellipse import fit_plane_ellipse, plane_ellipse_phase
+from wavemeter.calibration.methods.baselines.nonlinear_fit import (
+    NonlinearFitWarning,
+    convergence_share,
+)
+from wavemeter.calibration.methods.baselines.plane_ellipse import (
+    fit_plane_ellipse,
+    plane_ellipse_phase,
+)
 
 PORTS = (3, 4)
 DEFAULT_DEVICES = 30

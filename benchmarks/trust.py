@@ -49,8 +49,15 @@ A verdict block checks the issue's targets (the one-way thermal ramp is reported
 from the silent-failure target, as a documented limitation). Stdout carries only the
 tables; device ``k`` of a row is device ``k`` of every row with that port count.
 
+A second table (:mod:`trust_causes`, issue 29) names the cause on the sweeps users make:
+plain calibrations over 24 FSRs of a device that changes with the wavelength, with a drift
+in time as a control, rounded frequency axes, and clean sweeps of every method (plain,
+thermal, wide-band, cascade), with the right-cause rate over ``--cause-seeds`` seeds and
+the clean sweeps' false-alarm rate over ``--clean-seeds``.
+
 Usage: ``python benchmarks/trust.py [--devices 5] [--clean-calibrations 200] [--samples 2001]
-[--test 5000] [--seed 0] [--faults KEY,...] [--quick]``
+[--test 5000] [--seed 0] [--faults KEY,...] [--cause-seeds 20] [--clean-seeds 50]
+[--cause-rows KEY,...|none] [--quick]``
 """
 
 from __future__ import annotations
@@ -66,6 +73,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import trust_causes
 from _montecarlo import NOISE_W, POWER_W, make_device, markdown_table, progress
 
 import wavemeter as wm
@@ -815,6 +823,17 @@ def fault_keys(text: str) -> list[str]:
     return keys
 
 
+def cause_keys(text: str) -> list[str]:
+    """Rows of the causes table from a comma-separated list, or 'none' (argparse type)."""
+    if text.strip() == "none":
+        return []
+    keys = [key.strip() for key in text.split(",") if key.strip()]
+    unknown = set(keys) - {row.key for row in trust_causes.ROWS}
+    if unknown:
+        raise argparse.ArgumentTypeError(f"unknown cause rows {sorted(unknown)}")
+    return keys
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--devices", type=int, default=5, help="calibrations per fault row")
@@ -830,12 +849,24 @@ def main(argv=None) -> None:
         default=[fault.key for fault in FAULTS],
         help=f"comma-separated fault rows to run (default all: {','.join(f.key for f in FAULTS)})",
     )
+    parser.add_argument("--cause-seeds", type=int, default=20, help="seeds per cause row")
+    parser.add_argument("--clean-seeds", type=int, default=50, help="seeds per clean sweep row")
+    parser.add_argument(
+        "--cause-rows",
+        type=cause_keys,
+        default=None,
+        help="comma-separated rows of the causes table, or 'none' (default all; none with "
+        f"--quick): {','.join(row.key for row in trust_causes.ROWS)}",
+    )
     parser.add_argument(
         "--quick", action="store_true", help="tiny sizes (smoke test): overrides the sizes"
     )
     args = parser.parse_args(argv)
+    if args.cause_rows is None:
+        args.cause_rows = [] if args.quick else [row.key for row in trust_causes.ROWS]
     if args.quick:
         args.devices, args.clean_calibrations, args.samples, args.test = 1, 3, 201, 300
+        args.cause_seeds = args.clean_seeds = 1
     plan = [
         (fault, severity, args.devices)
         for fault in FAULTS
@@ -860,6 +891,19 @@ def main(argv=None) -> None:
     print(markdown_table(HEADERS, [row.cells() for row in rows]))
     print("\n## Verdict\n")
     print("\n".join(verdict(rows)))
+    if args.cause_rows:
+        results = trust_causes.run_rows(
+            args.cause_rows, args.cause_seeds, args.clean_seeds, args.seed
+        )
+        progress("")
+        print(file=sys.stderr)
+        print(
+            f"\n## Causes: wide and rounded sweeps, {args.cause_seeds} seeds per row; clean "
+            f"sweeps of every method, {args.clean_seeds} seeds per row; seed {args.seed}\n"
+        )
+        print(trust_causes.table(results))
+        print("\n## Verdict (causes)\n")
+        print("\n".join(trust_causes.verdict(results)))
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """What several test files share: the Table 1 source and noise, the command line run in
 process, simulated sweeps and files, CSV text with comments and blank lines, a dead port,
 the FSR's Cramer-Rao bound, the wrap rate of a cascade's coarsest stage by quadrature, the
-benchmarks' tables, and the wide-band model of the misfit tests.
+benchmarks' tables, the wide-band model of the misfit tests, a batch of the service's
+readings, and the names of the hypothesis profiles.
 
 Test files import these from here (``from .helpers import ...``), never from another test
 file or from ``conftest.py``, which holds the fixtures; ``tests/test_test_layout.py``
@@ -31,6 +32,11 @@ POWER_W = 1e-3
 NOISE_W = 5e-7
 #: a dark port's offset (W), so that no row sums to zero
 DARK_W = 1e-6
+#: the hypothesis profile of the default run (conftest.py loads it): the same examples on every
+#: run and machine, no database, no deadline
+DEFAULT_PROFILE = "wavemeter"
+#: ``make fuzz``'s profile: new examples from the seed it prints, no database, no deadline
+FUZZ_PROFILE = "fuzz"
 #: the repository's ``benchmarks/`` folder (its scripts are imported by the smoke tests)
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
@@ -159,6 +165,27 @@ def text_with_comments_and_blank_lines(chip, newline: str = "\n") -> tuple[str, 
         text.append(",".join("" if np.isnan(v) else repr(float(v)) for v in values))
         line_of_row.append(len(text))
     return newline.join(text) + newline, line_of_row
+
+
+# ---------------------------------------------------------------------------- the service
+def reading_batch(first: int = 0, count: int = 5, run: str = "r1", channel: int = 3):
+    """A ``ReadingBatch`` of ``count`` readings numbered from ``first``, near 193.4 THz, the
+    second one invalid (NaN frequency), with the simulator's true frequencies as an extra
+    column; its randomness seeded by ``first``."""
+    from wavemeter.service.records import ReadingBatch
+
+    rng = np.random.default_rng(first)
+    columns = {
+        "sequence": np.arange(first, first + count),
+        "source_time_ns": 1_800_000_000_000_000_000 + np.arange(count) * 1_000_000,
+        "time_ns": 1_800_000_000_000_100_000 + np.arange(count) * 1_000_000,
+        "frequency_hz": 193.4e12 + rng.normal(0, 1e7, count),
+        "frequency_std_hz": np.full(count, 1.2e7),
+        "flags": np.array([0, 8, 0, 2, 0][:count] + [0] * max(0, count - 5)),
+        "true_frequency_hz": 193.4e12 + rng.normal(0, 1e6, count),
+    }
+    columns["frequency_hz"][1] = np.nan
+    return ReadingBatch(channel, columns, run=run, name="Ti:Sa")
 
 
 # ---------------------------------------------------------------------------- benchmarks

@@ -123,6 +123,25 @@ def test_port_faults_benchmark_warns_and_its_remedy_restores_the_bound():
     assert port_faults.one_device("stuck", seed=3)["without"] > 5
 
 
+def test_trust_causes_table_names_a_rounded_axis_and_leaves_a_stepped_laser_alone(capsys):
+    """The catalogue's causes table (issue 29) on its two cheapest rows, one seed each,
+    through ``trust.main``: the rounded axis is named, the control warns nothing, and the
+    verdict has its two lines."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.syspath_prepend(str(BENCHMARKS))
+        trust = importlib.import_module("trust")
+        trust.main(["--quick", "--faults", "partial_span", "--cause-rows", "rounded_pm,stepped"])
+    text = capsys.readouterr().out
+    causes = text[text.index("## Causes") :]
+    table = table_rows("\n".join(line for line in causes.splitlines() if line.startswith("| ")))
+    headers, rounded, stepped = table
+    assert headers == list(importlib.import_module("trust_causes").HEADERS)
+    assert rounded[2:5] == ["1/1: quantised_axis 1", "quantised_axis", "1/1"]
+    assert stepped[2:4] == ["0/1", "none"] and stepped[5].startswith("0/1")
+    verdict = [line for line in causes.splitlines() if line.startswith(("PASS ", "FAIL "))]
+    assert [line.split()[0] for line in verdict] == ["PASS", "PASS"]
+
+
 def test_trust_catalogue_quick_prints_its_rows_and_the_verdict(capsys):
     """The fault catalogue in its tiny configuration, on one fault (the fits take the time):
     a row per severity and per clean port count, and a line per target."""

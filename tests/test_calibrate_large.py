@@ -25,8 +25,8 @@ from wavemeter.calibration.models.learned_fit import gram_objects as _gram_objec
 from wavemeter.calibration.models.linear_map import object_delay_derivative, object_vectors
 from wavemeter.calibration.models.moments import FringeMoments
 from wavemeter.calibration.models.subsample import SweepSample, diagnostic_stride, median_step_hz
-from wavemeter.cli import calibrate as calibrate_command
 from wavemeter.io import read_table, write_table
+from wavemeter.jobs import calibrate as calibrate_job
 from wavemeter.model.uncertainty import fit_parameter_covariance
 from wavemeter.simulation.drift import slow_power_drift
 
@@ -411,7 +411,7 @@ def test_calibrate_reads_in_chunks_and_gives_the_fit(tmp_path, capsys, monkeypat
     path, out = tmp_path / f"sweep{suffix}", tmp_path / "cal.json"
     write_sweep(path, frequency, powers, rows_invalid=[7])
     monkeypatch.setattr(wm.Calibrator, "diagnostic_samples", LIMIT)
-    monkeypatch.setattr(calibrate_command, "CHUNK_ROWS", 3000)  # several chunks
+    monkeypatch.setattr(calibrate_job, "CHUNK_ROWS", 3000)  # several chunks
     code, _, err = run_cli(capsys, f"calibrate {path} -o {out} --drop-invalid --fsr 50GHz")
     assert code == 0, err
     assert "skipped 1 invalid row(s), first: " in err

@@ -412,12 +412,14 @@ def test_uncertainty_and_ml_need_the_learned_method(files, tmp_path, capsys):
     code, _, err = run(
         capsys, f"calibrate {files['sweep']} -o {conventional} --method conventional --retrieval ml"
     )
-    assert code == 2 and "--retrieval ml needs --method learned" in err
+    assert code == 2 and "method 'conventional' has no setting retrieval" in err
+    assert "it is a setting of learned," in err and "(retrieval: --retrieval)" in err
     assert not conventional.exists()
     ok(capsys, f"calibrate {files['sweep']} -o {conventional} --method conventional --quiet")
     out = tmp_path / "f.csv"
     code, _, err = run(capsys, f"measure {conventional} {files['test']} -o {out} --uncertainty")
-    assert code == 2 and err.startswith("error:") and "--uncertainty needs a learned" in err
+    assert code == 2 and err.startswith("error:") and "is a conventional calibration" in err
+    assert "gives no standard deviation" in err and "(uncertainty: --uncertainty)" in err
     assert not out.exists()
 
 

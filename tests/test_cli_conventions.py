@@ -166,9 +166,9 @@ def _raising(error):
 def test_library_errors_get_the_option_of_their_parameter(
     files, tmp_path, capsys, monkeypatch, error, hint
 ):
-    import wavemeter.cli.calibrate as calibrate
+    import wavemeter.jobs
 
-    monkeypatch.setattr(calibrate, "fit_sweep_chunks", _raising(error))
+    monkeypatch.setattr(wavemeter.jobs, "calibrate_file", _raising(error))
     out = tmp_path / "c.wmcal.json"
     err = one_error(*run(capsys, f"calibrate {files['sweep']} -o {out}")[::2])
     assert err.rstrip().endswith(hint)

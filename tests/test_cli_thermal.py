@@ -351,11 +351,11 @@ def rewrite_temperature(source: Path, target: Path, header: str, values) -> Path
         ("all equal", "spread the calibration temperatures"),
         ("not a number", "'warm' is not a number"),
         ("unknown unit", "unknown temperature unit 'F'"),
-        ("count mismatch", "--temperature-k is given 2 time(s) for 3 sweep file(s)"),
+        ("count mismatch", "temperature_k is given 2 time(s) for 3 sweep file(s)"),
         ("bad value", "'--temperature-k': 20F: unknown temperature unit 'F'"),
-        ("learned with several", "--method learned takes one sweep file, got 3"),
+        ("learned with several", "method 'learned' takes one sweep file, got 3"),
         ("other ports", "the sweeps of one calibration need the same ports"),
-        ("per fsr", "--method thermal also needs temperature_k"),
+        ("per fsr", "method 'thermal' also needs temperature_k"),
     ],
 )
 def test_bad_temperatures_are_one_error_and_no_file(files, tmp_path, capsys, case, expected):

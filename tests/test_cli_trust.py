@@ -229,8 +229,8 @@ def test_dark_file_with_a_nan_needs_drop_invalid(offsets, tmp_path, capsys):
 @pytest.mark.parametrize(
     ("options", "expected"),
     [
-        ("--dark-w 1uW,2uW", "--dark-w gives 2 value(s) but"),
-        ("--dark-w 1uW,2uW,3uW,4uW", "--dark-w gives 4 value(s) but"),
+        ("--dark-w 1uW,2uW", "dark_w gives 2 value(s) but"),
+        ("--dark-w 1uW,2uW,3uW,4uW", "dark_w gives 4 value(s) but"),
         ("--dark-w -30dBm,0,0", "dBm names only positive powers"),
         ("--dark-w 1uW,,2uW", "is not a number"),
         ("--dark-w 1e-6 --dark {dark_file}", "give a file or values, not both"),

@@ -147,3 +147,22 @@ def test_the_cascade_example_prints_what_the_page_states(tmp_path, monkeypatch, 
     ratio = re.search(r"(\S+) MHz RMS, (\S+)x the Cramer-Rao bound", prose)
     assert f"{float(row.split()[1]):.3g}" == ratio.group(1) and row.split()[-1] == ratio.group(2)
     assert any("0 of 5000 readings off" in line for line in evaluated)
+
+
+def test_the_plugin_page_shows_the_toy_plugin_packages_entry_points():
+    """The page's pyproject excerpt is the tested plug-in package's, not a paraphrase."""
+    import tomllib
+
+    page = (GUIDE / "custom-calibrator.rst").read_text(encoding="utf-8")
+    block = page.split(".. code-block:: toml\n", 1)[1].split("\n\n", 1)[1]
+    lines = []
+    for line in block.splitlines():
+        if line and not line.startswith("   "):
+            break
+        lines.append(line[3:])
+    shown = tomllib.loads("\n".join(lines))
+    toy = Path(__file__).parent / "plugins" / "wavemeter_toy" / "pyproject.toml"
+    tested = tomllib.loads(toy.read_text(encoding="utf-8"))
+    group = "wavemeter.calibrators"
+    assert shown["project"]["entry-points"][group] == tested["project"]["entry-points"][group]
+    assert shown["tool"] == tested["tool"]

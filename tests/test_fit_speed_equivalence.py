@@ -19,7 +19,8 @@ condition times the rounding unit, by either code: there the bound is ``SPREAD_F
 times how far the reference itself moves when its inputs and its cosine transforms change
 by one rounding unit (``reference_and_spread``). p-values are compared as ``log p``
 (relative to ``|log p| + 1``). Warnings must be the same strings: their numbers are printed
-to 2-3 digits.
+to 2-3 digits; where issue 29 changed the naming by design (``RENAMED``), the causes named
+today are checked instead, and the tests added since (``ADDED_P_VALUES``) are not compared.
 """
 
 from __future__ import annotations
@@ -64,6 +65,20 @@ RTOL = 1e-12
 #: change of its cosine transforms is rounding
 SPREAD_FACTOR = 30.0
 PERTURBED_RUNS = 2
+#: p-values of tests the report has made since the frozen code, and causes it names (issue
+#: 29): a wide sweep's polynomial in frequency, a rounded axis
+ADDED_P_VALUES = ("band", "band_slope", "band_remainder", "quantised_axis")
+ADDED_CAUSES = ("quantised_axis",)
+#: cases whose warnings issue 29 changed by design, with the causes named today: over
+#: several FSRs a structure a polynomial in frequency explains is named by what it is (a
+#: phase even in frequency, ports that change each in its own way, or a power drift that a
+#: responsivity slope would mimic); their numbers are still the frozen code's
+RENAMED = {
+    "dispersion": ("dispersion",),
+    "power_drift": ("power_drift",),
+    "thermal_phase": ("dispersion",),
+}
+RENAMED_WIDEBAND = {1: ("dispersion",)}
 
 
 # ---------------------------------------------------------------------- the frozen code
@@ -199,7 +214,10 @@ def assert_same_numbers(report, reference, spread) -> None:
     ``SPREAD_FACTOR`` times its spread under a rounding change (``log p`` relative to
     ``|log p| + 1``)."""
     new, old = _numbers(report), _numbers(reference)
-    assert new.keys() == old.keys()
+    # the tests added since the frozen code (issue 29: a wide sweep's polynomial in
+    # frequency, a rounded axis) are the only numbers it does not have
+    assert new.keys() - old.keys() <= {f"log p[{name}]" for name in ADDED_P_VALUES}
+    assert old.keys() <= new.keys()
     for name, expected in old.items():
         value = new[name]
         if expected is None or value is None:
@@ -220,10 +238,15 @@ def assert_same_numbers(report, reference, spread) -> None:
         )
 
 
-def assert_same_report(report, reference, spread) -> None:
+def assert_same_report(report, reference, spread, renamed=None) -> None:
+    """Today's report is the frozen one: the same warnings, or for a case whose naming
+    issue 29 changed (``renamed``, the causes named today), those causes; the same numbers."""
     new = report if isinstance(report, dict) else report.to_dict()
     old = reference if isinstance(reference, dict) else reference.to_dict()
-    assert new["warnings"] == old["warnings"]
+    if renamed is None:
+        assert new["warnings"] == old["warnings"]
+    else:
+        assert tuple(note["cause"] for note in new["warnings"]) == renamed
     assert (new["noise_method"], new["misfit"]) == (old["noise_method"], old["misfit"])
     assert_same_numbers(new, old, spread)
 
@@ -402,16 +425,17 @@ def test_orthonormal_columns_span_what_orth_spans(rank, monkeypatch):
 def test_misfit_report_is_todays(name, frozen, path):
     case = CASES[name]()
     reference, spread = reference_and_spread(lambda report: _report(report, case), frozen)
-    assert_same_report(_report(misfit.misfit_report, case), reference, spread)
+    assert_same_report(_report(misfit.misfit_report, case), reference, spread, RENAMED.get(name))
 
 
 @pytest.mark.slow
 def test_the_cases_cover_every_cause(frozen):
-    """The cases are not vacuous: between them the reference names every cause."""
+    """The cases are not vacuous: between them the reference names every cause it knows
+    (the causes added since are tested in test_misfit_causes.py)."""
     causes = set()
     for case in CASES.values():
         causes.update(_report(_frozen_report(frozen), case()).causes)
-    assert causes == set(misfit_causes.CAUSES)
+    assert causes == set(misfit_causes.CAUSES) - set(ADDED_CAUSES)
 
 
 @pytest.mark.slow
@@ -429,7 +453,7 @@ def test_wideband_report_is_todays(degree, taylor, frozen, monkeypatch):
             patch.setattr("tests.test_misfit_wideband.misfit_report", report)
             return wideband_report(sweep, coefficients, degree).to_dict()
 
-    assert_same_report(new, *reference_and_spread(compute, frozen))
+    assert_same_report(new, *reference_and_spread(compute, frozen), RENAMED_WIDEBAND.get(degree))
 
 
 def _fit(frequency, powers, monitor=None, **options) -> dict:
@@ -485,5 +509,10 @@ def test_calibrator_fit_is_todays(name, retrieval, frozen, monkeypatch):
             return _fit(frequency, powers, monitor, retrieval=retrieval)
 
     reference, spread = reference_and_spread(compute, frozen)
-    assert (new["raised"], new["recorded"]) == (reference["raised"], reference["recorded"])
-    assert_same_report(new, reference, spread)
+    renamed = RENAMED.get(name)
+    if renamed is None:
+        assert (new["raised"], new["recorded"]) == (reference["raised"], reference["recorded"])
+    else:
+        assert tuple(note["cause"] for note in new["recorded"]) == renamed
+        assert len(new["raised"]) == len(renamed)
+    assert_same_report(new, reference, spread, renamed)

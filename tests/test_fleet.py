@@ -25,6 +25,7 @@ from wavemeter.exceptions import InputError
 from wavemeter.fleet import SUMMARY_COLUMNS, calibrate_fleet, die_position
 from wavemeter.io import read_table, write_table
 from wavemeter.jobs import calibrate_device, calibrate_file
+from wavemeter.jobs.calibrate import DIFFERING_FIELDS
 
 from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
@@ -343,3 +344,42 @@ def test_cli_exit_codes(sweeps, tmp_path, capsys, monkeypatch):
     code, _, err = run_cli(capsys, f"fleet calibrate {sweeps[0]} -o {fresh} --workers 0")
     assert code == 130 and "interrupted" in err
     assert list(fresh.iterdir()) == []
+
+
+# ---------------------------------------------------------------------------- one pipeline
+@pytest.mark.parametrize(
+    "options",
+    [
+        "",  # the learned method, read in chunks
+        "--method conventional --port-phases-deg 0,120,240",  # read whole
+        "--retrieval ml --fsr-tolerance 0.1 --fsr 52GHz",
+        "--method thermal --temperature-std-k 0.002",  # refused alike: no temperature column
+    ],
+)
+def test_calibrate_and_fleet_calibrate_write_the_same_file(
+    sweeps, tmp_path, capsys, monkeypatch, options
+):
+    """The two commands run one job: their files differ only in DIFFERING_FIELDS (the
+    sweep named relative to the working folder here, by its path in the fleet's folder)."""
+    folder = sweeps[0].parent
+    monkeypatch.chdir(folder)
+    single = tmp_path / "single.wmcal.json"
+    code, _, single_err = run_cli(capsys, f"calibrate {sweeps[0].name} -o {single} {options}")
+    out = tmp_path / "fleet"
+    command = f"fleet calibrate {folder} -o {out} --workers 0 --quiet {options}"
+    fleet_code, _, fleet_err = run_cli(capsys, command)
+    fleet_file = out / f"{DEVICES[0]}.wmcal.json"
+    if "thermal" in options:  # the same refusal: an error line, a failed row
+        assert "no temperature column" in one_error(code, single_err)
+        assert "no temperature column" in fleet_err and not fleet_file.exists()
+        return
+    assert code == 0 and fleet_code == 0, single_err + fleet_err
+    documents = [json.loads(path.read_text()) for path in (single, fleet_file)]
+    assert DIFFERING_FIELDS == ("created_utc", "metadata.sweep_file")
+    assert documents[0]["metadata"]["sweep_file"] == sweeps[0].name
+    assert documents[1]["metadata"]["sweep_file"] == str(sweeps[0])
+    for document in documents:
+        del document["created_utc"], document["metadata"]["sweep_file"]
+    assert documents[0] == documents[1]
+    record = documents[0]["metadata"]["calibrate_options"]
+    assert record["settings"] == documents[0]["params"]  # every setting, defaults too

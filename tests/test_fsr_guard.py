@@ -179,3 +179,21 @@ def test_the_delay_grid_is_bounded_before_anything_is_evaluated():
     result = search_delay(cost, fsr_hz=50e9, fsr_tolerance=largest * 0.999, span_hz=span)
     assert len(result.grid_delay_s) <= MAX_GRID_POINTS
     assert result.delay_s == pytest.approx(1 / 50e9, rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("convert", "named"),
+    [
+        (lambda f: f / 1e12, "frequencies in THz"),
+        (lambda f: f / 1e9, "frequencies in GHz"),
+        (lambda f: 299_792_458.0 / f * 1e9, "wavelengths in nm"),
+    ],
+    ids=["THz", "GHz", "nm"],
+)
+def test_a_frequency_axis_in_another_unit_is_named_as_such(sweep, convert, named):
+    """Not an FSR advice in a nonsense unit (``set fsr_hz to about 0.05 Hz``): the unit."""
+    _, frequency, readings = sweep
+    with pytest.raises(wm.InputError, match=f"look like {named}: convert") as caught:
+        wm.Calibrator(fsr_hz=50e9).fit(readings, convert(frequency))
+    assert caught.value.parameter == "frequency_hz"
+    assert "fsr_hz" not in str(caught.value)

@@ -1,34 +1,33 @@
 """Fuzzing the calibration loader: a mutated file loads into a usable calibrator or is
-refused with a WavemeterError; nothing else (no other exception, no NaN predictions).
+refused with a WavemeterError; nothing else (no other exception, no NaN predictions), and
+`wavemeter info`, `measure` and `evaluate` on it exit 0 or 2 with no traceback.
 
-Valid files of every calibrator are mutated as a careless editor or an attacker would:
-values replaced by any JSON (wrong types, NaN, inf, huge or tiny numbers, nested
+Valid files of every registered calibrator are mutated as a careless editor or an attacker
+would: values replaced by any JSON (wrong types, NaN, inf, huge or tiny numbers, nested
 structures), keys deleted, values wrapped in lists or objects, numbers scaled. The number
-of examples is ``WAVEMETER_FUZZ_EXAMPLES`` (default 200; ``make fuzz`` runs 10,000).
+of examples is ``WAVEMETER_FUZZ_EXAMPLES`` (default 200; ``make fuzz`` runs 10,000 with new
+examples each run, the default run the same ones every run: the profiles in conftest).
 """
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import os
-import tempfile
-from pathlib import Path
+import warnings
 
-import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import wavemeter as wm
+from wavemeter.calibration import registered
 
-from .helpers import NOISE_W, POWER_W
+from .saved_calibrations import INTERNALS, check_commands, documents, usable, write_test_files
 
 pytestmark = pytest.mark.slow
 
 EXAMPLES = int(os.environ.get("WAVEMETER_FUZZ_EXAMPLES", "200"))
-
 JSON_VALUES = st.recursive(
     st.none()
     | st.booleans()
@@ -45,34 +44,9 @@ SCALES = st.sampled_from([0.0, -1.0, 0.5, 1.0 + 1e-6, 2.0, 1e-300, 1e300, math.n
 OPERATIONS = ("replace", "delete", "wrap_list", "wrap_object", "scale", "stringify")
 
 
-@functools.cache
-def documents() -> dict[str, dict]:
-    """A saved document of every calibrator (the learned one with the ml retrieval)."""
-    device = wm.Interferometer.table1(3, seed=12)
-    frequency = device.sweep_hz(402, span_fsr=2.0)
-    readings = device.powers(frequency, POWER_W, NOISE_W, rng=12)
-    one = slice(100, 301)  # one FSR for the single-FSR calibrators
-    fitted = {
-        "learned": wm.Calibrator(50e9, retrieval="ml").fit(readings[one], frequency[one]),
-        "set": wm.CalibrationSet(50e9).fit(readings, frequency),
-        "conventional": wm.ConventionalCalibrator(50e9).fit(readings[one], frequency[one]),
-        "ellipse": wm.EllipseCalibrator(50e9).fit(readings[one], frequency[one]),
-        "plane": wm.PlaneEllipseCalibrator(50e9).fit(readings[one], frequency[one]),
-        "extended": wm.ExtendedConventionalCalibrator(50e9).fit(readings[one], frequency[one]),
-        "nonlinear": wm.NonlinearFitCalibrator(50e9).fit(readings[one], frequency[one]),
-    }
-    documents = {}
-    with tempfile.TemporaryDirectory() as folder:
-        for name, cal in fitted.items():
-            path = Path(folder) / f"{name}.json"
-            wm.save_calibration(cal, path, {"sweep_file": "sweep.csv", "rows": 402})
-            documents[name] = json.loads(path.read_text())
-    return documents
-
-
-READINGS = wm.Interferometer.table1(3, seed=12).powers(
-    193.4e12 + np.linspace(-20e9, 20e9, 16), POWER_W, NOISE_W, rng=13
-)
+def test_every_registered_calibrator_is_fuzzed():
+    package = {tag for tag, cls in registered().items() if cls.__module__.startswith("wavemeter.")}
+    assert {document["method"] for document in documents().values()} == package
 
 
 def paths(node, prefix=()):
@@ -131,27 +105,14 @@ def mutated_documents(draw):
     return name, document
 
 
-def usable(calibrator) -> None:
-    """A loaded calibrator predicts finite numbers and reports itself."""
-    inputs = {}
-    if "coarse_hz" in calibrator.requires:
-        low, high = calibrator.covered_hz()
-        inputs["coarse_hz"] = np.full(READINGS.shape[0], 0.5 * (low + high))
-    readings = READINGS if calibrator.n_ports_ == READINGS.shape[1] else None
-    if readings is not None:
-        assert np.all(np.isfinite(calibrator.predict(readings, **inputs)))
-        assert np.all(np.isfinite(calibrator.phase(readings, **inputs)))
-    assert calibrator.summary().text
-
-
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory):
-    return tmp_path_factory.mktemp("fuzz")
+    return write_test_files(tmp_path_factory.mktemp("fuzz"))
 
 
+@pytest.mark.slow
 @settings(
     max_examples=EXAMPLES,
-    deadline=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
 )
 @given(case=mutated_documents())
@@ -160,16 +121,21 @@ def test_a_mutated_file_loads_usable_or_is_refused(folder, case):
     path = folder / f"{name}.wmcal.json"
     path.write_text(json.dumps(document, allow_nan=True))
     try:
-        calibrator = wm.load_calibration(path)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)  # no numpy warning may leak
+            calibrator = wm.load_calibration(path)
     except wm.WavemeterError as exc:
         assert str(exc).startswith(str(path))
+        assert not any(internal in str(exc) for internal in INTERNALS), str(exc)
         return
-    usable(calibrator)
+    usable(calibrator, name)
+    check_commands(path, calibrator, name, folder)
 
 
-def test_the_unmutated_files_load():
-    for document in documents().values():
-        with tempfile.TemporaryDirectory() as folder:
-            path = Path(folder) / "cal.json"
-            path.write_text(json.dumps(document))
-            usable(wm.load_calibration(path))
+@pytest.mark.parametrize("name", sorted(documents()))
+def test_the_unmutated_files_load_and_every_command_reads_them(folder, name):
+    path = folder / f"{name}.wmcal.json"
+    path.write_text(json.dumps(documents()[name]))
+    calibrator = wm.load_calibration(path)
+    usable(calibrator, name)
+    check_commands(path, calibrator, name, folder, refusal_allowed=False)

@@ -61,6 +61,7 @@ def test_causes_are_the_issue_codes_in_order():
         "partial_span",
         "unequal_noise",
         "ill_conditioned",
+        "quantised_axis",
         "other_misfit",
     )
 

@@ -127,7 +127,10 @@ def test_in_model_p_values_are_not_concentrated_near_zero(in_model_reports, whic
     limit = SWEEPS * 0.05 + 4.0 * np.sqrt(SWEEPS * 0.05 * 0.95)
     names = in_model_reports[0][which].p_values.keys()
     for name in names:
-        p_values = np.array([pair[which].p_values[name] for pair in in_model_reports])
+        made = [pair[which].p_values[name] for pair in in_model_reports]
+        if all(p_value is None for p_value in made):
+            continue  # a test made only on a misfit (band) or a rounded axis
+        p_values = np.array(made)
         assert np.count_nonzero(p_values < 0.05) <= limit, name
         assert p_values.min() > TEST_P_VALUE, name
 
@@ -180,12 +183,14 @@ def test_unmodelled_even_phase_is_dispersion(ports, seed):
 @pytest.mark.parametrize(("ports", "seed"), [(3, 65), (4, 66)])
 def test_unmodelled_map_variation_warns(ports, seed):
     # the true map is quadratic in y, the fit linear: a residual P_2(y) A_2 u(t) of 3e-6 to
-    # 4e-6 W RMS, 5-8 times the noise. Named power_drift or other_misfit by the map: its part
-    # along the image a_P is a power error smooth in y, the rest (the cone-axis column's
-    # share, smooth on every port) a background that no listed cause explains
+    # 4e-6 W RMS, 5-8 times the noise, a map polynomial in frequency on every port that no
+    # common change of power or phase explains: the ports change each in its own way, which
+    # is named dispersion (issue 29; it was power_drift or other_misfit)
     sweep = wideband_sweep(ports, seed, map_degree=2)
     report = wideband_report(sweep, fit_phase(sweep, 1, 2), 1)
-    assert first_cause(report) in ("power_drift", "other_misfit")
+    assert first_cause(report) == "dispersion"
+    assert report.p_values["band_slope"] < TEST_P_VALUE
+    assert "each in its own way" in str(report.warnings[0])
 
 
 @pytest.mark.parametrize(("ports", "seed"), [(3, 67), (4, 68)])
@@ -247,6 +252,9 @@ def test_projected_directions_give_the_statistics_of_the_formed_ones(monkeypatch
     assert projected.causes == formed.causes == ("power_drift",)
     assert 0.0 < projected.p_values["power"] < TEST_P_VALUE  # a drift, not underflowed
     for name, p_value in formed.p_values.items():
+        if p_value is None:  # a test not made (a rounded axis)
+            assert projected.p_values[name] is None, name
+            continue
         assert projected.p_values[name] == pytest.approx(p_value, rel=1e-7, abs=0.0), name
     assert projected.power_error_rms == pytest.approx(formed.power_error_rms, rel=1e-7)
     assert projected.phase_error_rms_rad == pytest.approx(formed.phase_error_rms_rad, rel=1e-7)

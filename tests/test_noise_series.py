@@ -138,7 +138,10 @@ def test_a_drift_over_two_fsrs_is_unwrapped_chunk_by_chunk(meter, tmp_path, rng)
         assert np.max(np.abs(error - np.mean(error))) < 5 * series.meter_std_hz + scale_hz
         assert series.ambiguous_steps == 0
     # the calibrated scale's uncertainty goes with the series (a drift's std needs it)
-    assert series.scale_rel_std == calibration.delay_std_s_ / calibration.delay_s_ > 0
+    # (stated as the FSR's standard error over the FSR: 1/delay, so the same to rounding)
+    relative = calibration.delay_std_s_ / calibration.delay_s_
+    assert relative > 0
+    assert series.scale_rel_std == pytest.approx(relative, rel=1e-12)
 
 
 def test_a_step_of_a_third_fsr_warns_that_the_unwrap_is_ambiguous(meter, tmp_path, rng):

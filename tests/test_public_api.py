@@ -54,3 +54,22 @@ def test_the_0_1_baselines_module_gives_the_public_baselines():
         assert getattr(baselines, name) is getattr(wm, name)
     for name in set(baselines.__all__) - set(classes):
         assert callable(getattr(baselines, name))
+
+
+def test_dir_lists_the_public_names_and_subpackages_only():
+    import wavemeter as wm
+
+    listed = {name for name in dir(wm) if not name.startswith("__")}
+    public = {name for name in wm.__all__ if not name.startswith("__")}
+    subpackages = {
+        "analysis",
+        "calibration",
+        "fleet",
+        "io",
+        "jobs",
+        "model",
+        "reference",
+        "report",
+        "service",
+    }
+    assert public | subpackages | {"simulation"} == listed

@@ -34,6 +34,6 @@ def test_every_link_leads_to_a_file_of_the_repository():
 def test_the_readme_links_every_user_guide_page():
     guide = (ROOT / "docs" / "user-guide" / "index.rst").read_text(encoding="utf-8")
     pages = re.findall(r"^   (\S+)$", guide, re.M)
-    assert len(pages) == 9
+    assert "custom-calibrator" in pages and "absolute" in pages  # the toctree was read
     for page in pages:
         assert f"docs/user-guide/{page}.rst" in README, page

@@ -55,7 +55,8 @@ def test_summary_values_text_and_dict(fitted):
     text = str(report)
     for expected in (
         "method           learned",
-        "settings         fsr_hz=50000000000.0, fsr_tolerance=0.2",
+        "settings         fsr_hz 50 GHz; fsr_tolerance 0.2; search golden; xtol 1e-12; "
+        "retrieval pinv",
         "FSR              51.501110 GHz +- 1.39 MHz (design 50 GHz)",
         "ports            3: p1, p2, p3",
         "samples          2001",

@@ -31,6 +31,8 @@ _WHERE = {
     "predict_frequency_hz": "calibration",
     "retrieve_phase_rad": "calibration",
     "ReadingFlag": "calibration",
+    "ReferenceFreeCalibrator": "calibration",
+    "ReferenceLines": "reference",
     "Interferometer": "simulation",
     "CascadeInterferometer": "simulation",
     "cone_vectors": "model",
@@ -56,7 +58,18 @@ _WHERE = {
 }
 
 #: subpackages reachable as attributes (``wm.model.cone``), loaded on first use
-_SUBPACKAGES = ("analysis", "calibration", "fleet", "io", "jobs", "model", "report", "simulation")
+_SUBPACKAGES = (
+    "analysis",
+    "calibration",
+    "fleet",
+    "io",
+    "jobs",
+    "model",
+    "reference",
+    "report",
+    "service",
+    "simulation",
+)
 
 __all__ = sorted(_WHERE) + ["__version__"]
 
@@ -73,4 +86,6 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_WHERE) | set(_SUBPACKAGES))
+    """The public names and subpackages, and the module's dunder attributes."""
+    dunders = {name for name in globals() if name.startswith("__") and name.endswith("__")}
+    return sorted(dunders | set(__all__) | set(_SUBPACKAGES))

@@ -25,7 +25,20 @@ __all__ = [
 
 
 class WavemeterError(Exception):
-    """Base of every error the package raises on purpose."""
+    """Base of every error the package raises on purpose.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> try:
+    ...     wm.Calibrator(fsr_hz=50e9).fit(powers[:, :2], f_hz)  # two ports cannot fix the cone
+    ... except wm.WavemeterError as error:  # every error the package raises on purpose
+    ...     print(type(error).__name__, "|", error)
+    InputError | port powers need at least 3 ports (columns), got 2
+    """
 
 
 class InputError(WavemeterError, ValueError):
@@ -38,6 +51,22 @@ class InputError(WavemeterError, ValueError):
     parameter : str, optional
         The library parameter the value came through (e.g. ``"fsr_hz"``, ``"x_unit"``,
         ``"force"``); the command line uses it to name its own option in a hint.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> try:
+    ...     wm.Calibrator(fsr_hz=50).fit(powers, f_hz)  # 50 Hz typed for 50 GHz
+    ... except wm.InputError as error:
+    ...     print(error.parameter)
+    ...     print(str(error).split("; ")[-1])  # the message ends with what to do
+    fsr_hz
+    the sweep's own fringes repeat every 51.5076 GHz: set fsr_hz to about 5.15076e+10 Hz
+    >>> isinstance(wm.InputError(), ValueError)
+    True
     """
 
     def __init__(self, message: str = "", *, parameter: str | None = None):
@@ -46,11 +75,38 @@ class InputError(WavemeterError, ValueError):
 
 
 class FileFormatError(InputError):
-    """A file cannot be read as what it should be: foreign, corrupt, truncated or unsafe."""
+    """A file cannot be read as what it should be: foreign, corrupt, truncated or unsafe.
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> path = Path(tempfile.mkdtemp()) / "chip.wmcal.json"
+    >>> _ = path.write_text(json.dumps({"format": "something.else"}))
+    >>> try:
+    ...     wm.load_calibration(path)
+    ... except wm.FileFormatError as error:
+    ...     print(str(error).split(": ", 1)[1])  # after the file's name
+    not a wavemeter calibration file (no format 'wavemeter.calibration')
+    """
 
 
 class NotFittedError(WavemeterError, ValueError, AttributeError):
-    """``predict``/``phase``/``save`` was called on an estimator before ``fit``."""
+    """``predict``/``phase``/``save`` was called on an estimator before ``fit``.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> try:
+    ...     wm.Calibrator().predict(powers)
+    ... except wm.NotFittedError as error:
+    ...     print(str(error).split(": ")[-1])
+    call fit(powers, frequency_hz) or load a calibration file first
+    """
 
 
 class EdgeMinimumError(InputError):
@@ -58,6 +114,22 @@ class EdgeMinimumError(InputError):
 
     Raised when the cost is smallest on the edge of the bracket, or when the best delay
     inside it explains less than half of the fringe power (a side minimum of ``J``).
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> import textwrap
+    >>> try:  # the device's FSR, 51.5 GHz, is outside 40 GHz +- 10 %
+    ...     wm.Calibrator(fsr_hz=40e9, fsr_tolerance=0.1).fit(powers, f_hz)
+    ... except wm.EdgeMinimumError as error:
+    ...     print(textwrap.fill(str(error), width=88))
+    the delay fit is best at the last delay scanned, at an FSR of 46.5882 GHz, 5.88 % beyond
+    the edge of the FSR bracket (fsr_hz=40 GHz, fsr_tolerance=0.1: 36 GHz to 44 GHz): the
+    true FSR is outside the bracket, at or beyond that; widen fsr_tolerance or correct
+    fsr_hz
     """
 
 
@@ -72,6 +144,24 @@ class CalibrationWarning(UserWarning):
         One word naming the departure (e.g. ``"power_drift"``, ``"dead_port"``).
     remedy : str
         What the user can do about it.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import wavemeter as wm
+    >>> from wavemeter.simulation import slow_power_drift
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(400, span_fsr=2)
+    >>> drift = slow_power_drift(400, 0.05, rng=3)  # the source power wanders by about 5 %
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1) * drift[:, None]
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> notes = [w.message for w in caught if issubclass(w.category, wm.CalibrationWarning)]
+    >>> [note.cause for note in notes]
+    ['power_drift']
+    >>> print(notes[0].remedy[:60])
+    record the source power with a power monitor during the swee
     """
 
     def __init__(self, message: str, cause: str = "other_misfit", remedy: str = ""):
@@ -87,7 +177,28 @@ class CalibrationWarning(UserWarning):
 class InputNote(UserWarning):
     """How an input was read where the reader chose what the caller did not say (a
     ``;``-separated file read with decimal commas): worth knowing, not a problem. The
-    command line prints it as ``note: ...`` on stderr."""
+    command line prints it as ``note: ...`` on stderr.
+
+    Examples
+    --------
+    >>> import tempfile, warnings
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import read_table
+    >>> path = Path(tempfile.mkdtemp()) / "sweep.csv"
+    >>> lines = ["frequency_THz;P1_mW;P2_mW;P3_mW", "193,40;0,5;0,25;0,25", "193,41;0,25;0,5;0,25"]
+    >>> with open(path, "w") as file:  # a lab CSV: semicolons and decimal commas
+    ...     for line in lines:
+    ...         print(line, file=file)
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     table = read_table(path)
+    >>> notes = [str(w.message) for w in caught if issubclass(w.category, wm.InputNote)]
+    >>> print(notes[0].split(": ", 1)[1])
+    read as ';'-separated with decimal commas
+    >>> print(table.x_hz, table.powers_w[0])  # in Hz and W
+    [1.9340e+14 1.9341e+14] [0.0005  0.00025 0.00025]
+    """
 
 
 @contextlib.contextmanager

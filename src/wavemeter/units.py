@@ -187,14 +187,24 @@ def check_optical_frequency(frequency_hz, raw_values, unit: str | None, column: 
     if converted is None or _plausible(converted):
         return
     raw = _finite_range(np.asarray(raw_values, dtype=float))
-    guesses = [name for name in _KINDS["axis"] if raw and _plausible(_range_in(raw, name))]
+    guess = optical_unit_guess(raw_values)
     shown = f"{raw[0]:.6g}-{raw[1]:.6g}" if raw else "the values"
     label = f"labelled {unit}" if unit else "without a unit"
-    if guesses:
-        hint = f"look like {guesses[0]}; give the axis unit {guesses[0]}"
+    if guess:
+        hint = f"look like {guess}; give the axis unit {guess}"
     else:
         hint = "are not optical (100-1000 THz, 300-3000 nm) in any unit; check the column"
     raise InputError(f"column {column!r}: values {shown} {label} {hint}", parameter="x_unit")
+
+
+def optical_unit_guess(values) -> str | None:
+    """The frequency or wavelength unit (``"THz"``, ``"nm"``...) in which all the finite
+    ``values`` would be optical (100-1000 THz), or None when there is none."""
+    raw = _finite_range(np.asarray(values, dtype=float))
+    if raw is None:
+        return None
+    guesses = [name for name in _KINDS["axis"] if _plausible(_range_in(raw, name))]
+    return guesses[0] if guesses else None
 
 
 def _range_in(raw: tuple[float, float], unit: str) -> tuple[float, float]:

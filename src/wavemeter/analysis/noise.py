@@ -1,36 +1,19 @@
 """Frequency-noise metrology of a laser from a meter's readings: PSD, linewidths, drift and
 the Allan family, each with its uncertainty, and the meter's own noise floor removed.
 
-Model. The laser's one-sided frequency-noise PSD is ``S_nu(f) = h0 + h_-1 / f + h_-2 /
-f^2`` (Hz^2/Hz; white, flicker and random-walk FM) plus a drift ``D`` (Hz/s); each
-reading is the laser's mean frequency over its sample interval ``1 / rate`` (see
-:mod:`wavemeter.analysis.power_law`), plus the meter's own white noise of standard
-deviation ``sigma_i`` per reading, whose one-sided PSD is the floor ``2 mean(sigma_i^2) /
-rate``. The readings must be uniformly sampled and unwrapped (a single interferometer
-reads modulo its FSR: unwrap with period FSR first, as
-:func:`wavemeter.jobs.noise.measure_series` does).
+:func:`frequency_noise` takes uniformly sampled, unwrapped readings (a single
+interferometer reads modulo its FSR: unwrap first, as
+:func:`wavemeter.jobs.noise.measure_series` does) with their standard deviations, and
+returns a :class:`~wavemeter.analysis.noise_result.FrequencyNoise`. Its steps, each in a
+module of its own: NaN readings dropped or bridged (:mod:`wavemeter.analysis.noise_inputs`),
+the band-averaged Welch PSD with the floor subtracted and the delay corrected
+(:mod:`wavemeter.analysis.noise_spectrum`), the power-law fit, linewidths and drift
+(:mod:`wavemeter.analysis.noise_fit`), the Allan family (:mod:`wavemeter.analysis.allan`)
+and the findings, each a :class:`~wavemeter.exceptions.CalibrationWarning` with a remedy
+(:mod:`wavemeter.analysis.noise_findings`).
 
-Steps of :func:`frequency_noise` (each module's notes give its method):
-
-- NaN readings are excluded: those at the ends are dropped, runs of up to
-  ``MAX_BRIDGED_RUN`` inside are bridged by linear interpolation (a longer gap is an
-  error: analyse the parts on either side), counted and warned about
-  (:mod:`wavemeter.analysis.noise_inputs`).
-- PSD: the Welch PSD averaged over log-spaced bands, with each band's degrees of freedom,
-  the bands' correlation and chi-square confidence intervals; the meter's floor subtracted
-  and the interferometer's delay corrected up to ``DELAY_CORRECTION_MAX_FSR`` of the FSR
-  (:mod:`wavemeter.analysis.noise_spectrum`).
-- Power-law fit of ``h0, h_-1, h_-2`` to the bands, the Lorentzian linewidth ``pi h0`` (or
-  its upper limit), the beta-separation linewidth from ``1 / T_obs`` (or its upper limit
-  when the area above the line is not significant) and the drift, each with its standard
-  deviation (:mod:`wavemeter.analysis.noise_fit`).
-- Allan, modified Allan and Hadamard deviations of the fractional frequency with
-  Greenhall's confidence intervals (:mod:`wavemeter.analysis.allan`).
-- Findings: what limits or qualifies the results, each issued as a
-  :class:`~wavemeter.exceptions.CalibrationWarning` with a remedy
-  (:mod:`wavemeter.analysis.noise_findings`).
-
-The result is a :class:`~wavemeter.analysis.noise_result.FrequencyNoise`.
+Theory (the model and the steps): the docs' noise page (``docs/theory/noise.rst``); what
+the warnings mean: the user guide's noise page.
 """
 
 from __future__ import annotations
@@ -130,6 +113,27 @@ def frequency_noise(
         a rate, FSR, observation time, floor uncertainty or confidence out of range, a
         ``meter_std_hz`` of the wrong shape or with a negative or non-finite value; each
         names its parameter.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import numpy as np
+    >>> from wavemeter.analysis import frequency_noise
+    >>> from wavemeter.simulation import laser_frequency_hz
+    >>> rate_hz, h0 = 10e6, 3e4  # 10 MHz readings of a laser of white FM 3e4 Hz^2/Hz
+    >>> f_hz = laser_frequency_hz(16384, rate_hz, center_hz=193.4e12, white_fm_hz2_per_hz=h0, rng=1)
+    >>> with warnings.catch_warnings(record=True) as caught:  # no meter noise: no floor removed
+    ...     warnings.simplefilter("always")
+    ...     noise = frequency_noise(f_hz, rate_hz)
+
+    White FM of 3e4 Hz^2/Hz is a Lorentzian linewidth of pi h0 = 94 kHz:
+
+    >>> print(f"h0 {noise.white_fm_hz2_per_hz:.2e} +- {noise.white_fm_std_hz2_per_hz:.0e} Hz^2/Hz")
+    h0 2.95e+04 +- 4e+02 Hz^2/Hz
+    >>> [w.message.cause for w in caught]  # the linewidth is then an upper limit
+    ['floor_unknown', 'beta_upper_limit']
+    >>> print(f"Lorentzian {noise.lorentzian_linewidth_hz / 1e3:.0f} kHz")
+    Lorentzian 95 kHz
     """
     raw = check_series(frequency_hz)
     rate_hz = check_positive("rate_hz", rate_hz)

@@ -1,60 +1,22 @@
 """What the band PSD and the readings say about the laser: the power-law levels, the
 Lorentzian and beta-separation linewidths, and the drift, each with its uncertainty.
 
-- Power law: generalised least squares of the band PSD (the bands' correlation included)
-  on the exact expectation of the Welch estimate of each term passed through the delay's
-  ``sinc^2`` (the window's leakage and the detrend included:
-  :func:`~wavemeter.analysis.power_law.welch_expectation`), the floor's expectation
-  subtracted, with variances ``2 E^2 / nu`` from the model, iterated ``FIT_ITERATIONS``
-  times (the first from the data). The covariance gives the standard deviations, and the
-  floor's uncertainty (``meter_floor_rel_std`` times it) adds to ``h0``'s variance. A fit
-  that the chi-square test rejects (p < ``MISFIT_P_VALUE``) has its standard deviations
-  scaled by ``sqrt(chi2 / dof)`` and is warned about.
-- Lorentzian linewidth ``pi h0``. It is an upper limit when the floor is unknown (not
-  subtracted) or ``h0`` is not above both the floor and ``UPPER_LIMIT_SIGMAS`` standard
-  deviations (the laser is at or below the meter's floor, or not significant); the
-  field then holds ``pi (max(h0, 0) + 2 std)``.
-- Beta-separation linewidth (Di Domenico, Schilt, Thomann, Appl. Opt. 49, 4801 (2010)):
-  ``A`` = the integral from ``1 / T_obs`` of the corrected PSD where it lies above ``8 ln2
-  f / pi^2``, FWHM ``sqrt(8 ln2 A)``. ``T_obs`` defaults to the inverse of the lowest
-  band's lower edge (``1.5`` Welch bins, a twelfth to a sixth of the record), the longest
-  time the PSD measures; a longer ``T_obs`` (up to the record) integrates the fitted power
-  law below the lowest band, linearly (unbiased; the line is negligible there), and
-  warns: extrapolating ``h_-2 / f^2`` down an octave or more dominates the uncertainty (a
-  100 kHz white-FM laser, 2^16 readings at 10 MHz, 40 seeds: 11 % scatter at ``T_obs =
-  T``, 6 % at the default). The standard deviation is the spread of the FWHM over
-  ``BETA_DRAWS`` draws of the bands (normal, with their chi-square spread and
-  correlation, the floor's error common to all bands, the extrapolation's added; from a
-  fixed seed: reproducible).
-- Between the band centres the PSD is interpolated linearly, and held at the outer bands'
-  levels out to the band edges: a white level's crossing is exact, a power law's integral
-  within 0.7 %. With each band held constant instead, the area changes slope about
-  tenfold where the crossing passes a band edge (the crossing band weighs ``2 f_c - f_low``
-  while it holds the crossing, its width once past it), and the draws about the data
-  understated the spread on one side of the edge (a 100 kHz white-FM laser, 2^20 readings
-  at 10 MHz under a white floor of 2.4e3 Hz^2/Hz, 20 seeds: 3 beyond 2 std, up to 3.6;
-  interpolated: 2, up to 2.96).
-- Beta upper limit. Only excursions above the line count, so the bands' noise alone makes
-  a positive area: where little of the PSD lies above the line (a laser under the meter's
-  floor, or one without frequency noise of its own) the FWHM is biased up by several of
-  its standard deviations. The measured bands' area is tested against noise: the same
-  draws about the null closest to the data (each band's level clipped into ``[0, line]``:
-  the PSD nowhere above the line, and the least favourable such PSD where the data lie
-  above it) give the probability ``p`` of an area at least as large from noise alone. The
-  FWHM is a number only when ``p <= BETA_P_VALUE`` (a normal's one-sided 3 sigma,
-  0.135 %): the numbers that pass a test are picked from the upper tail where it has
-  little power: at 2 sigma, 7 of the 12 that passed for white-FM lasers of 2-5 kHz under
-  that floor (``pi`` floor 7.6 kHz; 30 seeds each) lay 2 to 3.4 std above the truth; at 3
-  sigma none passed there, and those of 7-10 kHz (15 of 60) lay within 2.6 std.
-  Otherwise the value is an upper limit: the ``BETA_UPPER_QUANTILE`` (97.7 %, one-sided
-  2 sigma) quantile of the FWHM draws about the data, at least the FWHM itself, the
-  counterpart of the Lorentzian's ``+ 2 std``. When the PSD is still above the line at
-  the highest corrected band, the value is a lower limit instead (never both); when the
-  quantile is 0 (the draws stay under the line), the FWHM is 0.
-- Drift: least-squares slope of the measured (not bridged) readings against time; its
-  standard deviation is the fitted noise (floor included) propagated through the slope's
-  transfer function (:func:`~wavemeter.analysis.power_law.slope_variance`), not the
-  white-noise formula, which flicker and random walk would make far too small.
+- :func:`fit_power_law`: generalised least squares of the band PSD on the expected Welch
+  estimate of each term (:func:`~wavemeter.analysis.power_law.welch_expectation`), the
+  meter's floor subtracted; a fit the chi-square test rejects (p < ``MISFIT_P_VALUE``) has
+  its standard deviations scaled and is warned about.
+- :func:`lorentzian_linewidth`: ``pi h0``, or its upper limit where ``h0`` is not
+  ``UPPER_LIMIT_SIGMAS`` standard deviations above the floor.
+- :func:`beta_linewidth`: the beta-separation linewidth (Di Domenico, Schilt, Thomann,
+  Appl. Opt. 49, 4801 (2010)) from ``1 / T_obs``, its spread over ``BETA_DRAWS`` draws of
+  the bands; an upper limit unless the area above the line passes a test against noise at
+  ``BETA_P_VALUE``, a lower limit when the PSD is above the line at the highest band.
+- :func:`fit_drift`: the least-squares slope of the measured readings against time, its
+  standard deviation through the slope's transfer function
+  (:func:`~wavemeter.analysis.power_law.slope_variance`).
+
+Theory (the fit, the limits, and the simulations behind the thresholds): the docs' noise
+page (``docs/theory/noise.rst``, "The power-law fit and the linewidths").
 """
 
 from __future__ import annotations
@@ -86,7 +48,16 @@ BETA_UPPER_QUANTILE = 0.5 * math.erfc(-UPPER_LIMIT_SIGMAS / math.sqrt(2.0))
 
 
 def beta_separation_line_hz2_per_hz(freqs_hz) -> np.ndarray:
-    """The beta separation line ``8 ln2 f / pi^2`` (Hz^2/Hz) at ``freqs_hz`` (Hz)."""
+    """The beta separation line ``8 ln2 f / pi^2`` (Hz^2/Hz) at ``freqs_hz`` (Hz).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.analysis import beta_separation_line_hz2_per_hz
+    >>> line = beta_separation_line_hz2_per_hz(np.array([1e3, 1e6]))  # 8 ln2 f / pi^2
+    >>> print([f"{value:.1f}" for value in line])  # Hz^2/Hz
+    ['561.8', '561843.9']
+    """
     return BETA_SLOPE * np.asarray(freqs_hz, dtype=float)
 
 

@@ -93,6 +93,27 @@ class FrequencyNoise:
         Averaging times that fit in the record, ``N // m`` (``tau = m / rate``), >= 10.
     warnings : tuple of str
         Each a finding and its remedy (also issued as :class:`CalibrationWarning`).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import numpy as np
+    >>> from wavemeter.analysis import frequency_noise
+    >>> from wavemeter.simulation import laser_frequency_hz
+    >>> rate_hz, h0 = 10e6, 3e4  # 10 MHz readings of a laser of white FM 3e4 Hz^2/Hz
+    >>> f_hz = laser_frequency_hz(16384, rate_hz, center_hz=193.4e12, white_fm_hz2_per_hz=h0, rng=1)
+    >>> with warnings.catch_warnings(record=True) as caught:  # no meter noise: no floor removed
+    ...     warnings.simplefilter("always")
+    ...     noise = frequency_noise(f_hz, rate_hz)
+    >>> noise.n_readings, noise.rate_hz
+    (16384, 10000000.0)
+    >>> print(f"{noise.duration_s * 1e3:.2f} ms, {noise.psd_freqs_hz.size} PSD bands")
+    1.64 ms, 49 PSD bands
+
+    The Allan deviation of white FM falls as tau^-1/2:
+
+    >>> print(f"{noise.adev[0] / noise.adev[2]:.1f}")
+    2.0
     """
 
     rate_hz: float

@@ -1,43 +1,16 @@
 """Analytic relations of power-law frequency noise: PSD, Allan family, regression slope.
 
-A laser's frequency ``nu(t)`` has the one-sided frequency-noise PSD (Hz^2/Hz)
+A laser's frequency has the one-sided frequency-noise PSD (Hz^2/Hz)
+``S_nu(f) = h0 + h_-1 / f + h_-2 / f^2`` (white, flicker and random-walk FM) plus a linear
+drift ``D`` (Hz/s). This module gives the PSD (:func:`power_law_psd_hz2_per_hz`), the
+expected Allan, modified Allan and Hadamard deviations of readings that are interval means
+(:func:`power_law_deviations`, exact at every ``tau = m / rate`` through the phase's
+structure function), the variance of a least-squares slope under that noise
+(:func:`slope_variance`) and the expectation of a Welch estimate of each term
+(:func:`welch_expectation`).
 
-    S_nu(f) = h0 + h_-1 / f + h_-2 / f^2
-
-with ``h0`` (Hz^2/Hz) white FM, ``h_-1`` (Hz^2) flicker FM and ``h_-2`` (Hz^3 = Hz^2/s)
-random-walk FM, plus a linear drift ``D`` (Hz/s). The Allan family of the fractional
-frequency ``y = (nu - nu0) / nu0`` follows from the generalised structure function of the
-phase ``x(t) = int nu dt`` (cycles): for any combination ``sum_i c_i x(t_i)`` with
-``sum c_i = sum c_i t_i = 0``,
-
-    Var(sum_i c_i x(t_i)) = -1/2 sum_ij c_i c_j D(t_i - t_j),
-    D(t) = h0 |t| / 2  -  h_-1 t^2 ln|t|  -  (pi^2 / 3) h_-2 |t|^3.
-
-(Each term is fixed by the Allan variance it gives; their spectra are those of
-``S_nu``, e.g. ``D`` of white FM is the Wiener process of two-sided level ``h0 / 2``.)
-The deviations below are exact for readings that are the mean frequency over each sample
-interval ``1 / rate`` (as :func:`wavemeter.simulation.laser_frequency_hz` makes them and a
-frequency counter with a gate of one sample reads them), and the classic large-``n``
-table (NIST SP 1065, Riley; Dawkins et al. 2007) otherwise:
-
-=================  ======================  ==========================  ===================
-noise              AVAR * nu0^2            MVAR * nu0^2 (large n)      HVAR * nu0^2
-=================  ======================  ==========================  ===================
-white FM  h0       h0 / (2 tau)            h0 / (4 tau)                h0 / (2 tau)
-flicker FM h_-1    2 ln2 h_-1              (27/8 ln3 - 4 ln2) h_-1     (4 ln2 - 3/2 ln3) h_-1
-random walk h_-2   (2 pi^2 / 3) h_-2 tau   (11/20) pi^2 h_-2 tau       (pi^2 / 3) h_-2 tau
-drift D            (D tau)^2 / 2           (D tau)^2 / 2               0
-=================  ======================  ==========================  ===================
-
-The Allan and Hadamard variances use only means over ``tau``, so they are exact at every
-``tau = m / rate``; the modified Allan variance averages phase over the ``m`` samples of
-``tau`` and reaches its large-``n`` value as ``1 + O(1 / m^2)`` (white FM: ``(1 + 1/m^2)``
-times it; at ``m = 1`` it equals the Allan variance). Flicker FM's modified Allan
-coefficient is the exact ``(27 ln3 - 32 ln2) / 8 = 0.935228`` (Vernotte et al., Table I;
-the limit of ``D`` and of ``2 int S sin^6(pi f tau) / (pi f tau)^4 df``), not the
-approximation ``(27/20) ln2 = 0.935749`` some tables give (0.06 % apart). The Hadamard
-column was derived here from ``D`` (and checked against the spectral integral ``(8/3) int
-S sin^6(pi f tau) / (pi f tau)^2 df``); ``4 ln2 - 3/2 ln3 = ln(256/27) / 2``.
+Theory (the structure function, the table of coefficients and its checks): the docs'
+noise page (``docs/theory/noise.rst``, "Analytic relations of power-law noise").
 """
 
 from __future__ import annotations
@@ -111,6 +84,15 @@ def power_law_psd_hz2_per_hz(
     Returns
     -------
     ndarray, shape (K,), Hz^2/Hz
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.analysis import power_law_psd_hz2_per_hz
+    >>> freqs_hz = np.array([1e2, 1e4, 1e6])
+    >>> psd = power_law_psd_hz2_per_hz(freqs_hz, white_fm_hz2_per_hz=3e4, flicker_fm_hz2=1e9)
+    >>> print(np.round(psd))  # flicker dominates at low frequency, white FM above 33 kHz
+    [10030000.   130000.    31000.]
     """
     freqs = _positive_vector("freqs_hz", freqs_hz)
     levels = _levels(white_fm_hz2_per_hz, flicker_fm_hz2, random_walk_fm_hz2_per_s)
@@ -250,6 +232,22 @@ def power_law_deviations(
     -------
     dict
         ``{"adev", "mdev", "hdev"}``: arrays (M,), dimensionless.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.analysis import power_law_deviations
+    >>> taus_s = np.array([1e-6, 1e-4])
+    >>> dev = power_law_deviations(taus_s, 193.4e12, white_fm_hz2_per_hz=3e4)
+    >>> sorted(dev)
+    ['adev', 'hdev', 'mdev']
+
+    White FM: AVAR = h0 / (2 tau) / nu0^2, falling as tau^-1/2:
+
+    >>> print([f"{value:.2e}" for value in dev["adev"]])
+    ['6.33e-10', '6.33e-11']
+    >>> print(np.allclose(dev["adev"], np.sqrt(3e4 / (2 * taus_s)) / 193.4e12))
+    True
     """
     taus = _positive_vector("taus_s", taus_s)
     center = check_positive("center_hz", center_hz)
@@ -264,17 +262,9 @@ def slope_variance(samples: int, rate_hz: float, levels: np.ndarray) -> float:
     """Variance (Hz^2/s^2) of the least-squares slope of ``samples`` readings at
     ``rate_hz`` with power-law noise of ``levels`` (3,).
 
-    The slope's weights ``w_k`` have the transfer function ``|W(f)|^2 = (36 / T^2)
-    j1(pi f T)^2`` (``T`` the record length, ``j1`` the spherical Bessel function) for
-    ``f`` well below the rate; ``int S |W|^2 df`` with ``int j1^2 = pi/6``, ``int j1^2 / x
-    = 1/4`` and ``int j1^2 / x^2 = pi/15`` gives ``6 h0 / T^3 + 9 h_-1 / T^2 + (12 pi^2 / 5)
-    h_-2 / T``; the white term is taken exactly, ``h0 rate / 2`` over ``sum (t - mean
-    t)^2 = (N^3 - N) / (12 rate^2)``. (Random walk: ``6/5 Dv / T`` with ``Dv = 2 pi^2
-    h_-2``, the known variance of a Brownian motion's regression slope.) Negative levels
-    (fitted ones, by chance) count as 0. With fitted levels this is on the safe side when
-    the laser has no flicker or random walk: the random walk the fit cannot exclude still
-    counts (white FM alone, 2^14 readings, 200 seeds: the drift's scatter was 0.4 of this
-    std; with flicker 0.85, with random walk 1.07).
+    ``6 h0 / T^3 + 9 h_-1 / T^2 + (12 pi^2 / 5) h_-2 / T`` (``T`` the record length; the
+    white term exact for ``samples``), negative levels counted as 0. Derivation: the docs'
+    noise page (``docs/theory/noise.rst``, "The power-law fit and the linewidths", drift).
     """
     duration_s = samples / rate_hz
     gains = np.array(

@@ -25,10 +25,17 @@ from .methods.baselines import (
 )
 from .methods.cascade import CascadeCalibrator
 from .methods.learned import Calibrator
+from .methods.reference_free import ReferenceFreeCalibrator
 from .methods.set import CalibrationSet
 from .methods.thermal import ThermalCalibrator
 from .methods.wideband import WidebandCalibrator
+from .models.cone_fit import ConeFit, cone_phase_rad, fit_cone
 from .models.learned_fit import predict_frequency_hz, retrieve_phase_rad
+from .models.self_calibration import (
+    SelfCalibration,
+    self_calibrate,
+    sweep_phase_reference_free,
+)
 
 __all__ = [
     "BaseCalibrator",
@@ -47,6 +54,13 @@ __all__ = [
     "NonlinearFitCalibrator",
     "Part",
     "PlaneEllipseCalibrator",
+    "ReferenceFreeCalibrator",
+    "SelfCalibration",
+    "ConeFit",
+    "cone_phase_rad",
+    "fit_cone",
+    "self_calibrate",
+    "sweep_phase_reference_free",
     "ReadingFlag",
     "ReadingInputs",
     "Readout",

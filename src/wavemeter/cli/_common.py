@@ -13,7 +13,7 @@ import numpy as np
 
 from ..atomic import check_output
 from ..exceptions import InputError, WavemeterError
-from ..io import FORMATS, ColumnRequest, port_key, read_table, table_format
+from ..io import FORMATS, ColumnRequest, read_table, table_format
 from ..io.convert import NO_LIGHT_REASON
 from ..progress import busy
 from ..units import SPEED_OF_LIGHT_M_S, frequency_text
@@ -390,22 +390,11 @@ def output_format(path, file_format: str | None, *, inputs=(), force: bool = Fal
 
 def check_ports(calibration, cal_path, table, explicit: bool) -> None:
     """The file's ports must be the calibration's: same count and, unless chosen with
-    --ports, the same names (units aside)."""
-    names = ", ".join(table.port_names)
-    expected = ", ".join(calibration.port_names_)
+    --ports, the same names (units aside) (:func:`wavemeter.jobs.check_ports`)."""
+    from ..jobs.readings import check_ports as check
+
     hint = "pass --ports with the file's columns in the calibration's order"
-    if len(table.port_names) != calibration.n_ports_:
-        raise InputError(
-            f"{table.source} has {len(table.port_names)} ports ({names}) but {cal_path} was "
-            f"calibrated on {calibration.n_ports_} ({expected}); {hint}"
-        )
-    if not explicit and [port_key(n) for n in table.port_names] != [
-        port_key(n) for n in calibration.port_names_
-    ]:
-        raise InputError(
-            f"{table.source} has ports {names} but {cal_path} was calibrated on ports "
-            f"{expected}; {hint}"
-        )
+    check(calibration, table, explicit=explicit, name=cal_path, remedy=hint)
 
 
 def error_text(exc: Exception) -> str:

@@ -1,31 +1,26 @@
-"""What ``measure``, ``stream`` and ``noise`` check before any reading: the calibration, and
-that the options give what it needs (a coarse frequency, a temperature) and nothing it
-refuses; and the line that sums up the flags of the readings measured."""
+"""What ``measure``, ``stream`` and ``noise`` share: the options of a calibration's
+per-reading inputs, the checks of the readings against the calibration (those of
+:mod:`wavemeter.jobs.readings`, with remedies that name the options), and the line that
+sums up the flags of the readings measured."""
 
 from __future__ import annotations
 
 import click
 
-from ..exceptions import InputError
+from ..calibration.contract.flags import flag_summary
 from ..io import iter_readings
 from ..io.streaming import CHUNK_ROWS
-from ._common import check_ports, load
+from ..jobs.readings import check_reading_options, check_readings, needs_temperature
+from ._common import load
 from ._params import OPTICAL_FREQUENCY, AliasedOption
 from ._streams import STDIN_LABEL, is_stdio
-from ._temperature import (
-    check_temperature_options,
-    missing_temperature,
-    needs_temperature,
-    temperature_k_option,
-)
+from ._temperature import temperature_k_option
 
 __all__ = [
     "COARSE_OPTIONS",
     "FILE_TEMPERATURE_REMEDY",
-    "check_coarse",
-    "check_source",
+    "REMEDIES",
     "open_readings",
-    "refuse_coarse",
     "checked_calibration",
     "flag_summary",
     "reading_input_options",
@@ -37,54 +32,18 @@ FILE_TEMPERATURE_REMEDY = (
 )
 #: how to give the coarse frequencies, as the messages say it
 COARSE_OPTIONS = "pass --coarse COL or --coarse-frequency VALUE"
-
-
-def check_coarse(calibration, cal_path, stream, coarse_hz) -> None:
-    """A calibration that needs a coarse frequency per reading (``"coarse_hz"`` in its
-    ``requires``: a calibration set, a wide-band calibration) gets it from a column or
-    --coarse-frequency."""
-    if "coarse_hz" not in calibration.requires:
-        return
-    if stream.coarse_column is not None or coarse_hz is not None:
-        return
-    parts = calibration.parts()
-    if parts:
-        low = min(part.range_hz[0] for part in parts)
-        high = max(part.range_hz[1] for part in parts)
-        kind = parts[0].kind
-        raise InputError(
-            f"{cal_path} is a {calibration.method_label} calibration ({len(parts)} {kind}s, "
-            f"{low / 1e12:.6f} to {high / 1e12:.6f} THz): it needs a coarse frequency per "
-            f"reading to pick the {kind}; {COARSE_OPTIONS}"
-        )
-    low, high = calibration.span_hz_
-    raise InputError(
-        f"{cal_path} is a {calibration.method_label} calibration ({low / 1e12:.6f} to "
-        f"{high / 1e12:.6f} THz, FSR {calibration.fsr_hz_ / 1e9:.6f} GHz): it needs a coarse "
-        "frequency per reading, within half an FSR of the truth (e.g. the laser set point), "
-        f"to pick the fringe order; {COARSE_OPTIONS}"
-    )
-
-
-def check_source(calibration, cal_path, source, coarse_hz, temperature_k, *, ports_given, remedy):
-    """What the readings ``source`` (a stream or a header) offers fits the calibration: its
-    ports, a temperature when it needs one (``remedy``: how to give it, for the message), a
-    coarse frequency when it needs one."""
-    check_ports(calibration, cal_path, source, explicit=ports_given)
-    if needs_temperature(calibration) and temperature_k is None:
-        if source.temperature_column is None:
-            raise missing_temperature(
-                f"{cal_path} is a {calibration.method_label} calibration: it",
-                source.source,
-                remedy,
-            )
-    check_coarse(calibration, cal_path, source, coarse_hz)
+#: how to give what the readings lack, by library parameter (jobs.readings)
+REMEDIES = {
+    "ports": "pass --ports with the file's columns in the calibration's order",
+    "temperature_k": FILE_TEMPERATURE_REMEDY,
+    "coarse_hz": COARSE_OPTIONS,
+}
 
 
 def open_readings(calibration, cal_path, data, request, *, coarse_hz, temperature_k, allow_invalid):
     """The readings file ``data`` (``-``: standard input) opened in chunks
     (:func:`~wavemeter.io.iter_readings`) and checked against the calibration
-    (:func:`check_source`)."""
+    (:func:`wavemeter.jobs.check_readings`, its remedies naming the options)."""
     stream = iter_readings(
         data,
         request,
@@ -93,68 +52,33 @@ def open_readings(calibration, cal_path, data, request, *, coarse_hz, temperatur
         find_temperature=needs_temperature(calibration) and temperature_k is None,
         name=STDIN_LABEL if is_stdio(data) else str(data),
     )
-    check_source(
+    check_readings(
         calibration,
-        cal_path,
         stream,
-        coarse_hz,
-        temperature_k,
+        coarse_hz=coarse_hz,
+        temperature_k=temperature_k,
         ports_given=request.ports is not None,
-        remedy=FILE_TEMPERATURE_REMEDY,
+        name=cal_path,
+        remedies=REMEDIES,
     )
     return stream
 
 
-def refuse_coarse(calibration, cal_path, coarse_column, coarse_hz) -> None:
-    """A calibration that reads absolute frequency (a cascade) takes no coarse frequency."""
-    if calibration.absolute_frequency and (coarse_column is not None or coarse_hz is not None):
-        option = "--coarse" if coarse_column is not None else "--coarse-frequency"
-        raise InputError(
-            f"{cal_path} is a {calibration.method_label} calibration: its stages read the "
-            f"absolute frequency and pick every fringe order themselves, so it has no use for a "
-            f"coarse frequency; leave {option} out"
-        )
-
-
 def checked_calibration(cal_path, coarse_column, coarse_hz, temperature_k, uncertainty, options):
     """The calibration and whether to write frequency_std_hz, after the checks of the
-    options that need no readings."""
+    options that need no readings (:func:`wavemeter.jobs.check_reading_options`)."""
     calibration = load(cal_path)
-    refuse_coarse(calibration, cal_path, coarse_column, coarse_hz)
+    check_reading_options(
+        calibration,
+        name=cal_path,
+        coarse_column=coarse_column,
+        coarse_hz=coarse_hz,
+        temperature_column=options["temperature_column"],
+        temperature_k=temperature_k,
+        uncertainty=uncertainty,
+    )
     offered = "frequency_std" in calibration.capabilities
-    if uncertainty and not offered:
-        raise InputError(
-            f"{cal_path}: --uncertainty needs a learned calibration (single or per "
-            f"FSR), not a {calibration.method_label} calibration"
-        )
-    column = options["temperature_column"]
-    check_temperature_options(calibration, cal_path, column=column, given=temperature_k)
-    if column is not None and not needs_temperature(calibration):
-        raise InputError(
-            f"--temperature names the chip temperature column for a calibration that needs "
-            f"it (a thermal calibration); {cal_path} is a "
-            f"{calibration.method_label} calibration, which does not use it: leave "
-            "--temperature out"
-        )
     return calibration, offered if uncertainty is None else uncertainty
-
-
-def flag_summary(counts: dict[str, int], flagged: int, rows: int) -> str:
-    """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2`` (a reading may have
-    several bits, so the counts can add up to more than the readings flagged).
-
-    Parameters
-    ----------
-    counts : dict of str to int
-        Readings with each flag bit, by bit name (bits no reading has left out).
-    flagged : int
-        Readings with any bit.
-    rows : int
-        Readings measured.
-    """
-    text = f"flagged {flagged} of {rows} readings"
-    listed = ", ".join(f"{name} {count}" for name, count in counts.items())
-    return f"{text}: {listed}" if listed else text
 
 
 def reading_input_options(command):

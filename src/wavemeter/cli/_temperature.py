@@ -15,6 +15,7 @@ import click
 import numpy as np
 
 from ..exceptions import InputError
+from ..jobs.readings import TEMPERATURE_COLUMN_NAMES, check_reading_options, needs_temperature
 from ._params import TEMPERATURE
 
 __all__ = [
@@ -25,14 +26,6 @@ __all__ = [
     "reading_temperature_k",
     "TEMPERATURE_COLUMN_NAMES",
 ]
-
-#: what a temperature column found by name looks like, for messages
-TEMPERATURE_COLUMN_NAMES = "names like temperature_K, temp_C or 'Temp (C)', unit in the name"
-
-
-def needs_temperature(calibration) -> bool:
-    """Whether ``calibration`` (fitted or not) needs the chip temperature of each reading."""
-    return "temperature_k" in calibration.requires
 
 
 def temperature_k_option(help_text: str, *, multiple: bool = False):
@@ -68,12 +61,7 @@ def check_temperature_options(calibration, what: str, *, column, given) -> None:
             "--temperature COL and --temperature-k both give the chip temperature; give the "
             "column or the value, not both"
         )
-    if given_any and not needs_temperature(calibration):
-        raise InputError(
-            f"--temperature-k gives the chip temperature to a calibration that needs it (a "
-            f"thermal calibration); {what} is a {calibration.method_label} calibration, which "
-            "does not use it: leave --temperature-k out"
-        )
+    check_reading_options(calibration, name=what, temperature_k=given)
 
 
 def missing_temperature(needed_by: str, source, remedy: str) -> InputError:

@@ -51,6 +51,7 @@ COMMANDS = {
     "design": "Choose the fewest cascade stages that read a band at a wrong-order rate.",
     "fleet": "Calibrate many devices (a wafer) in parallel on dask: summary and wafer map.",
     "noise": "Frequency noise, linewidth and Allan deviation of a laser from its readings.",
+    "serve": "The live instrument: publish readings to many clients, log, metrics, dashboard.",
 }
 
 
@@ -105,6 +106,7 @@ OPTION_OF_PARAMETER = {
     "allow_invalid": "--drop-invalid",
     "monitor": "--monitor",
     "temperature": "--temperature",
+    "temperature_k": "--temperature-k",
     "temperature_std_k": "--temperature-std-k",
     "coarse": "--coarse",
     "coarse_hz": "--coarse-frequency",
@@ -126,6 +128,10 @@ OPTION_OF_PARAMETER = {
     "max_order_error": "--max-order-error",
     "delimiter": "--delimiter",
     "decimal": "--decimal",
+    "per_fsr": "--per-fsr",
+    "dark_w": "--dark-w",
+    "dark_file": "--dark",
+    "uncertainty": "--uncertainty",
 }
 _OPTION_IN_COMMAND = {
     "simulate": {"x_unit": "--write-axis-unit", "power_unit": "--write-power-unit"},
@@ -154,11 +160,13 @@ def _command_name(argv) -> str | None:
 
 def _option_hint(exc: Exception, message: str, command_name: str | None) -> str:
     """`` (use --force)`` or `` (fsr_tolerance: --fsr-tolerance, fsr_hz: --fsr)``: the
-    options of the running command that set the parameters the error is about."""
+    options of the running command that set the parameters the error is about (those the
+    message does not name already)."""
     if command_name not in COMMANDS:
         return ""
     command = cli.get_command(None, command_name)
-    flags = {flag for param in command.params for flag in getattr(param, "opts", ())}
+    commands = [command, *getattr(command, "commands", {}).values()]  # a group's too
+    flags = {flag for each in commands for param in each.params for flag in param.opts}
     parameter = getattr(exc, "parameter", None)
     found = {
         name: match.start()
@@ -173,6 +181,7 @@ def _option_hint(exc: Exception, message: str, command_name: str | None) -> str:
         f"{name}: {options[name]}" if name in named else f"use {options[name]}"
         for name in wanted
         if options.get(name) in flags
+        and not re.search(rf"(?<![\w-]){re.escape(options[name])}(?![\w-])", message)
     ]
     return f" ({', '.join(parts)})" if parts else ""
 
@@ -211,6 +220,12 @@ class WarningsRefused(Exception):
         self.consequence = consequence
 
 
+class Refused(Exception):
+    """A result a command was told to refuse (``--strict``) for what it found in the input
+    (readings the calibration cannot read); nothing was written. :func:`main` prints its
+    ``error:`` line and returns exit code 3."""
+
+
 #: calibration-warning cause -> the command-line options of its remedy (the library's
 #: messages name parameters: power_monitor_w, dark_w, retrieval, CalibrationSet)
 OPTIONS_OF_CAUSE = {
@@ -229,6 +244,7 @@ OPTIONS_OF_CAUSE = {
 #: order; a misfit no cause explains over many FSRs: the wide-band calibration)
 OPTIONS_OF_REMEDY_NAME = {
     "phase_order": "--phase-order",
+    "map_order": "--map-order",
     "WidebandCalibrator": "--method wideband (or --per-fsr)",
 }
 
@@ -239,7 +255,7 @@ def warning_text(warning: Warning) -> str:
     cause = getattr(warning, "cause", "other_misfit")
     remedy = getattr(warning, "remedy", "")
     named = [option for name, option in OPTIONS_OF_REMEDY_NAME.items() if name in remedy]
-    hint = named[0] if named else OPTIONS_OF_CAUSE.get(cause)
+    hint = ", ".join(named) if named else OPTIONS_OF_CAUSE.get(cause)
     return f"[{cause}] {warning}" + (f" (options: {hint})" if hint else "")
 
 
@@ -295,7 +311,7 @@ def _signals_end_the_command():
 
 def main(argv=None) -> int:
     """Run the command line; return the exit code (0 ok, 2 user error, 3 calibration
-    warnings refused by ``--strict``, 130 interrupted)."""
+    warnings or unreadable readings refused by ``--strict``, 130 interrupted)."""
     # Our products are skinny (readings x 3): OpenBLAS threads only add start-up and, on a
     # busy machine, spin against each other (a 2000-sample fit 10x slower). One thread,
     # unless the user chose; set before numpy loads (no command has imported it yet).
@@ -315,6 +331,9 @@ def main(argv=None) -> int:
     except WarningsRefused as exc:
         for warning in exc.refused:
             click.echo(_error_line(f"{warning_text(warning)} ({exc.consequence})"), err=True)
+        return EXIT_WARNINGS_REFUSED
+    except Refused as exc:
+        click.echo(_error_line(str(exc)), err=True)
         return EXIT_WARNINGS_REFUSED
     except (WavemeterError, OSError) as exc:
         from ._common import error_text

@@ -12,7 +12,9 @@ from pathlib import Path
 
 import click
 
+from ..calibration.contract.flags import flag_summary
 from ..exceptions import InputError
+from ..jobs.readings import check_reading_options
 from ._common import (
     PORT_PHASES,
     QUIET,
@@ -50,7 +52,7 @@ def _other_method(calibration, sweep, options, phases):
 #: or was fitted over several FSRs (a one-FSR sweep stops one step short of the FSR)
 SPAN_OVER_FSR_LIMIT = 1.05
 ERROR_HEADER = ("RMS MHz", "max MHz", "p95 MHz", "p99 MHz", "RMS/CRLB")
-FSR_HEADER = ("RMS mod FSR MHz", "RMS/CRLB", "FSR GHz", "outside span", "gross error")
+FSR_HEADER = ("RMS mod FSR MHz", "RMS/CRLB", "FSR GHz", "truth outside span", "gross error")
 
 
 def _percent(fraction: float) -> str:
@@ -135,6 +137,10 @@ def _print_evaluation(report: dict, calibrations: dict, checks: dict) -> None:
             f"from the calibration residual of {report['crlb_method']}, its map taken as the "
             "true one)",
         )
+    for label, stats in methods.items():
+        if stats["flagged_readings"]:
+            flagged = flag_summary(stats["flagged"], stats["flagged_readings"], report["samples"])
+            say(False, f"{label}: {flagged}")
     for line in _check_lines(checks):
         say(False, line)
     users = _coarse_users(calibrations)
@@ -336,12 +342,8 @@ def evaluate(
                 f"{calibration_file} names none ({exc}): leave --sweep out, or pass another "
                 "calibration file with --compare"
             ) from exc
-    if coarse_column is not None and calibration.absolute_frequency and not compare_files:
-        raise InputError(
-            f"{calibration_file} is a {calibration.method_label} calibration: it reads the "
-            "absolute frequency and picks every fringe order itself, so it has no use for a "
-            "coarse frequency; leave --coarse out"
-        )
+    if coarse_column is not None and not compare_files:
+        check_reading_options(calibration, name=str(calibration_file), coarse_column=coarse_column)
     request = column_request(options, coarse=coarse_column)
     table = read(
         test,
@@ -357,6 +359,14 @@ def evaluate(
         other = load(path)
         check_ports(other, path, table, explicit)
         calibrations.setdefault(f"{other.method_label} ({Path(path).name})", other)
+    if coarse_column is not None and not any(
+        "coarse_hz" in each.requires for each in calibrations.values()
+    ):
+        raise InputError(
+            "coarse names a coarse-frequency column, and none of the calibrations evaluated "
+            "uses one (a set of windows or a wide band does): leave coarse out",
+            parameter="coarse",
+        )
     if sweep is not None:
         other = _other_method(calibration, sweep, options, port_phases_rad(port_phases_deg))
         calibrations[f"{other.method_label} (fitted on {Path(sweep).name})"] = other

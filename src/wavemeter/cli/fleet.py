@@ -7,9 +7,15 @@ running dask scheduler with ``--scheduler ADDRESS``, or in this process with
 ``<device>.wmcal.json`` per device, ``summary.csv`` and ``summary.parquet`` (one row per
 device) and ``fleet.html``.
 
-A device that fails is a row of the summary with its error; the others go on. When the run
-completes and some devices failed, one ``warning:`` line says how many (exit code 0); when
-none calibrated, an ``error:`` line (exit code 2). A second run skips the devices already
+Every device is calibrated by the job ``wavemeter calibrate`` runs
+(:func:`wavemeter.jobs.calibrate_file`), with the same method options: its calibration file
+is the one ``calibrate`` writes of the same sweep with the same options, but for the fields
+:data:`wavemeter.jobs.calibrate.DIFFERING_FIELDS` names (the time it was written, the sweep
+file as named).
+
+A device that fails is a row of the summary with its error; the others go on. When the
+run completes and some devices failed, one ``warning:`` line says how many (exit code 0);
+when none calibrated, an ``error:`` line (exit code 2). A second run skips the devices already
 calibrated with the same options (resume); ``--force`` recalibrates every one. Ctrl-C
 stops the run (exit code 130): the calibrations written stay, each complete, and no
 summary is written.
@@ -24,11 +30,9 @@ import click
 from ..exceptions import InputError
 from ..fleet import calibrate_fleet
 from ..progress import progress_bar
-from ._common import FSR, QUIET, column_options, column_request, one_line, printable, say, setting
+from ._common import QUIET, column_options, column_request, one_line, printable, say
 from ._data_files import data_files, names_many_files
-
-#: the methods a fleet calibrates with (one design FSR, nothing but the sweep file)
-METHODS = ("learned", "conventional", "wideband", "thermal")
+from ._methods import calibrate_options, method_options
 
 
 def _sweep_files(sweeps) -> list:
@@ -38,19 +42,6 @@ def _sweep_files(sweeps) -> list:
     for sweep in sweeps:
         files += data_files(sweep) if names_many_files(sweep) else [sweep]
     return files
-
-
-def _check_method_options(method: str, fsr_tolerance, retrieval) -> None:
-    """``--fsr-tolerance`` and ``--retrieval`` only for a method that has them."""
-    from ..calibration import registered
-
-    settings = registered()[method]().get_params()
-    for option, name, value in (
-        ("--fsr-tolerance", "fsr_tolerance", fsr_tolerance),
-        ("--retrieval", "retrieval", retrieval),
-    ):
-        if value is not None and name not in settings:
-            raise InputError(f"--method {method} has no {option}: leave {option} out")
 
 
 def _workers(workers, scheduler):
@@ -84,25 +75,7 @@ def fleet():
     help="Output folder (created if missing): <device>.wmcal.json, summary.csv, "
     "summary.parquet, fleet.html.",
 )
-@click.option(
-    "--method",
-    type=click.Choice(METHODS),
-    default="learned",
-    show_default=True,
-    help="Calibration method of every device, as in calibrate (thermal: from each file's "
-    "temperature column).",
-)
-@setting("--fsr", "50GHz", FSR, "Design FSR of every device: 50GHz, '49.69 GHz'.")
-@click.option(
-    "--fsr-tolerance",
-    type=click.FloatRange(0, 1, min_open=True, max_open=True),
-    help="Relative half width of the FSR search (default 0.2; not for conventional).",
-)
-@click.option(
-    "--retrieval",
-    type=click.Choice(("pinv", "ml")),
-    help="Phase retrieval, as in calibrate (default pinv; not for conventional).",
-)
+@method_options
 @click.option(
     "--scheduler",
     metavar="ADDRESS",
@@ -118,15 +91,16 @@ def fleet():
 @column_options()
 @click.option("--force", is_flag=True, help="Recalibrate every device and replace its calibration.")
 @QUIET
-def calibrate(
-    sweeps, out_dir, method, fsr, fsr_tolerance, retrieval, scheduler, workers, force, **options
-):
+def calibrate(sweeps, out_dir, scheduler, workers, force, **options):
     """Calibrate every device (one sweep file each) into OUTDIR, in parallel.
 
     DIR_OR_GLOB is a folder (its data files), a quoted glob pattern ('wafer/*.csv') or a
     file; several may be given. Every device is named by its file's stem (die_x03_y12.csv
     is device die_x03_y12; names must be unique); x/y in the name place it on the wafer
-    map. The devices share the method, FSR and column options.
+    map. The devices share the method, its settings and the column options, as calibrate
+    takes them (a thermal device's temperature from its file's temperature column); each
+    device's calibration file is the one calibrate writes of its sweep with the same
+    options, but for the time it was written and the sweep file as named.
 
     \b
     Example:
@@ -135,7 +109,9 @@ def calibrate(
       wavemeter fleet calibrate wafer7/ -o wafer7-cal --scheduler tcp://10.0.0.5:8786
     """
     quiet = options["quiet"]
-    _check_method_options(method, fsr_tolerance, retrieval)
+    job, check = calibrate_options(
+        options, request=column_request(options), drop_invalid=options["drop_invalid"]
+    )
     files = _sweep_files(sweeps)
 
     def progress(description, total, unit):
@@ -148,12 +124,8 @@ def calibrate(
         scheduler=scheduler,
         force=force,
         progress=progress,
-        method=method,
-        fsr_hz=fsr,
-        fsr_tolerance=fsr_tolerance,
-        retrieval=retrieval,
-        request=column_request(options),
-        drop_invalid=options["drop_invalid"],
+        options=job,
+        check=check,
     )
     total = len(result.rows)
     say(

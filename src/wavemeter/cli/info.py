@@ -35,6 +35,13 @@ _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
 _DELIMITERS = re.compile(r"[,;\t]")
 #: metadata entries of the sweep line (shown there when the file names its sweep)
 _SWEEP = {"sweep_file", "rows", "rows_per_file", "x_column", "x_unit", "port_units"}
+#: labels of the other entries the package writes (a user's own keep their names)
+_LABELS = {
+    "dropped_rows": "dropped rows",
+    "dark_file": "dark readings",
+    "reanchor_file": "re-anchored on",
+    "sweep_file": "sweep",
+}
 #: metadata entries with lines of their own (the rest follow, one per line)
 _OWN_LINES = {
     "port_columns",
@@ -103,6 +110,26 @@ def _sweep_files(value) -> str:
     return str(value)
 
 
+def _options_text(record) -> str:
+    """What ``calibrate_options`` adds to the settings line: the method, per FSR or not,
+    the columns asked for, invalid rows, the dark readings and the temperatures given."""
+    if not isinstance(record, dict):
+        return str(record)
+    request = record.get("request") if isinstance(record.get("request"), dict) else {}
+    asked = ", ".join(f"{key} {value}" for key, value in request.items() if value)
+    dark = record.get("dark_file") or record.get("dark_w")
+    parts = [
+        f"method {record.get('method')}",
+        f"per FSR {'yes' if record.get('per_fsr') else 'no'}",
+        f"columns {asked or 'found by name'}",
+        f"invalid rows {'skipped' if record.get('drop_invalid') else 'refused'}",
+        f"dark readings {dark}" if dark else "no dark readings",
+    ]
+    if record.get("temperature_k"):
+        parts.append(f"temperatures given {_temperatures_text(record['temperature_k'])}")
+    return "; ".join(parts)
+
+
 def metadata_lines(metadata: dict) -> list[str]:
     """Every entry of a calibration file's metadata: where the sweep came from and how
     its columns were read, then any other notes."""
@@ -147,9 +174,22 @@ def metadata_lines(metadata: dict) -> list[str]:
         lines.append(_line("temperature", f"{span[0]:.6g} to {span[1]:.6g} K ({source})"))
     else:
         lines.append(_line("temperature", "not recorded"))
+    if "crlb_rms_hz" in metadata:
+        crlb = metadata["crlb_rms_hz"]
+        text = (
+            f"{crlb / 1e6:.5g} MHz RMS (the Cramer-Rao bound)"
+            if _is_number(crlb)
+            else "none (the method states no bound)"
+        )
+        lines.append(_line("sweep CRLB", text))
+        shown.add("crlb_rms_hz")
+    if "calibrate_options" in metadata:
+        lines.append(_line("options", _options_text(metadata["calibrate_options"])))
+        shown.add("calibrate_options")
     for key, value in metadata.items():
         if key not in shown:
-            lines.append(_line(str(key), value))
+            label = _LABELS.get(key, str(key))
+            lines.append(_line(label, "none" if value is None else _sweep_files(value)))
     return lines
 
 

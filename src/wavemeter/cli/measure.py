@@ -32,7 +32,7 @@ import click
 from ..atomic import check_output
 from ..exceptions import InputError, WavemeterError
 from ..io.formats import FILE_FORMATS
-from ..jobs import measure_file
+from ..jobs import ReadingsRefused, measure_file
 from ..progress import progress_bar
 from ._common import (
     FORCE,
@@ -51,6 +51,7 @@ from ._common import (
 from ._data_files import data_files, names_many_files
 from ._readings import checked_calibration, flag_summary, open_readings, reading_input_options
 from ._streams import is_stdio
+from .app import Refused
 
 
 @click.command()
@@ -75,6 +76,13 @@ from ._streams import is_stdio
     help="Write frequency_std_hz, each reading's standard deviation with the calibration's own "
     "uncertainty (default: when the calibration gives it, learned calibrations).",
 )
+@click.option(
+    "--strict",
+    is_flag=True,
+    help="Refuse a file in which some reading cannot be read (a coarse value outside the "
+    "calibrated range, no light, an invalid row...): exit code 3 and no output, instead of "
+    "NaN and the flags that say why in those rows.",
+)
 @column_options(axis=False)
 @FORCE
 @QUIET
@@ -88,6 +96,7 @@ def measure(
     coarse_hz,
     temperature_k,
     uncertainty,
+    strict,
     force,
     **options,
 ):
@@ -101,7 +110,9 @@ def measure(
     the --keep columns. A cascade calibration adds order_error_probability (unit-less,
     before flags): the probability that some stage picked a wrong fringe order, which flags
     ORDER_AMBIGUOUS above the calibration's --max-order-error. Rows skipped with
-    --drop-invalid are written as NaN with the INVALID flag.
+    --drop-invalid are written as NaN with the INVALID flag. A reading the calibration
+    cannot read is written as NaN with the flags that say why, and costs no other reading;
+    --strict refuses such a file instead (exit code 3, no output).
     DATA '-' is read from stdin; with -o - the table goes to stdout (CSV unless --format)
     and messages to stderr. An existing output is replaced only with --force. The file
     is read, measured and written in chunks: the memory does not grow with the file, and
@@ -137,6 +148,7 @@ def measure(
         "coarse_hz": coarse_hz,
         "temperature_k": temperature_k,
         "uncertainty": uncertainty,
+        "errors": "raise" if strict else "coerce",
         "options": options,
     }
     if names_many_files(data):
@@ -146,7 +158,10 @@ def measure(
         out_path, file_format, inputs=(calibration_file, data), force=force
     )  # before any work
     calibration, settings["uncertainty"] = checked_calibration(*calibration_check, options)
-    summary = _measure_one(calibration, calibration_file, data, out_path, file_format, settings)
+    try:
+        summary = _measure_one(calibration, calibration_file, data, out_path, file_format, settings)
+    except ReadingsRefused as exc:
+        raise Refused(str(exc)) from None
     err = is_stdio(out_path)
     written = "stdout" if err else out_path
     say(quiet, f"wrote {written} ({summary.rows} rows)", err=err)
@@ -175,10 +190,12 @@ def _measure_one(calibration, cal_path, data, out_path, file_format, settings, *
         calibration,
         stream,
         out_path,
+        request=request,
         file_format=file_format,
         coarse_hz=settings["coarse_hz"],
         temperature_k=settings["temperature_k"],
         uncertainty=settings["uncertainty"],
+        errors=settings["errors"],
         progress=progress,
     )
     if summary.invalid_rows:
@@ -234,7 +251,7 @@ def _measure_many(cal_path, data, out_dir, file_format, force, settings) -> None
     )
     settings = {**settings, "uncertainty": uncertainty}
     Path(out_dir).mkdir(exist_ok=True)
-    failed = 0
+    failed = refused = 0
     description = printable(f"measuring {len(files)} files into {out_dir}")
     with progress_bar(description, len(files), quiet=quiet, unit="files") as advance:
         for path, output in zip(files, outputs, strict=True):
@@ -243,15 +260,20 @@ def _measure_many(cal_path, data, out_dir, file_format, force, settings) -> None
                     calibration, cal_path, path, output, file_format or "csv", settings, bar=False
                 )
             except (WavemeterError, OSError) as exc:  # one error line, as main() prints it
-                failed += 1
+                if isinstance(exc, ReadingsRefused):
+                    refused += 1
+                else:
+                    failed += 1
                 click.echo(one_line("error: ", error_text(exc)), err=True)
             else:
                 say(quiet, f"wrote {output} ({summary.rows} rows)")
                 say(quiet, flag_summary(summary.flag_counts, summary.flagged, summary.rows))
             advance(1)
-    say(quiet, f"measured {len(files) - failed} of {len(files)} files into {out_dir}")
+    say(quiet, f"measured {len(files) - failed - refused} of {len(files)} files into {out_dir}")
     if failed:  # the command's own error line, exit code 2
-        raise InputError(f"{failed} of {len(files)} files failed (see above)")
+        raise InputError(f"{failed + refused} of {len(files)} files failed (see above)")
+    if refused:  # --strict: exit code 3
+        raise Refused(f"--strict refused {refused} of {len(files)} files (see above)")
 
 
 command = measure

@@ -193,6 +193,7 @@ def _measured(calibration, cal_path, readings, settings, options):
     series = measure_series(
         calibration,
         stream,
+        request=request,
         rate_hz=settings["rate_hz"],
         time_column=time_column,
         coarse_hz=settings["coarse_hz"],

@@ -53,12 +53,26 @@ def _check_frequency_options(frequency_hz, x_column, x_unit) -> None:
         raise InputError("--x-unit is the unit of --x COL; with --frequency it has no use")
 
 
+def _check_line(check: dict) -> str:
+    """How the reference readings scattered: the verdict and the largest scatter ratio."""
+    tested = [line for line in check["lines"] if line["p_value"] is not None]
+    if not tested:
+        return f"reference check {check['verdict']} (no line with two readings)"
+    ratio = max(line["scatter_ratio"] for line in tested)
+    return (
+        f"reference check {check['verdict']} (scatter {ratio:.3g} times the calibration's "
+        f"noise at most, p = {check['p_value']:.3g})"
+    )
+
+
 def _change_lines(record: dict) -> list[str]:
-    """What one re-anchoring record changed: phase shift, delay."""
+    """What one re-anchoring record changed: phase shift, delay; the reference check."""
     lines = [
         f"phase shift {record['phase_shift_rad']:+.6f} rad (std "
         f"{record['phase_shift_std_rad']:.2g} rad)"
     ]
+    if record.get("reference_check") is not None:
+        lines.append(_check_line(record["reference_check"]))
     if record["delay_change_s"] is None:
         lines.append("delay kept")
     else:
@@ -121,9 +135,12 @@ def reanchor(calibration_file, readings, out_path, frequency_hz, temperature_k, 
     row, unit from the name or --x-unit). Needs a learned calibration, single or per FSR
     (a window without lines gets its shift interpolated), or a thermal one, which also
     needs the chip temperature of each reading: a temperature column (found by name with
-    its unit, or --temperature COL) or --temperature-k for the file. The new file keeps the
-    original's metadata; it must not exist unless --force is given, and is never CAL or
-    READINGS.
+    its unit, or --temperature COL) or --temperature-k for the file. The readings of each
+    line must scatter like one line at the calibration's noise (an F test): readings far
+    beyond it (a sweep or a test file given one --frequency) are refused, a line read with
+    more scatter than the calibration's noise is warned; the check is kept in the file. The
+    new file keeps the original's metadata; it must not exist unless --force is given, and
+    is never CAL or READINGS.
 
     \b
     Example:
@@ -141,10 +158,12 @@ def reanchor(calibration_file, readings, out_path, frequency_hz, temperature_k, 
     content = read_calibration(calibration_file)
     calibration = content.calibrator
     if "reanchor" not in calibration.capabilities:
+        from ..jobs.calibrator import methods_offering
+
         raise InputError(
             f"{calibration_file}: a {calibration.method_label} calibration cannot be "
-            "re-anchored; re-anchoring needs a learned calibration (single or per FSR) or a "
-            "thermal one"
+            "re-anchored (no 'reanchor' among its capabilities); the methods that can: "
+            f"{', '.join(methods_offering('reanchor'))}"
         )
     check_temperature_options(
         calibration, calibration_file, column=options["temperature_column"], given=temperature_k

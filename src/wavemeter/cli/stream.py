@@ -18,9 +18,9 @@ import sys
 
 import click
 
-from ..jobs import follow_lines, stream_lines
+from ..jobs import check_readings, follow_lines, stream_lines
 from ._common import QUIET, column_options, column_request, say
-from ._readings import check_source, checked_calibration, flag_summary, reading_input_options
+from ._readings import REMEDIES, checked_calibration, flag_summary, reading_input_options
 from ._streams import STDIN_LABEL
 
 #: exit code of a stream ended by Ctrl-C (128 + SIGINT), as a shell reports it
@@ -81,14 +81,17 @@ def stream(calibration_file, follow_path, coarse_column, coarse_hz, temperature_
         lines = follow_lines(follow_path)
 
     def check(header) -> None:
-        check_source(
+        check_readings(
             calibration,
-            calibration_file,
             header,
-            coarse_hz,
-            temperature_k,
+            coarse_hz=coarse_hz,
+            temperature_k=temperature_k,
             ports_given=request.ports is not None,
-            remedy="pass --temperature COL, or --temperature-k T for every reading",
+            name=calibration_file,
+            remedies={
+                **REMEDIES,
+                "temperature_k": "pass --temperature COL, or --temperature-k T for every reading",
+            },
         )
 
     try:

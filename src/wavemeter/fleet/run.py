@@ -9,6 +9,10 @@ each device's ``<device>.wmcal.json`` as its result arrives, then ``summary.csv`
 place). So OUTDIR need only be writable here, a task cancelled on a worker can write
 nothing, and no file is ever half-written.
 
+Every device is calibrated by :func:`wavemeter.jobs.calibrate_file`, the job ``wavemeter
+calibrate`` runs: its file is the one ``calibrate`` writes of the same sweep with the same
+options, apart from ``DIFFERING_FIELDS`` (:mod:`wavemeter.jobs.calibrate`).
+
 Resume: a device whose calibration file exists, loads and was made with the same options
 (its metadata's ``calibrate_options``) is not calibrated again; its row is read from the
 file (``resumed``). A file that does not load or was made with other options is a failed
@@ -37,7 +41,7 @@ from pathlib import Path
 from ..atomic import check_output
 from ..exceptions import FileFormatError, InputError
 from ..jobs.calibrate import ERROR, DeviceResult, calibrate_device, saved_result
-from ..jobs.calibrate import calibrate_options as options_record
+from ..jobs.calibrator import CalibrateOptions, build_calibrator, options_record
 from .page import write_page
 from .summary import write_summary
 
@@ -71,6 +75,33 @@ class FleetResult:
         The output folder.
     summary_csv, summary_parquet, page : Path
         The summary files and the HTML page written in it.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.fleet import calibrate_fleet
+    >>> from wavemeter.io import write_table
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> paths = []
+    >>> for seed, name in ((7, "die_x01_y02"), (8, "die_x02_y02")):  # two chips of a wafer
+    ...     device = wm.Interferometer.table1(ports=3, seed=seed)
+    ...     f_hz = device.sweep_hz(200)
+    ...     powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    ...     columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    ...     write_table(folder / f"{name}.csv", columns)
+    ...     paths.append(folder / f"{name}.csv")
+    >>> fleet = calibrate_fleet(paths, folder / "out", workers=0, fsr_hz=50e9)  # in-process
+    >>> fleet.summary_csv.name, fleet.page.name
+    ('summary.csv', 'fleet.html')
+
+    Each row is a device's DeviceResult: both chips read near the Cramer-Rao bound:
+
+    >>> for row in fleet.rows:
+    ...     print(row.device, f"FSR {row.fsr_hz / 1e9:.2f} GHz, {row.crlb_ratio:.2f} x the bound")
+    die_x01_y02 FSR 51.51 GHz, 1.00 x the bound
+    die_x02_y02 FSR 57.03 GHz, 1.06 x the bound
     """
 
     rows: tuple[DeviceResult, ...]
@@ -157,6 +188,15 @@ def _check_workers(client, workers, scheduler) -> None:
         )
 
 
+def _flat(record) -> dict:
+    """A ``calibrate_options`` record with the calibrator's settings among the others."""
+    if not isinstance(record, dict):
+        return {}
+    settings = record.get("settings")
+    rest = {name: value for name, value in record.items() if name != "settings"}
+    return {**settings, **rest} if isinstance(settings, dict) else rest
+
+
 def _resumed(output: Path, source: Path, options: dict) -> DeviceResult:
     """The row of a device whose calibration file exists: resumed, or why not."""
     try:
@@ -170,7 +210,7 @@ def _resumed(output: Path, source: Path, options: dict) -> DeviceResult:
         )
     saved = result.metadata.get("calibrate_options")
     if saved != options:
-        saved = saved if isinstance(saved, dict) else {}
+        saved, options = _flat(saved), _flat(options)
         differ = ", ".join(
             f"{name} {saved.get(name)!r} (now {options.get(name)!r})"
             for name in dict.fromkeys([*options, *saved])
@@ -216,12 +256,12 @@ def _interrupts_ignored():
         signal.signal(signal.SIGINT, previous)
 
 
-def _run_serial(tasks, options: dict, done: Callable) -> None:
+def _run_serial(tasks, job: dict, done: Callable) -> None:
     for index, path in tasks:
-        done(index, calibrate_device(path, **options))
+        done(index, calibrate_device(path, **job))
 
 
-def _run_dask(tasks, options: dict, done: Callable, client, workers, scheduler) -> None:
+def _run_dask(tasks, job: dict, done: Callable, client, workers, scheduler) -> None:
     """One task per device on ``client``, or on a client of ``scheduler``, or of a new
     LocalCluster of ``workers`` processes (one thread each; None: one per core);
     ``done(index, result)`` as each completes. On any exception, also an interrupt, the
@@ -248,8 +288,7 @@ def _run_dask(tasks, options: dict, done: Callable, client, workers, scheduler) 
                 )
             client = stack.enter_context(distributed.Client(cluster))
         futures = {
-            client.submit(calibrate_device, path, pure=False, **options): index
-            for index, path in tasks
+            client.submit(calibrate_device, path, pure=False, **job): index for index, path in tasks
         }
         try:
             for future in distributed.as_completed(futures):
@@ -268,6 +307,8 @@ def calibrate_fleet(
     scheduler: str | None = None,
     force: bool = False,
     progress: Callable | None = None,
+    options: CalibrateOptions | None = None,
+    check: Callable | None = None,
     **calibrate_options,
 ) -> FleetResult:
     """Calibrate every device of a fleet from its sweep file, in parallel.
@@ -295,10 +336,14 @@ def calibrate_fleet(
         ``progress(description, total, unit=...)`` returning a context manager that yields
         ``advance(steps)`` (as :func:`wavemeter.progress.progress_bar`); advanced by one
         for every device calibrated. None: silent.
+    options : CalibrateOptions, optional
+        What to calibrate every device with (:func:`wavemeter.jobs.calibrate_file`); or
     **calibrate_options
-        As :func:`wavemeter.jobs.calibrate_file` takes them: ``method``, ``fsr_hz``,
-        ``fsr_tolerance``, ``retrieval``, ``request``, ``drop_invalid`` and further
-        settings of the method's calibrator.
+        its fields and the method's settings as keywords: ``method``, ``fsr_hz``,
+        ``fsr_tolerance``, ``retrieval``, ``request``, ``drop_invalid``, ``phase_order``...
+    check : callable, optional
+        ``check(layout)`` of each device's sweep, as :func:`wavemeter.jobs.calibrate_file`
+        takes it (run on the workers: what it raises fails the device).
 
     Returns
     -------
@@ -314,13 +359,47 @@ def calibrate_fleet(
         A device that fails is a row with ``status="error"``, not an error.
     KeyboardInterrupt
         Raised again after cancelling the remaining tasks; no summary is written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import wavemeter as wm
+    >>> from wavemeter.fleet import calibrate_fleet
+    >>> from wavemeter.io import write_table
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> paths = []
+    >>> for seed, name in ((7, "die_x01_y02"), (8, "die_x02_y02")):  # two chips of a wafer
+    ...     device = wm.Interferometer.table1(ports=3, seed=seed)
+    ...     f_hz = device.sweep_hz(200)
+    ...     powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    ...     columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    ...     write_table(folder / f"{name}.csv", columns)
+    ...     paths.append(folder / f"{name}.csv")
+    >>> fleet = calibrate_fleet(paths, folder / "out", workers=0, fsr_hz=50e9)  # in-process
+    >>> [(row.device, row.status) for row in fleet.rows]
+    [('die_x01_y02', 'ok'), ('die_x02_y02', 'ok')]
+    >>> for path in sorted(fleet.out_dir.iterdir()):  # a calibration per device, the summaries
+    ...     print(path.name)
+    die_x01_y02.wmcal.json
+    die_x02_y02.wmcal.json
+    fleet.html
+    summary.csv
+    summary.parquet
     """
     from ..io.parquet import require_pyarrow
 
     _check_workers(client, workers, scheduler)
     sources = _sources(paths)
     folder = _out_folder(out_dir)
-    options = options_record(**calibrate_options)
+    if options is None:
+        options = CalibrateOptions.from_keywords(**calibrate_options)
+    elif calibrate_options:
+        raise InputError(
+            f"give the options or keywords, not both (got {', '.join(calibrate_options)})",
+            parameter="options",
+        )
+    record = options_record(options, build_calibrator(options))
     require_pyarrow("writing")
     outputs = [folder / f"{path.stem}{CALIBRATION_SUFFIX}" for path in sources]
     summary = [folder / name for name in (SUMMARY_CSV, SUMMARY_PARQUET, PAGE)]
@@ -332,7 +411,7 @@ def calibrate_fleet(
     tasks = []
     for index, (source, output) in enumerate(zip(sources, outputs, strict=True)):
         if not force and os.path.lexists(output):
-            rows[index] = _resumed(output, source, options)
+            rows[index] = _resumed(output, source, record)
         else:
             tasks.append((index, source))
     with contextlib.ExitStack() as stack:
@@ -344,17 +423,18 @@ def calibrate_fleet(
 
         def done(index: int, result: DeviceResult) -> None:
             if result.ok:
-                from ..calibration.files.document import save_calibration
+                from ..calibration import save_calibration
 
                 save_calibration(result.calibration, outputs[index], result.metadata)
             rows[index] = result
             if advance is not None:
                 advance(1)
 
+        job = {"options": options, "check": check}
         if tasks and client is None and workers == 0:
-            _run_serial(tasks, calibrate_options, done)
+            _run_serial(tasks, job, done)
         elif tasks:
-            _run_dask(tasks, calibrate_options, done, client, workers, scheduler)
+            _run_dask(tasks, job, done, client, workers, scheduler)
     rows = tuple(rows)
     write_summary(rows, summary[0], summary[1])
     write_page(rows, summary[2])

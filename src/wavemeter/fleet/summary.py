@@ -57,6 +57,12 @@ def die_position(device: str) -> tuple[int, int] | None:
     The first ``x<int>`` followed by ``y<int>`` (optionally one ``_`` or ``-`` between,
     either case, integers may be negative) that does not start inside a word; None when
     the name has none.
+
+    Examples
+    --------
+    >>> from wavemeter.fleet import die_position
+    >>> die_position("die_x03_y12"), die_position("W7-X-3Y12"), die_position("chip7")
+    ((3, 12), (-3, 12), None)
     """
     found = _POSITION.search(device)
     return None if found is None else (int(found.group(1)), int(found.group(2)))

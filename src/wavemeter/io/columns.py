@@ -31,7 +31,7 @@ __all__ = [
 
 @dataclass(frozen=True)
 class ColumnRequest:
-    """Which columns to use, their units, and how a text table's cells are written;
+    r"""Which columns to use, their units, and how a text table's cells are written;
     ``None`` means find it from the file.
 
     Parameters
@@ -60,6 +60,20 @@ class ColumnRequest:
         The decimal mark of a text table; default ``"."``, or ``","`` for a
         ``;``-separated table written with decimal commas (noted). It cannot be the
         delimiter. Refused for files of other formats.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from wavemeter.io import ColumnRequest, read_table
+    >>> path = Path(tempfile.mkdtemp()) / "scan.csv"
+    >>> _ = path.write_text("Wavelength (nm),DC CH1,DC CH2,DC CH3,ref\n1550.0,0.5,0.25,0.25,9\n")
+    >>> request = ColumnRequest(ports=["DC CH1", "DC CH2", "DC CH3"], power_unit="mW")
+    >>> table = read_table(path, request)  # the ports named, their unit given
+    >>> table.port_names, table.x_column, table.x_unit
+    (('DC CH1', 'DC CH2', 'DC CH3'), 'Wavelength (nm)', 'nm')
+    >>> print(f"{table.x_hz[0] / 1e12:.4f} THz", table.powers_w[0])
+    193.4145 THz [0.0005  0.00025 0.00025]
     """
 
     x: str | None = None
@@ -110,6 +124,14 @@ def split_unit(name: str) -> list[tuple[str, str | None]]:
     ``"Wavelength (nm)"`` -> ``[("Wavelength", "nm")]``; ``"P1_mW"`` ->
     ``[("P1_mW", None), ("P1", "mW")]``; ``"DC CH1"`` -> ``[("DC CH1", None), ("DC", "CH1")]``.
     The caller keeps the reading whose base names a role; the unit is checked when used.
+
+    Examples
+    --------
+    >>> from wavemeter.io import split_unit
+    >>> split_unit("Wavelength (nm)")
+    [('Wavelength', 'nm')]
+    >>> split_unit("P1_mW")  # a suffix may be a unit or part of the name
+    [('P1_mW', None), ('P1', 'mW')]
     """
     bracketed = _BRACKETED.match(name)
     if bracketed and bracketed.group(1):
@@ -133,7 +155,14 @@ def known_unit(unit: str | None, kind: str) -> str | None:
 
 def port_key(name: str) -> str:
     """A port column's identity without its unit: ``"Port 3 [uW]"`` and ``"port_3_mW"``
-    both give ``"port3"``. Used to match a data file's ports to a calibration's."""
+    both give ``"port3"``. Used to match a data file's ports to a calibration's.
+
+    Examples
+    --------
+    >>> from wavemeter.io import port_key
+    >>> port_key("Port 3 [uW]"), port_key("port_3_mW"), port_key("P1_W")
+    ('port3', 'port3', 'p1')
+    """
     base = name
     for reading_base, unit in split_unit(name):
         if unit is not None and (known_unit(unit, "power") or _BRACKETED.match(name)):

@@ -190,6 +190,12 @@ def table_format(path, file_format: str | None = None) -> str:
     InputError
         For an unknown format, or an extension no writer knows (``parameter`` is
         ``"file_format"``).
+
+    Examples
+    --------
+    >>> from wavemeter.io import table_format
+    >>> table_format("out.csv"), table_format("out.parquet"), table_format("out.txt", "tsv")
+    ('csv', 'parquet', 'tsv')
     """
     if file_format is not None:
         if file_format not in FORMATS:
@@ -234,6 +240,24 @@ def write_table(path, columns: dict[str, np.ndarray], file_format: str | None = 
     InputError
         For an unknown format or extension, columns of different lengths or not 1-D, a
         missing folder; nothing is written then.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import read_table
+    >>> write_table(folder / "sweep.npz", columns)  # the format from the extension
+    >>> print(np.array_equal(read_table(folder / "sweep.npz").x_hz, f_hz))  # to the last bit
+    True
     """
     writer = _BY_NAME[table_format(path, file_format)].write
     arrays = {str(name): _column_array(name, values) for name, values in columns.items()}
@@ -276,6 +300,24 @@ def table_writer(path, file_format: str | None = None) -> Iterator[Callable[[dic
     ------
     InputError
         As :func:`write_table`; also when a chunk has other columns than the first.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> from wavemeter.io import read_table, table_writer
+    >>> path = Path(tempfile.mkdtemp()) / "frequencies.csv"
+    >>> with table_writer(path) as write:  # renamed into place at the end
+    ...     for start in (0, 2):
+    ...         write({"frequency_hz": 193.4e12 + np.arange(start, start + 2) * 1e9})
+    >>> for line in path.read_text().splitlines():  # full float64 precision
+    ...     print(line)
+    frequency_hz
+    193400000000000.0
+    193401000000000.0
+    193402000000000.0
+    193403000000000.0
     """
     chosen = _BY_NAME[table_format(path, file_format)]
     if chosen.write is write_parquet:

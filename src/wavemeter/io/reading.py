@@ -38,7 +38,7 @@ def read_table(
     max_bytes: int = MAX_BYTES,
     find_temperature: bool | None = None,
 ) -> Table:
-    """Read readings from a data file, find the columns by name and convert to SI.
+    r"""Read readings from a data file, find the columns by name and convert to SI.
 
     Parameters
     ----------
@@ -83,6 +83,21 @@ def read_table(
     InputNote
         When the reader chose what ``request`` did not say: a ``;``-separated file read
         with decimal commas.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from wavemeter.io import read_table
+    >>> path = Path(tempfile.mkdtemp()) / "sweep.csv"
+    >>> rows = ["freq_THz,P1_mW,P2_mW,P3_mW", "193.40,0.5,0.25,0.25", "193.41,0.25,0.5,0.25"]
+    >>> _ = path.write_text("\n".join(rows) + "\n")
+    >>> table = read_table(path)  # columns found by name, units from the names, values in SI
+    >>> print(table.x_unit, table.x_hz, table.port_units)
+    THz [1.9340e+14 1.9341e+14] ('mW', 'mW', 'mW')
+    >>> print(table.powers_w)  # W
+    [[0.0005  0.00025 0.00025]
+     [0.00025 0.0005  0.00025]]
     """
     path = Path(path)
     request = request or ColumnRequest()

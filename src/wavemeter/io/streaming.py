@@ -105,6 +105,26 @@ def iter_readings(
         As :func:`~wavemeter.io.read_table`, every message starting with the file name;
         while iterating, for bad cells, invalid rows (unless ``allow_invalid``) and the
         whole-column checks, raised after the chunks before them were yielded.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import iter_readings
+    >>> stream = iter_readings(folder / "sweep.csv", chunk_rows=64, need_x=True)
+    >>> stream.port_names
+    ('p1_w', 'p2_w', 'p3_w')
+    >>> [chunk.powers_w.shape[0] for chunk in stream]  # 200 rows, 64 at a time
+    [64, 64, 64, 8]
     """
     if isinstance(chunk_rows, bool) or not isinstance(chunk_rows, (int, np.integer)):
         raise InputError(
@@ -149,6 +169,28 @@ class ReadingStream:
         Invalid rows among them.
     invalid_examples : list of str
         The first invalid rows with their reasons, ``line 5 (P2_mW is NaN)``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import iter_readings
+    >>> stream = iter_readings(folder / "sweep.csv", chunk_rows=128)  # the columns found now
+    >>> stream.port_names, stream.rows
+    (('p1_w', 'p2_w', 'p3_w'), 0)
+    >>> for chunk in stream:  # the values read while iterating, a chunk at a time
+    ...     pass
+    >>> stream.rows, stream.invalid_rows
+    (200, 0)
     """
 
     def __init__(self, plan: ColumnPlan, source: Source, chunk_rows: int, allow_invalid: bool):

@@ -49,6 +49,26 @@ class Table:
         Columns asked for with ``keep``, as read.
     invalid_reasons : tuple of str
         Text of each problem found.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import read_table
+    >>> table = read_table(folder / "sweep.csv")
+    >>> table.powers_w.shape, table.port_names, table.x_column
+    ((200, 3), ('p1_w', 'p2_w', 'p3_w'), 'frequency_hz')
+    >>> print(np.array_equal(table.x_hz, f_hz), np.array_equal(table.powers_w, powers))  # exact
+    True True
     """
 
     source: Path

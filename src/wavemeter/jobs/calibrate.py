@@ -1,37 +1,31 @@
-"""Calibrating one device from its sweep file: the job a fleet runs once per device.
+"""Calibrating a device from its sweep: the one job ``calibrate`` and ``fleet calibrate`` run.
 
-:func:`calibrate_file` reads a sweep file, fits the calibrator its options name (looked up
-in the registry of calibration methods), optionally saves the calibration atomically, and
-returns a :class:`DeviceResult` with the numbers a fleet's summary shows: the fitted FSR,
-the detector noise estimate, the RMS frequency error of the calibration on its own sweep,
-and how far that is from the Cramer-Rao bound. :func:`calibrate_device` does the same for
-a fleet: bad input (:class:`~wavemeter.exceptions.WavemeterError`, ``OSError``) becomes a
-result with ``status="error"`` and the message, so that one broken file does not stop the
-others; anything else is a bug and is raised.
+:func:`calibrate_file` builds the calibrator the :class:`CalibrateOptions` ask for
+(:func:`~wavemeter.jobs.calibrator.build_calibrator`), reads the sweep (in chunks, with
+progress and in memory bounded by the chunk, for a calibrator with the ``"fit_chunks"``
+capability; whole, one or several files, for the others), subtracts the dark readings,
+fits, makes the metadata and saves the calibration atomically. It returns a
+:class:`DeviceResult` with the numbers a fleet's summary shows: the fitted FSR, the
+detector noise estimate, the RMS error of the calibration on its own sweep, the RMS
+Cramer-Rao bound of the sweep (on every k-th reading beyond ``SAMPLE_ROWS``) and their
+ratio. :func:`calibrate_device` does the same for a fleet: bad input becomes a result with
+``status="error"``; :func:`saved_result` rebuilds a result from a saved file.
 
-The options are a documented subset of ``wavemeter calibrate``'s: ``method`` (a
-registered calibration tag: ``"learned"``, ``"conventional"``, ``"wideband"``, ...),
-``fsr_hz``, ``fsr_tolerance``, ``retrieval``, the columns (``request``), ``drop_invalid``,
-and further settings of the method's calibrator by name. No dark readings, no per-FSR
-sets of windows, no thermal sweeps at several temperatures (a calibrator that needs the
-chip temperature takes it from the file's temperature column).
+The metadata (the same function for both commands): the sweep files and their columns,
+rows, temperatures, the dark readings' file (:func:`~wavemeter.jobs.sweeps.sweep_metadata`),
+``crlb_rms_hz`` and ``calibrate_options`` (:func:`~wavemeter.jobs.calibrator.options_record`).
+``calibrate`` and ``fleet calibrate`` of the same sweep with the same options write files
+that differ only in these fields:
 
-The calibration's metadata keep the sweep's columns, the options (``calibrate_options``,
-JSON-ready: a fleet compares them to decide whether a saved calibration is the one it
-would make) and the RMS Cramer-Rao bound on the sweep (``crlb_rms_hz``), so that
-:func:`saved_result` rebuilds the same result from the saved file alone.
-
-:func:`fit_sweep_chunks` fits a learned calibration on a sweep file read in chunks
-(:meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks`), in memory bounded by the
-chunk whatever the file's length: what ``wavemeter calibrate`` does for the learned method.
-The other methods, and :func:`calibrate_file`, read the whole sweep.
+- ``created_utc``: when the file was written;
+- ``metadata.sweep_file``: the sweep as each command was given it (the fleet names the
+  files it found in a folder or by a pattern by their path there).
 """
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
-import json
 import math
 import threading
 from collections.abc import Callable
@@ -41,28 +35,73 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import InputError, WavemeterError, recorded_calibration_warnings
-from ..io import ColumnRequest, ReadingStream, read_table
+from ..io import ColumnRequest, iter_readings
+from ..io.streaming import CHUNK_ROWS
+from .calibrator import CalibrateOptions, build_calibrator, options_record
+from .chunks import SAMPLE_ROWS, RowSample, fit_sweep_chunks
 from .measure import about_file
+from .readings import check_reading_options, needs_temperature
+from .sweeps import SweepsRead, input_label, read_dark_w, read_sweeps, sweep_metadata
 
 __all__ = [
+    "CalibrationRefused",
     "DeviceResult",
-    "SweepRead",
     "calibrate_file",
     "calibrate_device",
-    "fit_sweep_chunks",
-    "build_calibrator",
-    "calibrate_options",
     "saved_result",
     "OK",
     "ERROR",
+    "DIFFERING_FIELDS",
 ]
 
 #: status of a device calibrated (or found calibrated), and of one that failed
 OK = "ok"
 ERROR = "error"
+#: what may differ between the files ``calibrate`` and ``fleet calibrate`` write of the
+#: same sweep with the same options (module docstring)
+DIFFERING_FIELDS = ("created_utc", "metadata.sweep_file")
 #: Python records warnings process-wide (not per thread): fits in threads of one process
 #: record their warnings one at a time, so that each records its own
 _WARNINGS_LOCK = threading.Lock()
+
+
+class CalibrationRefused(WavemeterError):
+    """A fit that warned, refused (``strict``): nothing was saved.
+
+    Attributes
+    ----------
+    warnings : tuple of CalibrationWarning
+        The fit's warnings, in order.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> from wavemeter.jobs import CalibrateOptions, CalibrationRefused, calibrate_file
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(800, span_fsr=3.0)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> powers[:, 1] *= np.linspace(1.0, 1.05, len(f_hz))  # port 2: 5 % over the band
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> write_table(folder / "sweep.csv",
+    ...             {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}})
+    >>> try:
+    ...     calibrate_file(folder / "sweep.csv", folder / "chip.wmcal.json",
+    ...                    options=CalibrateOptions(fsr_hz=50e9, strict=True))
+    ... except CalibrationRefused as error:
+    ...     print([warning.cause for warning in error.warnings])
+    ['dispersion']
+    >>> (folder / "chip.wmcal.json").exists()  # nothing saved
+    False
+    """
+
+    def __init__(self, source: str, refused):
+        self.warnings = tuple(refused)
+        listed = "; ".join(f"[{warning.cause}] {warning}" for warning in self.warnings)
+        super().__init__(f"{source}: strict refuses a calibration that warns: {listed}")
 
 
 @dataclass(frozen=True)
@@ -72,29 +111,26 @@ class DeviceResult:
     Attributes
     ----------
     device : str
-        The device's name: its sweep file's stem.
+        The device's name: its (first) sweep file's stem.
     source : str
-        The sweep file.
+        The sweep file(s), as messages name them.
     status : {"ok", "error"}
         Calibrated, or failed (``error`` says why).
     fsr_hz : float
         Fitted free spectral range (Hz); NaN when failed.
     noise_std_w : float
-        Detector noise standard deviation the fit estimates (W): ``noise_std_w_``, else the
-        mean of ``port_noise_std_w_``; NaN for a method that estimates none.
+        Detector noise standard deviation the fit states (W); NaN where it states none.
     calibration_rms_hz : float
-        RMS frequency error of the calibration on its own sweep (Hz), modulo the FSR.
+        RMS frequency error of the calibration on its own sweep (Hz).
     crlb_rms_hz : float
         RMS over the sweep's readings of the Cramer-Rao bound (Hz) under the calibrated map
-        and noise; NaN for a method without one (``crlb_hz``).
+        and noise; NaN for a method without one (no ``"crlb"`` capability).
     crlb_ratio : float
-        ``calibration_rms_hz / crlb_rms_hz``: 1 at the physical limit (in-sample, a little
-        below 1 for few readings); NaN without a bound.
+        ``calibration_rms_hz / crlb_rms_hz``: 1 at the physical limit; NaN without a bound.
     samples : int
         Sweep readings the calibration was fitted on.
     warnings : tuple of str
-        Causes of the fit's calibration warnings (``diagnostics_["warnings"]``), each once,
-        in order.
+        Causes of the fit's calibration warnings, each once, in order.
     error : str
         The error message of a failed device; empty otherwise.
     resumed : bool
@@ -103,6 +139,34 @@ class DeviceResult:
         The fitted calibration (not compared, not shown).
     metadata : dict
         What the calibration file keeps besides the calibration (not compared).
+    read : SweepsRead or None
+        What was read (files, columns, rows skipped); None when resumed or failed.
+    fit_warnings : tuple of CalibrationWarning
+        The fit's warnings themselves, in order (recorded, not issued).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.jobs import calibrate_device
+    >>> result = calibrate_device(folder / "sweep.csv", device="chip-07")
+    >>> result.device, result.status, result.warnings
+    ('chip-07', 'ok', ())
+
+    The RMS error on the sweep is at the Cramer-Rao bound of the readings:
+
+    >>> rms_mhz, bound_mhz = result.calibration_rms_hz / 1e6, result.crlb_rms_hz / 1e6
+    >>> print(f"{rms_mhz:.1f} MHz, bound {bound_mhz:.1f} MHz")
+    13.5 MHz, bound 13.5 MHz
     """
 
     device: str
@@ -119,101 +183,13 @@ class DeviceResult:
     resumed: bool = False
     calibration: object = field(default=None, repr=False, compare=False)
     metadata: dict = field(default_factory=dict, repr=False, compare=False)
+    read: SweepsRead | None = field(default=None, repr=False, compare=False)
+    fit_warnings: tuple = field(default=(), repr=False, compare=False)
 
     @property
     def ok(self) -> bool:
         """Whether the device is calibrated."""
         return self.status == OK
-
-
-def build_calibrator(
-    method: str = "learned",
-    *,
-    fsr_hz=50e9,
-    fsr_tolerance: float | None = None,
-    retrieval: str | None = None,
-    **params,
-):
-    """The unfitted calibrator of a registered method with the given settings.
-
-    Parameters
-    ----------
-    method : str
-        A calibration tag (:func:`wavemeter.calibration.registered`): ``"learned"``,
-        ``"conventional"``, ``"wideband"``, ``"thermal"``, ``"cascade"``, ...
-    fsr_hz : float or tuple of float
-        Design FSR (Hz); a cascade's, coarsest first.
-    fsr_tolerance, retrieval : optional
-        Set only when given (None: the method's default).
-    **params
-        Further settings of the method's calibrator, by name.
-
-    Raises
-    ------
-    InputError
-        For an unknown method (``parameter="method"``), or a setting the method does not
-        have (``parameter`` names it).
-    """
-    from ..calibration import registered
-
-    classes = registered()
-    if method not in classes:
-        raise InputError(
-            f"method {method!r} is not a calibration method; methods: {', '.join(classes)}",
-            parameter="method",
-        )
-    calibrator = classes[method]()
-    given = {"fsr_tolerance": fsr_tolerance, "retrieval": retrieval}
-    settings = {"fsr_hz": fsr_hz, **{k: v for k, v in given.items() if v is not None}, **params}
-    for name, value in settings.items():
-        try:
-            calibrator.set_params(**{name: value})
-        except InputError as exc:
-            raise InputError(f"method {method!r}: {exc}", parameter=name) from exc
-    return calibrator
-
-
-def _json_ready(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"{type(value).__name__} is not JSON-ready")
-
-
-def calibrate_options(
-    method: str = "learned",
-    *,
-    fsr_hz=50e9,
-    fsr_tolerance: float | None = None,
-    retrieval: str | None = None,
-    request: ColumnRequest | None = None,
-    drop_invalid: bool = False,
-    **params,
-) -> dict:
-    """The options of :func:`calibrate_file`, checked, as JSON reads them back (tuples and
-    arrays as lists): what a calibration's metadata keep and a fleet compares.
-
-    Raises
-    ------
-    InputError
-        For an unknown method or setting (as :func:`build_calibrator`), or a setting that
-        is not a number, text, list or array.
-    """
-    build_calibrator(
-        method, fsr_hz=fsr_hz, fsr_tolerance=fsr_tolerance, retrieval=retrieval, **params
-    )
-    record = {
-        "method": method,
-        "fsr_hz": fsr_hz,
-        "fsr_tolerance": fsr_tolerance,
-        "retrieval": retrieval,
-        "request": dataclasses.asdict(request or ColumnRequest()),
-        "drop_invalid": drop_invalid,
-        **params,
-    }
-    try:
-        return json.loads(json.dumps(record, default=_json_ready, allow_nan=False))
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"the calibration settings must be JSON-ready values: {exc}") from exc
 
 
 def _noise_std_w(calibration) -> float:
@@ -222,20 +198,22 @@ def _noise_std_w(calibration) -> float:
     return math.nan if noise is None else float(noise.value)
 
 
-def _crlb_rms_hz(calibration, table, inputs: dict) -> float:
-    """RMS (Hz) of the Cramer-Rao bound of the sweep's readings; NaN where the calibration
-    gives no bound (no ``"crlb"`` capability)."""
-    if "crlb" not in calibration.capabilities:
+def _crlb_rms_hz(calibration, powers_w, frequency_hz, inputs: dict) -> float:
+    """RMS (Hz) of the Cramer-Rao bound of sweep readings; NaN where the calibration gives
+    no bound (no ``"crlb"`` capability) or needs an input the readings lack."""
+    if "crlb" not in calibration.capabilities or not len(frequency_hz):
         return math.nan
     if "coarse_hz" in calibration.requires:
-        inputs = {**inputs, "coarse_hz": table.x_hz}
-    bound = calibration.crlb_hz(table.powers_w, **inputs)
+        inputs = {**inputs, "coarse_hz": frequency_hz}
+    if set(calibration.requires) - set(inputs):
+        return math.nan
+    bound = calibration.crlb_hz(powers_w, **inputs)
     return float(np.sqrt(np.mean(np.square(bound))))
 
 
-def _result(device: str, source, calibration, crlb_rms_hz, metadata: dict, resumed: bool):
+def _result(device: str, source, calibration, crlb_rms_hz, metadata: dict, **extra):
     """The result of a fitted (or loaded) calibration."""
-    records = (calibration.diagnostics_ or {}).get("warnings") or []
+    records = (calibration.summary().diagnostics or {}).get("warnings") or []
     rms = float(calibration.calibration_rms_hz_)
     return DeviceResult(
         device=device,
@@ -248,114 +226,231 @@ def _result(device: str, source, calibration, crlb_rms_hz, metadata: dict, resum
         crlb_ratio=rms / crlb_rms_hz if crlb_rms_hz > 0 else math.nan,
         samples=int(calibration.n_samples_),
         warnings=tuple(dict.fromkeys(str(record.get("cause")) for record in records)),
-        resumed=resumed,
         calibration=calibration,
         metadata=metadata,
+        **extra,
     )
 
 
+def _paths(paths) -> tuple:
+    """One path or a sequence of them, as a tuple (at least one)."""
+    paths = (paths,) if isinstance(paths, (str, Path)) else tuple(paths)
+    if not paths:
+        raise InputError("no sweep file to calibrate: paths is empty", parameter="paths")
+    return paths
+
+
+def _check_inputs(calibrator, paths: tuple, options: CalibrateOptions) -> None:
+    """Before any reading: several files only for a calibrator that needs the chip
+    temperature, standard input once, the temperatures and dark readings given once."""
+    if len(paths) > 1 and not needs_temperature(calibrator):
+        raise InputError(
+            f"method {options.method!r} takes one sweep file, got {len(paths)}: only a "
+            "calibrator that needs the chip temperature of each reading (thermal) is fitted "
+            "on several sweeps, one per temperature; merge the files into one if they are "
+            "one sweep",
+            parameter="paths",
+        )
+    inputs = [*paths, *([] if options.dark_file is None else [options.dark_file])]
+    if sum(str(path) == "-" for path in inputs) > 1:
+        raise InputError(
+            "only one input can be read from standard input ('-'): the sweep or the dark readings",
+            parameter="paths",
+        )
+    if options.dark_w is not None and options.dark_file is not None:
+        raise InputError(
+            "dark_file and dark_w both give the dark readings; give a file or values, not both",
+            parameter="dark_w",
+        )
+    given = options.temperature_k
+    column = (options.request or ColumnRequest()).temperature
+    if column is not None and given:
+        raise InputError(
+            "a temperature column (temperature) and temperature_k both give the chip "
+            "temperature; give the column or the values, not both",
+            parameter="temperature_k",
+        )
+    check_reading_options(calibrator, temperature_k=given)
+    if given and len(given) != len(paths):
+        raise InputError(
+            f"temperature_k is given {len(given)} time(s) for {len(paths)} sweep file(s); "
+            "give it once per file, in file order, or leave it out to read each file's "
+            "temperature column",
+            parameter="temperature_k",
+        )
+
+
+@contextlib.contextmanager
+def _recorded(label: str):
+    """The fit's calibration warnings recorded (one fit at a time in this process), its
+    errors prefixed with the files."""
+    with about_file(label), _WARNINGS_LOCK, recorded_calibration_warnings() as caught:
+        yield caught
+
+
+def _fit_in_chunks(calibrator, paths: tuple, options: CalibrateOptions, progress, check):
+    """Read the (one) sweep in chunks and fit it: what was read, a sample of its rows, the
+    inputs of its readings (none), the fit's warnings."""
+    label = input_label(paths[0])
+    stream = iter_readings(
+        paths[0],
+        options.request,
+        chunk_rows=CHUNK_ROWS,
+        need_x=True,
+        allow_invalid=options.drop_invalid,
+        name=label,
+    )
+    if check is not None:
+        check(stream)
+    dark_w, dark = read_dark_w(options, stream, progress=progress)
+    sample = RowSample(SAMPLE_ROWS)
+    with _recorded(label) as caught:
+        record = fit_sweep_chunks(
+            calibrator, stream, dark_w=dark_w, progress=progress, sample=sample
+        )
+    read = SweepsRead((record,), record.temperature_range_k, dark=dark)
+    return read, sample, {}, caught
+
+
+def _fit_whole(calibrator, paths: tuple, options: CalibrateOptions, progress, check):
+    """Read the sweeps whole and fit them: what was read, a sample of its rows, the
+    inputs of its readings, the fit's warnings."""
+    sweeps = read_sweeps(
+        paths,
+        options,
+        temperature=needs_temperature(calibrator),
+        method_label=calibrator.method_label,
+        progress=progress,
+    )
+    first = sweeps.read.first
+    if check is not None:
+        check(first)
+    dark_w, dark = read_dark_w(options, first, progress=progress)
+    inputs = {} if sweeps.temperature_k is None else {"temperature_k": sweeps.temperature_k}
+    label = sweeps.read.label
+    busy = progress(f"calibrating on {label}", None, "") if progress else contextlib.nullcontext()
+    with busy, _recorded(label) as caught:
+        calibrator.fit(
+            sweeps.powers_w,
+            sweeps.x_hz,
+            sweeps.monitor_w,
+            list(first.port_names),
+            dark_w=dark_w,
+            **inputs,
+        )
+    stride = max(1, math.ceil(len(sweeps.x_hz) / SAMPLE_ROWS))
+    sample = RowSample(SAMPLE_ROWS)
+    sample.add(sweeps.powers_w[::stride], sweeps.x_hz[::stride])
+    inputs = {name: values[::stride] for name, values in inputs.items()}
+    return dataclasses.replace(sweeps.read, dark=dark), sample, inputs, caught
+
+
 def calibrate_file(
-    path,
+    paths,
     out_path=None,
     *,
-    method: str = "learned",
-    fsr_hz=50e9,
-    fsr_tolerance: float | None = None,
-    retrieval: str | None = None,
-    request: ColumnRequest | None = None,
-    drop_invalid: bool = False,
+    options: CalibrateOptions | None = None,
     device: str | None = None,
-    **params,
+    progress: Callable | None = None,
+    check: Callable | None = None,
+    **keywords,
 ) -> DeviceResult:
-    """Calibrate one device from its sweep file.
+    """Calibrate one device from its sweep file(s), and save the calibration.
 
     Parameters
     ----------
-    path : str or Path
-        The sweep: a data file with a frequency or wavelength column and 3+ port columns.
+    paths : str, Path or sequence of them
+        The sweep: a data file with a frequency or wavelength column and 3+ port columns
+        (``"-"``: standard input); several only for a calibrator that needs the chip
+        temperature (concatenated in order).
     out_path : str or Path, optional
         Where to save the calibration (JSON, atomically); None: not saved.
-    method : str
-        Registered calibration tag (:func:`build_calibrator`).
-    fsr_hz : float or tuple of float
-        Design FSR (Hz).
-    fsr_tolerance : float, optional
-        Relative half width of the FSR search (default: the method's).
-    retrieval : {"pinv", "ml"}, optional
-        Phase retrieval (default: the method's).
-    request : ColumnRequest, optional
-        Columns and units chosen by the user; the rest are found by name.
-    drop_invalid : bool
-        Skip invalid rows instead of failing.
+    options : CalibrateOptions, optional
+        What to calibrate with; or give its fields and the method's settings as keywords
+        (``method="wideband", fsr_hz=50e9, phase_order=2``), not both.
     device : str, optional
-        The device's name (default: the file's stem).
-    **params
-        Further settings of the method's calibrator.
+        The device's name (default: the first file's stem).
+    progress : callable, optional
+        ``progress(description, total, unit)`` returning a context manager that yields
+        ``advance(steps)`` (:func:`wavemeter.progress.progress_bar`); ``total`` None for a
+        task of unknown length. None: silent.
+    check : callable, optional
+        ``check(layout)`` with what the (first) sweep file offers (``source``,
+        ``port_names``), before the fit; what it raises stops the job.
+    **keywords
+        Fields of :class:`CalibrateOptions` and settings of the method, by name.
 
     Returns
     -------
     DeviceResult
-        With ``status="ok"``, the fitted calibration and its metadata.
+        With ``status="ok"``, the fitted calibration, its metadata, what was read and the
+        fit's warnings (recorded; the caller decides how to show them).
 
     Raises
     ------
     InputError, FileFormatError, EdgeMinimumError
-        What reading the file or fitting refuses; messages name the file.
+        What the options, reading the files or fitting refuse; messages name the file.
+    CalibrationRefused
+        With ``strict``, for a fit that warned; nothing is saved.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.jobs import calibrate_file
+    >>> result = calibrate_file(folder / "sweep.csv", folder / "chip.wmcal.json", fsr_hz=50e9)
+    >>> result.status, result.device, result.samples
+    ('ok', 'sweep', 200)
+    >>> print(f"FSR {result.fsr_hz / 1e9:.2f} GHz, {result.crlb_ratio:.2f} x the Cramer-Rao bound")
+    FSR 51.51 GHz, 1.00 x the Cramer-Rao bound
+    >>> (folder / "chip.wmcal.json").exists()
+    True
     """
-    path = Path(path)
-    options = calibrate_options(
-        method,
-        fsr_hz=fsr_hz,
-        fsr_tolerance=fsr_tolerance,
-        retrieval=retrieval,
-        request=request,
-        drop_invalid=drop_invalid,
-        **params,
-    )
-    calibrator = build_calibrator(
-        method, fsr_hz=fsr_hz, fsr_tolerance=fsr_tolerance, retrieval=retrieval, **params
-    )
-    thermal = "temperature_k" in calibrator.requires
-    table = read_table(
-        path, request, need_x=True, allow_invalid=drop_invalid, find_temperature=thermal
-    ).valid_only()
-    if thermal and table.temperature_k is None:
+    if options is None:
+        options = CalibrateOptions.from_keywords(**keywords)
+    elif keywords:
         raise InputError(
-            f"{path}: a {calibrator.method_label} calibration needs the chip temperature of "
-            "each reading, and the file has no temperature column: name it (temperature)",
-            parameter="temperature",
+            f"give the options or keywords, not both (got {', '.join(keywords)})",
+            parameter="options",
         )
-    inputs = {"temperature_k": table.temperature_k} if thermal else {}
-    with about_file(path):
-        with _WARNINGS_LOCK, recorded_calibration_warnings():
-            calibrator.fit(
-                table.powers_w, table.x_hz, table.monitor_w, list(table.port_names), **inputs
-            )
-        crlb_rms_hz = _crlb_rms_hz(calibrator, table, inputs)
+    paths = _paths(paths)
+    calibrator = build_calibrator(options)
+    _check_inputs(calibrator, paths, options)
+    record = options_record(options, calibrator)
+    # in chunks: a calibrator that can (a set cannot), of one sweep, needing no inputs
+    chunked = "fit_chunks" in calibrator.capabilities and not calibrator.requires
+    fit = _fit_in_chunks if chunked and len(paths) == 1 else _fit_whole
+    read, sample, inputs, caught = fit(calibrator, paths, options, progress, check)
+    if options.strict and caught:
+        raise CalibrationRefused(read.label, caught)
+    crlb_rms_hz = _crlb_rms_hz(calibrator, sample.powers_w, sample.frequency_hz, inputs)
     metadata = {
-        "sweep_file": str(path),
-        "x_column": table.x_column,
-        "x_unit": table.x_unit,
-        "port_columns": list(table.port_names),
-        "port_units": list(table.port_units),
-        "monitor_column": table.monitor_column,
-        "temperature_column": table.temperature_column if thermal else None,
-        "rows": table.n_rows,
-        "dropped_rows": table.dropped_rows,
+        **sweep_metadata(read, options.dark_file),
         "crlb_rms_hz": crlb_rms_hz if math.isfinite(crlb_rms_hz) else None,
-        "calibrate_options": options,
+        "calibrate_options": record,
     }
-    name = path.stem if device is None else device
-    result = _result(name, path, calibrator, crlb_rms_hz, metadata, resumed=False)
+    name = Path(input_label(paths[0])).stem if device is None else device
+    result = _result(
+        name, read.label, calibrator, crlb_rms_hz, metadata, read=read, fit_warnings=tuple(caught)
+    )
     if out_path is not None:
-        from ..calibration.files.document import save_calibration
+        from ..calibration import save_calibration
 
         save_calibration(calibrator, out_path, metadata)
     return result
 
 
 def calibrate_device(path, *, device: str | None = None, **options) -> DeviceResult:
-    """:func:`calibrate_file` without saving, for a fleet: bad input is a result.
+    r""":func:`calibrate_file` without saving, for a fleet: bad input is a result.
 
     Parameters
     ----------
@@ -364,7 +459,7 @@ def calibrate_device(path, *, device: str | None = None, **options) -> DeviceRes
     device : str, optional
         The device's name (default: the file's stem).
     **options
-        As :func:`calibrate_file` takes them (``method``, ``fsr_hz``, ...).
+        As :func:`calibrate_file` takes them (``options=`` or keywords).
 
     Returns
     -------
@@ -372,6 +467,27 @@ def calibrate_device(path, *, device: str | None = None, **options) -> DeviceRes
         ``status="ok"`` with the fitted calibration, or ``status="error"`` with the message
         of the :class:`~wavemeter.exceptions.WavemeterError` or ``OSError`` that stopped
         it. Any other exception is a bug and is raised.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.jobs import calibrate_device
+    >>> _ = (folder / "broken.csv").write_text("frequency_hz,p1_w\n1,2\n")  # one port only
+    >>> results = [calibrate_device(folder / name) for name in ("sweep.csv", "broken.csv")]
+    >>> [(result.device, result.status) for result in results]  # one bad file stops nothing
+    [('sweep', 'ok'), ('broken', 'error')]
+    >>> print(results[1].error.split(": ", 1)[1].split("; ")[0])
+    found 1 port column(s) (p1_w)
     """
     name = Path(path).stem if device is None else device
     try:
@@ -392,8 +508,7 @@ def saved_result(cal_path, source, device: str) -> DeviceResult:
     """The result of a device from the calibration an earlier run saved (``resumed``).
 
     The numbers are those of the run that saved it: FSR, noise, RMS and warnings from the
-    calibration, the Cramer-Rao RMS from its metadata (NaN when the file has none, e.g.
-    one written by ``wavemeter calibrate``).
+    calibration, the Cramer-Rao RMS from its metadata (NaN when the file has none).
 
     Raises
     ------
@@ -406,125 +521,3 @@ def saved_result(cal_path, source, device: str) -> DeviceResult:
     crlb = saved.metadata.get("crlb_rms_hz")
     crlb_rms_hz = float(crlb) if isinstance(crlb, (int, float)) else math.nan
     return _result(device, source, saved.calibrator, crlb_rms_hz, saved.metadata, resumed=True)
-
-
-@dataclass(frozen=True)
-class SweepRead:
-    """What reading a sweep file found, for the calibration's metadata and messages.
-
-    Attributes
-    ----------
-    source : Path
-        The file (as named to the user).
-    x_column, x_unit : str or None
-        The frequency or wavelength column and its unit.
-    port_names, port_units : tuple of str
-        The port columns and their units.
-    monitor_column, temperature_column : str or None
-        The power monitor's and the chip temperature's columns.
-    n_rows : int
-        Valid rows, the readings calibrated on.
-    dropped_rows : int
-        Rows skipped as invalid.
-    invalid_examples : tuple of str
-        The first skipped rows with their reasons, ``line 5 (P2_mW is NaN)``.
-    temperature_range_k : list of float or None
-        Lowest and highest chip temperature of the valid rows (K), with a temperature column.
-    """
-
-    source: Path
-    x_column: str | None
-    x_unit: str | None
-    port_names: tuple[str, ...]
-    port_units: tuple[str, ...]
-    monitor_column: str | None
-    temperature_column: str | None
-    n_rows: int
-    dropped_rows: int
-    invalid_examples: tuple[str, ...] = ()
-    temperature_range_k: list[float] | None = None
-
-
-def fit_sweep_chunks(
-    calibrator, stream: ReadingStream, *, dark_w=None, progress: Callable | None = None
-) -> SweepRead:
-    """Fit a learned calibrator on a sweep read in chunks, in memory bounded by the chunk.
-
-    Each chunk's valid rows go to :meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks`
-    (its moments and its diagnostic sample) and are dropped: the calibration is the one
-    ``fit`` gives on the valid rows read whole (bit for bit up to ``diagnostic_samples``
-    readings, to rounding beyond).
-
-    Parameters
-    ----------
-    calibrator : Calibrator
-        Unfitted; a learned calibrator (one with ``fit_chunks``).
-    stream : ReadingStream
-        The sweep, opened with :func:`~wavemeter.io.iter_readings` (``need_x=True``) and
-        not yet iterated; its ``allow_invalid`` decides whether invalid rows are skipped.
-    dark_w : None or array_like, shape (n,)
-        Per-port dark readings (W), subtracted from every reading.
-    progress : callable, optional
-        ``progress(description, total, unit=...)`` returning a context manager that yields
-        ``advance(steps)`` (as :func:`wavemeter.progress.progress_bar`), advanced in the
-        units of the read. None: silent.
-
-    Returns
-    -------
-    SweepRead
-
-    Raises
-    ------
-    InputError
-        For a calibrator that cannot fit chunks, what the read refuses (invalid rows when
-        not allowed, bad cells) and what ``fit_chunks`` refuses.
-    EdgeMinimumError
-        As ``fit``.
-
-    Warns
-    -----
-    CalibrationWarning
-        As ``fit``.
-    """
-    if "fit_chunks" not in calibrator.capabilities:
-        raise InputError(
-            f"a {calibrator.method_label} calibration is fitted on the whole sweep at once "
-            "(no 'fit_chunks' among its capabilities)"
-        )
-    found: dict = {"temperature": [np.inf, -np.inf]}
-
-    def chunks(advance):
-        done = 0
-        for table in stream:
-            found.setdefault("x", (table.x_column, table.x_unit))
-            valid = table.valid_only()
-            if valid.temperature_k is not None and valid.n_rows:
-                low, high = found["temperature"]
-                found["temperature"] = [
-                    min(low, float(valid.temperature_k.min())),
-                    max(high, float(valid.temperature_k.max())),
-                ]
-            yield valid.x_hz, valid.powers_w, valid.monitor_w
-            if advance is not None:
-                advance(stream.progress - done)
-            done = stream.progress
-
-    total, unit = stream.progress_total
-    bar = progress(f"calibrating on {stream.source}", total, unit=unit) if progress else None
-    with bar if bar is not None else contextlib.nullcontext() as advance:
-        calibrator.fit_chunks(chunks(advance), list(stream.port_names), dark_w=dark_w)
-    x_column, x_unit = found["x"]
-    temperature = found["temperature"]
-    return SweepRead(
-        source=stream.source,
-        x_column=x_column,
-        x_unit=x_unit,
-        port_names=tuple(stream.port_names),
-        port_units=tuple(stream.port_units),
-        monitor_column=stream.monitor_column,
-        temperature_column=stream.temperature_column,
-        n_rows=stream.rows - stream.invalid_rows,
-        dropped_rows=stream.invalid_rows,
-        invalid_examples=tuple(stream.invalid_examples),
-        temperature_range_k=temperature if np.isfinite(temperature[0]) else None,
-    )

@@ -25,16 +25,18 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration.contract.flags import ReadingFlag
-from ..exceptions import InputError, WavemeterError
+from ..exceptions import WavemeterError
 from ..io import ColumnRequest, ReadingStream, iter_readings, table_writer
 from ..io.streaming import CHUNK_ROWS
 from ..units import SPEED_OF_LIGHT_M_S
+from ..validation import check_choice
+from .readings import check_reading_options, check_readings
 
 __all__ = [
     "measure_file",
     "MeasureSummary",
+    "ReadingsRefused",
     "ChunkMeasurement",
-    "check_stream",
     "MEASURE_CHUNK_ROWS",
 ]
 
@@ -66,6 +68,32 @@ class MeasureSummary:
     warnings : list of Warning
         The warnings the measurement gave (each once), also issued with
         :func:`warnings.warn`.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import iter_readings
+    >>> from wavemeter.jobs import measure_file
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> readings = device.powers(f_hz[:5], power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> readings[2] = np.nan  # a row the instrument could not read
+    >>> write_table(folder / "readings.csv", {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> stream = iter_readings(folder / "readings.csv", allow_invalid=True)  # flag, do not refuse
+    >>> summary = measure_file(cal, stream, folder / "frequencies.csv")
+    >>> summary.rows, summary.invalid_rows, summary.flag_counts
+    (5, 1, {'INVALID': 1})
+    >>> summary.out_path.name
+    'frequencies.csv'
     """
 
     source: Path
@@ -90,6 +118,7 @@ def measure_file(
     temperature_k: float | None = None,
     uncertainty: bool | None = None,
     drop_invalid: bool = False,
+    errors: str = "coerce",
     progress: Callable | None = None,
 ) -> MeasureSummary:
     """Turn a file of port readings into frequencies, a chunk of rows at a time.
@@ -101,7 +130,8 @@ def measure_file(
     readings : str, Path or ReadingStream
         The readings file (``"-"``: standard input), or one opened with
         :func:`~wavemeter.io.iter_readings` (not yet iterated; ``request``, ``chunk_rows``
-        and ``drop_invalid`` are then those it was opened with).
+        and ``drop_invalid`` are then those it was opened with, ``request`` given only to
+        say whether the ports were chosen).
     out_path : str or Path
         The output file (``"-"``: standard output), written atomically.
     request : ColumnRequest, optional
@@ -121,6 +151,10 @@ def measure_file(
         Write ``frequency_std_hz``; default: when the calibration gives it.
     drop_invalid : bool
         Write invalid rows as NaN with the ``INVALID`` flag instead of failing.
+    errors : {"coerce", "raise"}
+        ``"coerce"``: a reading the calibration cannot read is written as NaN with the
+        flags that say why, the others as usual; ``"raise"``: the file is refused
+        (:class:`ReadingsRefused`, nothing written) when any reading cannot be read.
     progress : callable, optional
         ``progress(description, total, unit=...)`` returning a context manager that
         yields ``advance(steps)`` (as :func:`wavemeter.progress.progress_bar`); it is
@@ -133,17 +167,47 @@ def measure_file(
     Raises
     ------
     InputError
-        For what :func:`~wavemeter.io.iter_readings` refuses, ports other than the
-        calibration's, a missing temperature or coarse frequency, ``uncertainty`` asked
-        of a calibration that gives none; no output is written then.
+        For what :func:`~wavemeter.io.iter_readings` refuses, and what the checks of
+        :mod:`wavemeter.jobs.readings` refuse (ports other than the calibration's, a
+        missing temperature or coarse frequency, an input it does not use,
+        ``uncertainty`` asked of a calibration that gives none); no output is written then.
+    ReadingsRefused
+        With ``errors="raise"``, when some reading cannot be read; no output is written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> from wavemeter.io import iter_readings
+    >>> from wavemeter.jobs import measure_file
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> readings = device.powers(f_hz[:5], power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> readings[2] = np.nan  # a row the instrument could not read
+    >>> write_table(folder / "readings.csv", {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> stream = iter_readings(folder / "readings.csv", allow_invalid=True)  # flag, do not refuse
+    >>> summary = measure_file(cal, stream, folder / "frequencies.csv")
+    >>> summary.rows, summary.flagged, summary.flag_counts
+    (5, 1, {'INVALID': 1})
+    >>> lines = (folder / "frequencies.csv").read_text().splitlines()
+    >>> lines[0]
+    'frequency_hz,wavelength_nm,phase_rad,frequency_std_hz,flags'
+    >>> len(lines) - 1  # one row out per row in, the unreadable one NaN with its flag
+    5
     """
+    check_choice("errors", errors, ("coerce", "raise"))
+    check_reading_options(
+        calibration, coarse_hz=coarse_hz, temperature_k=temperature_k, uncertainty=uncertainty
+    )
     offered = "frequency_std" in calibration.capabilities
-    if uncertainty and not offered:
-        raise InputError(
-            f"uncertainty needs a learned calibration (single or per FSR), not a "
-            f"{calibration.method_label} calibration",
-            parameter="uncertainty",
-        )
     uncertainty = offered if uncertainty is None else uncertainty
     thermal = "temperature_k" in calibration.requires
     if isinstance(readings, ReadingStream):
@@ -156,7 +220,13 @@ def measure_file(
             allow_invalid=drop_invalid,
             find_temperature=thermal and temperature_k is None,
         )
-    check_stream(calibration, stream, coarse_hz, temperature_k)
+    check_readings(
+        calibration,
+        stream,
+        coarse_hz=coarse_hz,
+        temperature_k=temperature_k,
+        ports_given=request is not None and request.ports is not None,
+    )
     summary = MeasureSummary(source=stream.source, out_path=Path(out_path))
     measured = ChunkMeasurement(calibration, uncertainty, coarse_hz, temperature_k)
     counts = np.zeros(len(ReadingFlag), dtype=np.int64)
@@ -166,15 +236,23 @@ def measure_file(
         advance = stack.enter_context(bar) if bar is not None else None
         write = stack.enter_context(table_writer(out_path, file_format))
         done = 0
+        unread: list[str] = []
+        unread_count = 0
         for table in stream:
             columns = measured.chunk(table)
             flags = columns["flags"]
+            if errors == "raise":
+                missing = np.flatnonzero(np.isnan(columns["frequency_hz"]))
+                unread_count += missing.size
+                unread += [_unread_label(table, k, flags[k]) for k in missing[: 5 - len(unread)]]
             counts += [np.count_nonzero(flags & bit) for bit in ReadingFlag]
             summary.flagged += int(np.count_nonzero(flags))
             write(columns)
             if advance is not None:
                 advance(stream.progress - done)
             done = stream.progress
+        if unread_count:
+            raise ReadingsRefused(stream.source, unread_count, stream.rows, unread)
         summary.warnings = measured.finish()
         for warning in summary.warnings:
             warnings.warn(warning, stacklevel=2)
@@ -187,40 +265,53 @@ def measure_file(
     return summary
 
 
-def check_stream(calibration, stream: ReadingStream, coarse_hz, temperature_k) -> None:
-    """The file gives what the calibration needs: its ports, a temperature, a coarse
-    frequency (the command line checks these first, with its own options in the
-    messages)."""
-    if len(stream.port_names) != calibration.n_ports_:
-        raise InputError(
-            f"{stream.source} has {len(stream.port_names)} ports "
-            f"({', '.join(stream.port_names)}) but the calibration has "
-            f"{calibration.n_ports_} ({', '.join(calibration.port_names_)}); choose the "
-            "port columns in the calibration's order (ports)",
-            parameter="ports",
+class ReadingsRefused(WavemeterError):
+    """Readings a calibration cannot read, refused (``errors="raise"``): nothing was written.
+
+    Attributes
+    ----------
+    unread : int
+        Readings that could not be read.
+    examples : list of str
+        The first of them by file line, with their flags (``line 12 (OUTSIDE_SPAN)``).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import iter_readings, write_table
+    >>> from wavemeter.jobs import ReadingsRefused, measure_file
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(device.powers(f_hz, 1e-3, 5e-7, rng=1), f_hz)
+    >>> readings = device.powers(f_hz[:5], power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> readings[3] = np.nan  # a row the instrument could not read
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> write_table(folder / "readings.csv", {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> stream = iter_readings(folder / "readings.csv", allow_invalid=True)
+    >>> try:
+    ...     measure_file(cal, stream, folder / "out.csv", errors="raise")
+    ... except ReadingsRefused as error:
+    ...     print(error.unread, error.examples, (folder / "out.csv").exists())
+    1 ['line 5 (INVALID)'] False
+    """
+
+    def __init__(self, source, unread: int, rows: int, examples: list[str]):
+        self.unread = unread
+        self.examples = list(examples)
+        super().__init__(
+            f"{source}: {unread} of {rows} readings cannot be read ({', '.join(examples)}"
+            f"{', ...' if unread > len(examples) else ''}); strict refuses the file, so "
+            "nothing was written"
         )
-    if "temperature_k" in calibration.requires:
-        if temperature_k is None and stream.temperature_column is None:
-            raise InputError(
-                f"a {calibration.method_label} calibration needs the chip temperature of each "
-                f"reading, and {stream.source} has no temperature column; name it "
-                "(temperature) or give one temperature for the file (temperature_k)",
-                parameter="temperature_k",
-            )
-    if "coarse_hz" in calibration.requires:
-        if coarse_hz is None and stream.coarse_column is None:
-            raise InputError(
-                f"a {calibration.method_label} calibration needs a coarse frequency of each "
-                f"reading; {stream.source} has no coarse column: name it (coarse) or give "
-                "one for the file (coarse_hz)",
-                parameter="coarse_hz",
-            )
-    elif calibration.absolute_frequency and (coarse_hz is not None or stream.coarse_column):
-        raise InputError(
-            f"a {calibration.method_label} calibration reads the absolute frequency: it "
-            "takes no coarse frequency (coarse_hz)",
-            parameter="coarse_hz",
-        )
+
+
+def _unread_label(table, row: int, flags: int) -> str:
+    """``line 12 (OUTSIDE_SPAN)``: a reading by its file line, with its flags."""
+    names = [bit.name for bit in ReadingFlag if flags & bit] or ["no flag"]
+    return f"{table.row_label(int(table.row_index[row]))} ({', '.join(names)})"
 
 
 class ChunkMeasurement:

@@ -40,9 +40,10 @@ from ..exceptions import InputError
 from ..io import ColumnRequest, ReadingStream, iter_readings
 from ..io.streaming import CHUNK_ROWS
 from ..validation import check_positive
-from .measure import ChunkMeasurement, check_stream
+from .measure import ChunkMeasurement
 from .noise_clock import TIME_JITTER_TOLERANCE, Clock
 from .noise_unwrap import Unwrapper
+from .readings import check_reading_options, check_readings
 
 __all__ = [
     "measure_series",
@@ -103,6 +104,31 @@ class NoiseSeries:
         The first rows the reader refused, with their reasons.
     warnings : tuple of Warning
         The warnings the measurement gave (each once), also issued.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> from wavemeter.jobs import measure_series
+    >>> from wavemeter.simulation import laser_frequency_hz
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(device.powers(f_hz, 1e-3, 5e-7, rng=1), f_hz)
+    >>> rate_hz = 1e6
+    >>> h0 = 1e10  # Hz^2/Hz: a free-running laser that wanders 70 MHz between readings
+    >>> laser_hz = laser_frequency_hz(4096, rate_hz, center_hz=f_hz.mean(), white_fm_hz2_per_hz=h0,
+    ...     rng=3)
+    >>> readings = device.powers(laser_hz, power_w=1e-3, noise_w=5e-7, rng=4)
+    >>> path = Path(tempfile.mkdtemp()) / "laser.csv"
+    >>> write_table(path, {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> series = measure_series(cal, path, rate_hz=rate_hz)
+    >>> print(f"{series.rate_hz / 1e6:.0f} MHz rate, meter std {series.meter_std_hz / 1e6:.0f} MHz")
+    1 MHz rate, meter std 13 MHz
+    >>> series.frequency_hz.shape, series.flag_counts
+    ((4096,), {})
     """
 
     source: Path
@@ -217,6 +243,35 @@ def measure_series(
         that is missing, holds text or a missing time, does not increase, has a gap or
         is not uniform, or disagrees with the rate given; no usable reading; and what
         :func:`~wavemeter.io.iter_readings` and the calibration refuse.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> from wavemeter.jobs import measure_series
+    >>> from wavemeter.simulation import laser_frequency_hz
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(device.powers(f_hz, 1e-3, 5e-7, rng=1), f_hz)
+    >>> rate_hz = 1e6
+    >>> h0 = 1e10  # Hz^2/Hz: a free-running laser that wanders 70 MHz between readings
+    >>> laser_hz = laser_frequency_hz(4096, rate_hz, center_hz=f_hz.mean(), white_fm_hz2_per_hz=h0,
+    ...     rng=3)
+    >>> readings = device.powers(laser_hz, power_w=1e-3, noise_w=5e-7, rng=4)
+    >>> path = Path(tempfile.mkdtemp()) / "laser.csv"
+    >>> write_table(path, {f"p{k + 1}_w": readings[:, k] for k in range(3)})
+    >>> series = measure_series(cal, path, rate_hz=rate_hz)
+    >>> series.rows, series.excluded, series.unwrapped
+    (4096, 0, True)
+
+    The series follows the laser to the meter's noise (14 MHz per reading):
+
+    >>> error_hz = series.frequency_hz - laser_hz
+    >>> print(f"{np.std(error_hz) / 1e6:.0f} MHz")
+    14 MHz
     """
     rate_hz = None if rate_hz is None else check_positive("rate_hz", rate_hz)
     if rate_hz is None and time_column is None:
@@ -225,8 +280,16 @@ def measure_series(
             "their time stamps (time_column)",
             parameter="rate_hz",
         )
+    check_reading_options(calibration, coarse_hz=coarse_hz, temperature_k=temperature_k)
     stream = _open(readings, request, chunk_rows, time_column, calibration, temperature_k)
-    check_stream(calibration, stream, coarse_hz, temperature_k)
+    ports_given = request is not None and request.ports is not None
+    check_readings(
+        calibration,
+        stream,
+        coarse_hz=coarse_hz,
+        temperature_k=temperature_k,
+        ports_given=ports_given,
+    )
     offered = "frequency_std" in calibration.capabilities
     measured = ChunkMeasurement(calibration, offered, coarse_hz, temperature_k, phase=False)
     modulo = reads_modulo_fsr(calibration, stream.coarse_column, coarse_hz)

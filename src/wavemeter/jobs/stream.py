@@ -6,7 +6,7 @@ column), then turns every data line into an output line the moment it arrives, w
 flushed before the next line is read: ``frequency_hz,wavelength_nm,frequency_std_hz``, for
 a cascade ``order_error_probability``, then ``flags``, floats at full precision (the
 shortest text that reads back to the same float64, as the table writer writes them). Each
-reading goes through the calibration's :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.stream`,
+reading goes through the calibration's :meth:`~wavemeter.calibration.BaseCalibrator.stream`,
 so it gets the numbers ``predict``, ``frequency_std_hz`` and ``flags`` give it.
 
 A line that is no reading (another number of cells than the header, text where a number
@@ -38,7 +38,9 @@ from ..io.plan import ColumnPlan, plan_columns
 from ..io.source import Source
 from ..io.text_layout import LineCells, column_names, excel_separator
 from ..units import SPEED_OF_LIGHT_M_S
-from .measure import about_file, check_stream
+from .line_reader import LineReader
+from .measure import about_file
+from .readings import check_reading_options, check_readings
 
 __all__ = [
     "stream_lines",
@@ -47,6 +49,7 @@ __all__ = [
     "StreamSummary",
     "STREAM_COLUMNS",
     "MAX_LINE_WARNINGS",
+    "read_header",
 ]
 
 #: the output columns, in order; a calibration's ``reading_outputs`` (a cascade's
@@ -78,6 +81,16 @@ class StreamHeader:
         What to read from each line and how to convert it.
     cells : LineCells
         How a line is split into cells and a cell read as a number.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from wavemeter.jobs import read_header
+    >>> lines = ["# the meter's log", "frequency_hz,p1_mW,p2_mW,p3_mW", "1,0.5,0.25,0.25"]
+    >>> numbered = iter(enumerate(lines, start=1))
+    >>> header = read_header(numbered, Path("<stdin>"), None, find_temperature=False)
+    >>> header.source.name, header.names
+    ('<stdin>', ('frequency_hz', 'p1_mW', 'p2_mW', 'p3_mW'))
     """
 
     source: Path
@@ -94,7 +107,7 @@ class StreamHeader:
 
 @dataclass
 class StreamSummary:
-    """What :func:`stream_lines` did.
+    r"""What :func:`stream_lines` did.
 
     Attributes
     ----------
@@ -110,6 +123,33 @@ class StreamSummary:
         Readings with any flag.
     interrupted : bool
         The stream was ended by Ctrl-C (KeyboardInterrupt), not by the end of the lines.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> import io
+    >>> import warnings
+    >>> from wavemeter.jobs import stream_lines
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> good = ",".join(f"{p:.6e}" for p in powers[100]) + "\n"
+    >>> lines = ["p1_w,p2_w,p3_w\n", "1e-4,nan,2e-4\n", good]  # the first reading is broken
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     summary = stream_lines(cal, lines, io.StringIO())
+    >>> print(str(caught[0].message))  # the line is written as NaN, flagged, and said
+    <input> line 2: p2_w is NaN, empty or inf: written as NaN with the INVALID flag
+    >>> summary.rows, summary.flagged, summary.flag_counts, summary.interrupted
+    (2, 1, {'INVALID': 1}, False)
     """
 
     source: Path
@@ -131,7 +171,7 @@ def stream_lines(
     name: str = "<input>",
     check: Callable[[StreamHeader], None] | None = None,
 ) -> StreamSummary:
-    """Turn lines of port readings into lines of frequency, each as soon as it arrives.
+    r"""Turn lines of port readings into lines of frequency, each as soon as it arrives.
 
     Parameters
     ----------
@@ -180,26 +220,92 @@ def stream_lines(
     CalibrationWarning
         Cause :data:`~wavemeter.calibration.contract.base.INVALID_READING_CAUSE` for each of the
         first :data:`MAX_LINE_WARNINGS` invalid lines, naming the line and what is wrong.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.io import write_table
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> columns = {"frequency_hz": f_hz, **{f"p{k + 1}_w": powers[:, k] for k in range(3)}}
+    >>> write_table(folder / "sweep.csv", columns)  # the sweep as a lab would save it
+    >>> import io
+    >>> from wavemeter.jobs import stream_lines
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> rows = [",".join(f"{p:.6e}" for p in row) + "\n" for row in powers[:3]]
+    >>> lines = ["p1_w,p2_w,p3_w\n", *rows]  # a header, then one reading a line, in W
+    >>> out = io.StringIO()
+    >>> summary = stream_lines(cal, lines, out)  # each line is read and written as it comes
+    >>> out.getvalue().splitlines()[0]
+    'frequency_hz,wavelength_nm,frequency_std_hz,flags'
+    >>> summary.rows, summary.flagged
+    (3, 0)
     """
     source = Path(name)
     summary = StreamSummary(source=source)
     numbered = iter(enumerate(lines, start=1))
     thermal = "temperature_k" in calibration.requires
+    check_reading_options(calibration, coarse_hz=coarse_hz, temperature_k=temperature_k)
+    ports_given = request is not None and request.ports is not None
     try:
         with about_file(source):
-            header = _read_header(numbered, source, request, thermal and temperature_k is None)
+            header = read_header(numbered, source, request, thermal and temperature_k is None)
             if check is not None:
                 check(header)
-            check_stream(calibration, header, coarse_hz, temperature_k)
+            check_readings(
+                calibration,
+                header,
+                coarse_hz=coarse_hz,
+                temperature_k=temperature_k,
+                ports_given=ports_given,
+            )
         _Stream(calibration, header, out, coarse_hz, temperature_k).run(numbered, summary)
     except KeyboardInterrupt:
         summary.interrupted = True
     return summary
 
 
-def _read_header(numbered, source: Path, request, find_temperature: bool) -> StreamHeader:
+def read_header(numbered, source: Path, request, find_temperature: bool) -> StreamHeader:
     """The first line that is not blank or a comment, its columns found as in files (an
-    Excel ``sep=`` first line names the delimiter)."""
+    Excel ``sep=`` first line names the delimiter).
+
+    Parameters
+    ----------
+    numbered : iterator of (int, str)
+        Line numbers (1-based) and lines; consumed up to the header line.
+    source : Path
+        What the input is called in messages.
+    request : ColumnRequest or None
+        Columns chosen by the user (and the delimiter and decimal mark).
+    find_temperature : bool
+        Look for a temperature column by name.
+
+    Returns
+    -------
+    StreamHeader
+
+    Raises
+    ------
+    InputError
+        When the lines end before a header, or its columns cannot be found as in files.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from wavemeter.jobs import read_header
+    >>> lines = ["# the meter's log", "frequency_hz,p1_mW,p2_mW,p3_mW", "1,0.5,0.25,0.25"]
+    >>> numbered = iter(enumerate(lines, start=1))
+    >>> header = read_header(numbered, Path("<stdin>"), None, find_temperature=False)
+    >>> header.line, header.delimiter, header.port_names, header.port_units
+    (2, ',', ('p1_mW', 'p2_mW', 'p3_mW'), ('mW', 'mW', 'mW'))
+    >>> next(numbered)  # the header consumed; the data lines follow
+    (3, '1,0.5,0.25,0.25')
+    """
     request = request or ColumnRequest()
     declared = None
     for number, text in numbered:
@@ -261,8 +367,7 @@ class _Stream:
         self.header = header
         self.out = out
         plan = header.plan
-        self.width = len(header.names)
-        self.fields = [(name, header.names.index(name)) for name in plan.fields]
+        self.cells = LineReader(header)
         self.checks = ColumnChecks()
         self.plain = PlainRowConverter.of(plan)
         self.powers = _Latest()
@@ -329,21 +434,9 @@ class _Stream:
 
     def _read(self, line: str, number: int) -> tuple[tuple, str | None]:
         """The output values of a data line (the flags last), or why it is no valid reading."""
-        try:
-            cells = self.header.cells.split(line)
-        except csv.Error as exc:
-            return (), f"cannot be split into cells ({exc})"
-        if len(cells) == self.width + 1 and not cells[-1].strip():
-            cells.pop()  # a trailing delimiter
-        if len(cells) != self.width:
-            return (), f"{len(cells)} cells, the header has {self.width}"
-        data = {}
-        for name, column in self.fields:
-            cell = cells[column].strip()
-            try:
-                data[name] = self.header.cells.number(cell)
-            except ValueError:
-                return (), f"column {name!r}: {cell[:40]!r} is not a number"
+        data, reason = self.cells.values(line)
+        if reason is not None:
+            return (), reason
         plain = None if self.plain is None else self.plain.convert(data)
         if plain is not None:
             self.powers.value, temperature_k = plain
@@ -372,7 +465,7 @@ def _line_label(row: int) -> str:
 
 
 def follow_lines(path, *, poll_s: float = 0.05, stop=None) -> Iterator[str]:
-    """The lines of a file, then those appended to it later, like ``tail -n +1 -f``.
+    r"""The lines of a file, then those appended to it later, like ``tail -n +1 -f``.
 
     Parameters
     ----------
@@ -394,6 +487,18 @@ def follow_lines(path, *, poll_s: float = 0.05, stop=None) -> Iterator[str]:
     ------
     InputError
         When the file does not exist or is a folder.
+
+    Examples
+    --------
+    >>> import tempfile, threading
+    >>> from pathlib import Path
+    >>> from wavemeter.jobs import follow_lines
+    >>> path = Path(tempfile.mkdtemp()) / "live.csv"
+    >>> _ = path.write_text("p1_w,p2_w,p3_w\n5e-4,2.5e-4,2.5e-4\n")
+    >>> done = threading.Event()
+    >>> done.set()  # stop once every line written so far was given (else: follow forever)
+    >>> list(follow_lines(path, stop=done))
+    ['p1_w,p2_w,p3_w\n', '5e-4,2.5e-4,2.5e-4\n']
     """
     path = Path(path)
     if not path.exists():

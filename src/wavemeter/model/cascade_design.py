@@ -2,55 +2,15 @@
 
 A cascade (:class:`~wavemeter.simulation.cascade.CascadeInterferometer`) splits one source
 among ``K`` stages of decreasing FSR ``F_0 > F_1 > ... > F_{K-1}``; the coarsest stage's
-phase is unique over the band, and each stage picks the fringe order of the next (see
-:mod:`wavemeter.model.orders`). :func:`design_cascade` chooses ``K`` and the FSRs.
+phase is unique over the band, and each stage picks the fringe order of the next
+(:mod:`wavemeter.model.orders`). :func:`design_cascade` chooses ``K`` (1 to
+:data:`MAX_STAGES`) and the FSRs: the finest is given, the others geometric between it and
+``F_0``, and ``F_0`` minimises the total wrong-order rate (the coarsest stage's wrap at the
+band's edges and every hand-over's error), for ideal stages of equal power share made
+``noise_factor`` times noisier and with FSRs off by up to ``fsr_tolerance``.
 
-Derivation (ideal stages, equal power split)
---------------------------------------------
-1. Stage power: the source power ``P`` is split equally, each stage receives ``P / K``
-   (an unequal split is left for later).
-2. Stage noise: an ideal ``n``-port stage with detector noise ``sigma`` per port (W) has
-   phase std ``sigma_phi = sqrt(2 n) sigma / (P / K)`` (rad), so its frequency std is
-   ``s_k = F_k sigma_phi / (2 pi)``
-   (:func:`~wavemeter.model.limits.crlb_ideal_frequency_std`). Every ``s_k`` is
-   proportional to its FSR: ``s_k = c F_k``, ``c = sqrt(2 n) sigma K / (2 pi P)``.
-3. Hand-over ``k -> k+1``: the residual of the two stages' errors has std
-   ``s = sqrt(s_k^2 + s_{k+1}^2)``; the order is wrong when it exceeds half the finer FSR,
-   ``|e_k - e_{k+1}| > F_{k+1} / 2``. Its margin, in standard deviations, is
-   ``z_k = (F_{k+1} / 2) / s = 1 / (2 c sqrt(r_k^2 + 1))`` with the ratio
-   ``r_k = F_k / F_{k+1}``, and its rate is ``erfc(z_k / sqrt 2) = 2 Q(z_k)``
-   (:func:`~wavemeter.model.orders.handover_error_rate`).
-4. Coarsest stage: its unique range is ``F_0`` wide, centred on the band ``[low, high]``
-   of width ``B < F_0``. A reading whose truth lies a distance ``d`` inside an end of the
-   range wraps past it with probability ``Q(d / s_0)``
-   (:func:`~wavemeter.model.orders.edge_error_probability`). The truth is uniform over the
-   band, so ``d`` runs from ``a = (F_0 - B) / 2`` to ``a + B`` for each end, and that
-   end's wrap rate is ``(1 / B) integral_a^{a+B} Q(d / s_0) dd``. With
-   ``integral_z^inf Q(u) du = phi(z) - z Q(z) =: g(z)`` (``phi`` the normal pdf) it is
-   ``(s_0 / B) (g(z) - g(z'))``, ``z = (F_0 - B) / (2 s_0)`` (the edge margin) and
-   ``z' = (F_0 + B) / (2 s_0)``; the two ends together wrap at twice that.
-   ``g(z') << g(z)`` unless ``s_0`` is comparable with ``B``.
-5. Total: a reading is wrong when any of the ``K`` events (the wrap and the ``K - 1``
-   hand-overs) happens, ``1 - prod (1 - p)``
-   (:func:`~wavemeter.model.orders.any_error_probability`).
-6. FSRs: the last is ``finest_fsr_hz``; the others are geometric between ``F_0`` and it,
-   so every hand-over has the same ratio ``r = (F_0 / F_{K-1})^(1 / (K - 1))`` and, by 3,
-   the same margin. ``F_0`` is the one free number: a larger ``F_0`` widens the edge
-   margin (4) and narrows every hand-over's (3). It is chosen by minimising the total
-   rate; the search works on the logarithm of the sum of the rates (equal to the total
-   where it matters, and neither underflowing at large margins nor saturating at small
-   ones), over a log grid of ``F_0 / max(B, F_{K-1}) - 1`` refined by a bounded scalar
-   minimisation.
-7. Stages: the fewest ``K`` (1 to :data:`MAX_STAGES`) whose best design meets the
-   requested rate. ``K = 1`` means the finest stage alone covers the band (``F_0 =
-   finest_fsr_hz > B``) at that rate.
-8. Real stages: a chip's stages are noisier than ideal and its FSRs miss their design.
-   Every ``s_k`` is ``noise_factor`` times the ideal one, and the rates are those of the
-   worst FSRs within ``fsr_tolerance`` (``t``): in 4 the coarsest FSR is ``F_0 (1 - t)``
-   (with its std), and in 3 the coarser stage's FSR and std are ``(1 + t)`` times their
-   design and the finer's ``(1 - t)`` times, ``z_k = (1 - t) F_{k+1} / 2 / sqrt(((1 + t)
-   s_k)^2 + ((1 - t) s_{k+1})^2)``. ``noise_factor = 1`` and ``t = 0`` give 1-7 as they
-   stand.
+Theory (the derivation, steps 1-8): the docs' cascade page (``docs/theory/cascade.rst``,
+"Designing a cascade").
 """
 
 from __future__ import annotations
@@ -207,6 +167,16 @@ def design_cascade(
         wider than the band; no cascade of at most :data:`MAX_STAGES` stages meets the
         rate (``parameter="wrong_order_rate"``; the message gives the best rate reached and
         what would help).
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> design = wm.design_cascade((191e12, 196e12), 50e9, wrong_order_rate=1e-9)
+    >>> print(len(design.fsrs_hz), [round(fsr / 1e9) for fsr in design.fsrs_hz])
+    3 [5999, 548, 50]
+    >>> two = wm.design_cascade((191e12, 196e12), 50e9, stages=2)  # too few stages for the band
+    >>> print([round(fsr / 1e9) for fsr in two.fsrs_hz], two.wrong_order_rate > 1e-9)
+    [5589, 50] True
     """
     band, width = _band(band_hz)
     setting = DesignSetting(

@@ -56,6 +56,21 @@ class CascadeDesign:
     fsr_tolerance : float
         The relative error of every FSR the design allows for: margins and rates are
         those of the worst case (item 8 of :mod:`wavemeter.model.cascade_design`).
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> design = wm.design_cascade((191e12, 196e12), 50e9)  # the C band, read to a 50 GHz fringe
+    >>> design.stages
+    3
+    >>> print([f"{fsr / 1e9:.0f} GHz" for fsr in design.fsrs_hz])
+    ['5999 GHz', '548 GHz', '50 GHz']
+    >>> print([f"{std / 1e6:.0f} MHz" for std in design.stage_std_hz])  # each stage's noise
+    ['7016 MHz', '641 MHz', '58 MHz']
+    >>> print([f"{margin:.1f}" for margin in design.handover_margins])  # in standard deviations
+    ['31.8', '31.8']
+    >>> design.wrong_order_rate <= design.requested_rate
+    True
     """
 
     fsrs_hz: tuple[float, ...]

@@ -43,6 +43,18 @@ def fourier_matrix(n: int) -> np.ndarray:
     Returns
     -------
     ndarray of complex, shape (n, n)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> F = wm.fourier_matrix(3)
+    >>> print(np.allclose(F @ F.conj().T, np.eye(3)))  # unitary
+    True
+    >>> print(np.round(np.abs(F) ** 2, 3))  # every output gets a third of every input
+    [[0.333 0.333 0.333]
+     [0.333 0.333 0.333]
+     [0.333 0.333 0.333]]
     """
     n = _check_port_count(n, 2)
     k = np.arange(n)
@@ -71,6 +83,17 @@ def mmi_matrix(n: int) -> np.ndarray:
     -------
     ndarray of complex, shape (n, n)
         ``M[j, i]``: egress ``j`` from ingress ``i`` (zero-based).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> M = wm.mmi_matrix(3)
+    >>> print(np.allclose(M @ M.conj().T, np.eye(3)))  # lossless
+    True
+    >>> fringes = np.angle(M[:, 0] / M[:, 2])  # inputs 1 and 3 feed the arms
+    >>> print(np.round(np.degrees(np.sort(fringes)), 1))  # port phases 120 degrees apart
+    [-120.    0.  120.]
     """
     n = _check_port_count(n, 2)
     i = np.arange(1, n + 1)[np.newaxis, :]  # ingress, columns
@@ -133,6 +156,16 @@ def orthonormal_map(phases_rad) -> np.ndarray:
     Returns
     -------
     ndarray of float, shape (n, 3)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> O = wm.orthonormal_map(np.radians([0.0, 120.0, 240.0]))
+    >>> O.shape
+    (3, 3)
+    >>> print(np.allclose(O.T @ O, np.eye(3)))
+    True
     """
     phases = np.asarray(phases_rad, dtype=float)
     if phases.ndim != 1:

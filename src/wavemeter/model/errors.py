@@ -32,6 +32,17 @@ def frequency_error_hz(predicted_hz, true_hz, fsr_hz: float | None = None) -> np
     Returns
     -------
     ndarray, shape (N,), Hz
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> true_hz = np.array([193.4e12, 193.4e12])
+    >>> predicted_hz = true_hz + np.array([2e6, 50e9 - 1e6])  # the second one an FSR off
+    >>> print(wm.frequency_error_hz(predicted_hz, true_hz) / 1e6)
+    [2.0000e+00 4.9999e+04]
+    >>> print(wm.frequency_error_hz(predicted_hz, true_hz, fsr_hz=50e9) / 1e6)  # modulo the FSR
+    [ 2. -1.]
     """
     predicted = np.asarray(predicted_hz, dtype=float)
     truth = np.asarray(true_hz, dtype=float)
@@ -64,6 +75,18 @@ def error_summary_hz(predicted_hz, true_hz=None, *, fsr_hz: float | None = None)
     -------
     dict
         ``rms_hz``, ``max_hz``, ``p95_hz``, ``p99_hz``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> true_hz = 193.4e12 + np.arange(4) * 1e9
+    >>> predicted_hz = true_hz + np.array([3e6, -4e6, 0.0, 5e6])
+    >>> summary = wm.error_summary_hz(predicted_hz, true_hz)
+    >>> sorted(summary)
+    ['max_hz', 'p95_hz', 'p99_hz', 'rms_hz']
+    >>> print(f"{summary['rms_hz'] / 1e6:.2f} MHz RMS, {summary['max_hz'] / 1e6:.0f} MHz at most")
+    3.54 MHz RMS, 5 MHz at most
     """
     if true_hz is None:
         if fsr_hz is not None:

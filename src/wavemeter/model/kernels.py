@@ -1,31 +1,19 @@
 """Fused phase retrieval: check, offsets, map product, phase and scale in one pass.
 
-A reading ``p`` (n ports, offsets ``o``) is retrieved by the paper's pseudo-inverse,
-``x = A+ (p - o)`` and ``t = atan2(x_2, x_1)``, or by the cone-constrained maximum
-likelihood of :func:`~wavemeter.model.retrieval.cone_ml_phase_rad`; its frequency is
-``f = f0 + t FSR / (2 pi)``. Written with numpy this walks the readings many times (the
-finite check, the offsets, the products, the arctangent, the scale; the maximum likelihood
-a few times per Newton step) and leaves a temporary at each step. Here:
+:func:`fused_pinv_frequency_hz`, :func:`fused_ml_frequency_hz` (and their ``_phase_rad``
+twins) retrieve a block of readings by the pseudo-inverse or the cone maximum likelihood
+in one pass per reading instead of numpy's many, with no temporaries:
 
-* **numba** (the optional extra ``fast``): one pass per reading, the check folded in,
-  compiled per port count (:mod:`wavemeter.model.numba_kernel`, whose
-  :func:`~wavemeter.model.numba_kernel.kernel_backend` tells which path large batches
-  take). Large batches are shared among threads (:func:`_shared`) in ``PARALLEL_PARTS``
-  parts, each taken by the next thread free.
-* **numpy** (the fallback; and small batches, below ``NUMBA_MIN_READINGS``, where loading
-  numba costs more than it saves): for the pseudo-inverse, per ``NUMPY_PART_ROWS``
-  readings, matrix products give both quadratures and the total power as contiguous rows
-  in the cache, then ``arctan2``, scale and shift in place; numpy lets go of the GIL in
-  each, so from ``NUMPY_PARALLEL_MIN_READINGS`` readings on the parts are shared among
-  threads as the numba kernel's are (0.55-0.9x one thread's time, 1e7 to 1e5). The
-  maximum likelihood is :func:`~wavemeter.validation.check_powers` and
-  :func:`~wavemeter.model.retrieval.cone_ml_phase_rad` as they are.
+* **numba** (the optional extra ``fast``): compiled per port count
+  (:mod:`wavemeter.model.numba_kernel`; :func:`~wavemeter.model.numba_kernel.kernel_backend`
+  says which path large batches take), shared among threads in ``PARALLEL_PARTS`` parts;
+* **numpy** (the fallback, and batches below ``NUMBA_MIN_READINGS``): parts of
+  ``NUMPY_PART_ROWS`` readings, shared among threads from ``NUMPY_PARALLEL_MIN_READINGS``.
 
-Both paths give the steps one by one to rounding (1e-12 rad covers it: the products'
-rounding relative to the quadratures' length, times the map's condition number; for the
-maximum likelihood also its root tolerance ``TOLERANCE``). Readings are refused by
-:func:`~wavemeter.validation.check_powers` itself, with its messages, whenever the fused
-check finds a NaN, inf or dark reading.
+Both paths give the unfused steps to rounding (1e-12 rad), and refuse readings through
+:func:`~wavemeter.validation.check_powers` with its messages. Theory (the design, the
+timings): the docs' large-sweeps page (``docs/theory/large-sweeps.rst``, "Fused retrieval
+kernels").
 """
 
 from __future__ import annotations

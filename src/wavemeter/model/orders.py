@@ -58,6 +58,15 @@ def handover_error_probability(residual_hz, fsr_hz, std_hz) -> np.ndarray:
     -------
     ndarray, shape (N,)
         Probability in [0, 1); 0 where ``std_hz`` is 0.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.model import handover_error_probability
+    >>> residual_hz = np.array([0.0, 10e9, 20e9])  # coarse minus fine at the chosen order
+    >>> p = handover_error_probability(residual_hz, 50e9, 5e9)  # a 50 GHz fine FSR, 5 GHz std
+    >>> print([f"{value:.1e}" for value in p])  # far likelier wrong near half an FSR
+    ['3.9e-22', '9.4e-14', '4.5e-05']
     """
     residual = np.asarray(residual_hz, dtype=float)
     fsr = np.asarray(fsr_hz, dtype=float)
@@ -74,13 +83,30 @@ def handover_error_probability(residual_hz, fsr_hz, std_hz) -> np.ndarray:
 
 def handover_error_rate(fsr_hz, std_hz) -> np.ndarray:
     """Expected wrong-order rate of a hand-over: ``erfc(F / (2 sqrt(2) s))`` (the mean of
-    :func:`handover_error_probability` over readings)."""
+    :func:`handover_error_probability` over readings).
+
+    Examples
+    --------
+    >>> from wavemeter.model import handover_error_rate
+    >>> for std_hz in (2e9, 5e9):  # residual std of a hand-over to a 50 GHz stage
+    ...     print(f"{handover_error_rate(50e9, std_hz):.1e}")
+    7.5e-36
+    5.7e-07
+    """
     return special.erfc(np.asarray(fsr_hz, dtype=float) / (2.0 * np.sqrt(2.0) * np.asarray(std_hz)))
 
 
 def edge_error_probability(distance_hz, std_hz) -> np.ndarray:
     """Probability ``Q(d / s)`` that a reading estimated ``distance_hz`` inside an end of the
-    unique range lies beyond it (the coarsest stage's order is then wrong)."""
+    unique range lies beyond it (the coarsest stage's order is then wrong).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.model import edge_error_probability
+    >>> print(edge_error_probability(np.array([1e9, 3e9]), 1e9))  # 1 and 3 std inside the edge
+    [0.15865525 0.0013499 ]
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.asarray(distance_hz, dtype=float) / (np.sqrt(2.0) * np.asarray(std_hz))
     return 0.5 * special.erfc(ratio)
@@ -117,6 +143,15 @@ def wrap_error_probability(frequency_hz, std_hz, band_hz, period_hz) -> np.ndarr
     ndarray, shape (N,)
         In [0, 1]; 1 where the estimate lies so far outside the band that neither it nor
         its wrapped twin has any probability there (the order is then unknown).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.model import wrap_error_probability
+    >>> band_hz = (191e12, 196e12)  # the C band, read by a 6 THz coarse stage
+    >>> estimate_hz = np.array([193.5e12, 196.2e12, 190.3e12])  # mid band, just beyond its edges
+    >>> print(np.round(wrap_error_probability(estimate_hz, 0.3e12, band_hz, 6e12), 3))
+    [0.    0.015 0.942]
     """
     frequency = np.asarray(frequency_hz, dtype=float)
     std = np.asarray(std_hz, dtype=float)
@@ -133,7 +168,16 @@ def wrap_error_probability(frequency_hz, std_hz, band_hz, period_hz) -> np.ndarr
 
 def any_error_probability(probabilities) -> np.ndarray:
     """``1 - prod_k (1 - p_k)`` over the first axis: some stage's order is wrong (accurate
-    for tiny ``p_k``)."""
+    for tiny ``p_k``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.model import any_error_probability
+    >>> stages = np.array([[1e-9, 1e-3], [2e-9, 1e-3]])  # two stages (rows), two readings
+    >>> print(any_error_probability(stages))
+    [3.000e-09 1.999e-03]
+    """
     stacked = np.asarray(probabilities, dtype=float)
     # a p_k of 1 (a reading far outside the band) gives log1p(-1) = -inf and 1 exactly
     with np.errstate(divide="ignore"):

@@ -1,49 +1,19 @@
 """Cone-constrained, noise-weighted maximum-likelihood phase retrieval: the global optimum.
 
-The paper retrieves phase from the unconstrained object estimate ``x_hat = A+ p`` (three
-free values). The readings, though, come from a point on the cone,
-``p = P A u(t) + noise`` with ``u(t) = [cos t, sin t, sqrt 2]``: two unknowns. With white
-Gaussian detector noise of standard deviation ``sigma_j`` on port ``j`` (weights
-``W = diag(1 / sigma_j^2)``) the maximum-likelihood estimate minimises
+:func:`cone_ml_phase_rad` retrieves each reading's phase as the point of the calibrated
+cone nearest the reading in the noise-weighted norm, and :func:`source_power_ratio` its
+source power. The optimum is found exactly, not by a local search: the distance to the
+cone becomes a secular equation in one Lagrange multiplier, with exactly one root on the
+interval that gives the global minimum, found by bracketed Newton steps to ``TOLERANCE``.
+It reaches the Cramer-Rao bound where the pseudo-inverse (:func:`pinv_phase_rad`) does
+not (an ill-conditioned map, unequal port noise).
 
-    (p - A x)' W (p - A x)   over x on the cone  x' J x = 0,  J = diag(1, 1, -1/2),
+Every function also takes a stack of maps, one per reading (``map_`` of shape
+``(N, n, 3)``, for a map that changes with frequency; for the pseudo-inverse phase a stack
+of inverses from :func:`stacked_pinv`), batched over the stack.
 
-and ``t = atan2(x_2, x_1)``, ``P = x_3 / sqrt 2``. Over one period the profile of this
-likelihood in ``t`` can have up to three local maxima (a weak port leaves two phases at
-which the strong ports agree, told apart only by the weak one), so a local search from the
-pseudo-inverse phase can stop on the wrong one. The global optimum is found exactly instead:
-
-1. With ``M = A' W A = L L'`` (any square root) and ``x_hat = M^-1 A' W p`` the weighted
-   least-squares object, ``(p - A x)' W (p - A x) = const + |z - z_hat|^2`` with
-   ``z = L' x``, ``z_hat = L' x_hat = L^-1 A' W p``: the distance from ``z_hat`` to the
-   quadric cone ``z' Q z = 0``, ``Q = L^-1 J L^-T``. In the eigenbasis of ``Q``
-   (``Q = V diag(k) V'``, one negative and two positive ``k`` by Sylvester's law of inertia,
-   ``y = V' z_hat``) the stationary points are ``z_i = y_i / (1 + lambda k_i)`` with the
-   multiplier ``lambda`` a root of the secular equation
-
-       s(lambda) = sum_i k_i y_i^2 / (1 + lambda k_i)^2 = 0.
-
-2. On the interval where every ``1 + lambda k_i > 0`` (between the poles of the largest
-   positive and of the negative ``k``), ``s`` falls strictly (``s' = -2 sum k_i^2 y_i^2 /
-   (1 + lambda k_i)^3 < 0``) from ``+inf`` to ``-inf``: exactly one root. Its point is the
-   global minimum: for any ``z`` on the cone, ``|z - z_hat|^2 = |z - z_hat|^2 +
-   lambda z' Q z``, a convex function of ``z`` (``I + lambda Q`` is positive definite) whose
-   minimum over all of space is at the root's point, which lies on the cone.
-3. The root is found by Newton steps kept inside a shrinking bracket (bisection when a step
-   would leave it), from ``lambda = 0``: the pseudo-inverse point, near the root for any
-   reading close to the cone. Each reading stops when its step moves every ``z_i`` by less
-   than ``TOLERANCE`` relative.
-
-A source power below zero (the other nappe of the cone, a reading of noise only) keeps the
-phase of ``x = P u(t)``: ``t = atan2(-x_2, -x_1)``. The estimate reaches the Cramer-Rao
-bound where the pseudo-inverse does not: an ideal map makes the two coincide, an
-ill-conditioned one (a weak port) separates them.
-
-Every function also takes a stack of maps, one per reading (``map_`` of shape (N, n, 3),
-for a map that changes with frequency; for the pseudo-inverse phase a stack of inverses
-from :func:`stacked_pinv`): reading ``r`` is then retrieved with ``map_[r]``, by the same
-steps batched over the stack (``M_r = L_r L_r'`` by Cholesky, ``Q_r`` and its eigenbasis
-per reading, one secular root per reading with its own ``k``).
+Theory (the problem, the proof of the global optimum, the properties): the docs' page on
+maximum-likelihood retrieval (``docs/theory/ml-retrieval.rst``).
 """
 
 from __future__ import annotations
@@ -269,6 +239,30 @@ def cone_ml_phase_rad(
     Returns
     -------
     ndarray, shape (N,), rad, wrapped to [-pi, pi)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.model import cone_ml_phase_rad
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.center_hz + np.linspace(-20e9, 20e9, 500)
+    >>> noise_w = np.array([2e-7, 2e-7, 2e-6])  # the third port ten times noisier
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=noise_w, rng=1)
+    >>> A = device.true_map()  # W per W of source power
+    >>> true = wm.wrap_phase_rad(device.phase_rad(f_hz))
+    >>> ml = cone_ml_phase_rad(powers, A, noise_std_w=noise_w)
+    >>> pinv = wm.retrieve_phase_rad(powers, np.linalg.pinv(A))
+
+    Weighting the ports by their noise reaches the Cramer-Rao bound (a ratio of 1 within
+    the scatter of 500 readings); the pseudo-inverse, which weights them equally, does not:
+
+    >>> bound_rad = wm.crlb_frequency_std(A, true, 1e-3, noise_w, 1.0) * 2 * np.pi
+    >>> for name, phase in (("ml", ml), ("pinv", pinv)):
+    ...     ratio = np.std(wm.wrap_phase_rad(phase - true)) / np.sqrt(np.mean(bound_rad**2))
+    ...     print(f"{name}: {ratio:.1f} times the bound")
+    ml: 1.0 times the bound
+    pinv: 2.1 times the bound
     """
     readings, matrix = _check_inputs(powers, map_)
     if matrix.ndim == 2:
@@ -307,6 +301,20 @@ def source_power_ratio(powers, map_: np.ndarray, phase_rad, noise_std_w=None) ->
     Returns
     -------
     ndarray, shape (N,)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.model import source_power_ratio
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> dimmer = device.powers(f_hz[:3], power_w=0.5e-3, noise_w=5e-7, rng=2)  # half the power
+    >>> ratio = source_power_ratio(dimmer, cal.map_, cal.phase(dimmer))
+    >>> print(np.round(ratio, 2))
+    [0.5 0.5 0.5]
     """
     readings, matrix = _check_inputs(powers, map_)
     weighted_map = noise_weighted_map(matrix, noise_std_w)

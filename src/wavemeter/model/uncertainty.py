@@ -1,39 +1,19 @@
 """Per-reading uncertainty of the retrieved phase and frequency, by the delta method.
 
-A reading ``p = P A u(t) + e`` (``u(t) = [cos t, sin t, sqrt 2]``, white noise ``e`` of
-standard deviation ``sigma_j`` on port ``j``, weights ``W = diag(1 / sigma_j^2)``) gives a
-phase ``t_hat(p; A)``. To first order in the reading's noise ``e`` and in the error ``dA`` of
-the calibrated map, with ``g = d t_hat / d p`` (n,) and ``x`` the reading's object vector,
+To first order in a reading's noise ``e`` and in the error ``dA`` of the calibrated map,
+the retrieved phase moves by ``g . e - g . (dA x)``, ``g = d t_hat / d p`` (n,):
 
-    d t_hat = g . e - g . (dA x),
+* :func:`pinv_phase_gradient`, :func:`ml_phase_gradient`: ``g`` for the pseudo-inverse and
+  the maximum-likelihood retrievals (the latter's variance is the Cramer-Rao bound);
+* :func:`phase_std_rad`: the reading noise's part, ``sqrt(sum_j g_j^2 sigma_j^2)``;
+* :func:`fit_parameter_covariance`: the covariance of the calibration's map and delay;
+* :func:`calibration_frequency_variance_hz2`: the calibration's part of a reading's
+  frequency variance, which adds to the reading noise's;
+* :func:`student_factor`: the inflation ``sqrt(dof / (dof - 2))`` for a noise estimated on
+  ``dof`` degrees of freedom.
 
-because a map error ``dA`` moves the model of the reading by ``dA x``, which the estimator
-reads as the noise ``-dA x``. Then:
-
-* Reading noise: ``var t_hat = sum_j g_j^2 sigma_j^2`` (:func:`phase_std_rad`).
-* Pseudo-inverse retrieval, ``t = atan2(x_2, x_1)`` with ``x = A+ p``:
-  ``g = (x_1 r_2 - x_2 r_1) / (x_1^2 + x_2^2)``, ``r_1``, ``r_2`` the first two rows of
-  ``A+`` (:func:`pinv_phase_gradient`).
-* Maximum-likelihood retrieval, the weighted least-squares fit of ``(t, P)``: with the
-  model's derivatives ``a_t = P A u'(t)`` and ``a_P = A u(t)``, the ``t`` row of
-  ``(J' W J)^-1 J' W`` (``J = [a_t, a_P]``) is ``g = W a_perp / (a_perp' W a_perp)``,
-  ``a_perp = a_t - a_P (a_t' W a_P) / (a_P' W a_P)`` (the part of ``a_t`` the power cannot
-  absorb). Its variance ``1 / (a_perp' W a_perp)`` is the inverse Fisher information: the
-  Cramer-Rao bound of :func:`wavemeter.model.limits.crlb_frequency_std`
-  (:func:`ml_phase_gradient`).
-* Calibration: the least-squares fit of ``theta = [vec(A) (row-major), tau]`` to a sweep
-  ``powers ~ X(tau) A'`` (``X`` the (N, k) object vectors, ``k = 3``, or 4 with a column of
-  ones for per-port offsets) has, to first order, the covariance ``C = F^-1`` with the
-  Fisher matrix ``F = J' W J`` of the residual Jacobian ``d r_j / d A_jm = -X_m``,
-  ``d r_j / d tau = -D A_j`` (``D = dX / d tau``) (:func:`fit_parameter_covariance`).
-  The frequency ``f = f0 + t / (2 pi tau)`` of a reading then moves by
-  ``df = -g . (dA x) / (2 pi tau) - t d tau / (2 pi tau^2)``, so its variance from the
-  calibration is ``grad' C grad`` with ``grad = [-(g_j x_m) / (2 pi tau), -t / (2 pi
-  tau^2)]`` (:func:`calibration_frequency_variance_hz2`). It adds to the reading-noise
-  variance ``(std t / (2 pi tau))^2``.
-* A noise ``sigma`` estimated from a residual with ``dof`` degrees of freedom makes
-  ``z = error / std`` Student-t distributed: its standard deviation is
-  ``sqrt(dof / (dof - 2))``, the factor :func:`student_factor` inflates ``std`` by.
+Theory (the derivations): the docs' uncertainty page (``docs/theory/uncertainty.rst``,
+"First order in the noise and the map's error").
 """
 
 from __future__ import annotations
@@ -106,6 +86,22 @@ def pinv_phase_gradient(powers, map_pinv) -> np.ndarray:
     Returns
     -------
     ndarray, shape (N, n), rad/W
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.model import phase_std_rad, pinv_phase_gradient
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> gradient = pinv_phase_gradient(powers[:3], np.linalg.pinv(cal.map_))  # rad/W
+    >>> gradient.shape
+    (3, 3)
+    >>> std_hz = phase_std_rad(gradient, 5e-7) * cal.fsr_hz_ / (2 * np.pi)
+    >>> print(np.round(std_hz / 1e6, 1))  # MHz: the reading noise's share of each reading
+    [14.2 14.2 14.1]
     """
     inverse = _map_or_stack("map_pinv", map_pinv, (3, None))
     readings = _matrix("powers", powers, (None, inverse.shape[-1]))
@@ -146,6 +142,20 @@ def ml_phase_gradient(map_, phase_rad, power, noise_std_w) -> np.ndarray:
     ndarray, shape (N, n), rad/W
         ``g = W a_perp / (a_perp' W a_perp)``; ``sum_j g_j^2 sigma_j^2`` is the inverse
         Fisher information on ``t``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.model import ml_phase_gradient, phase_std_rad
+    >>> A = wm.Interferometer.ideal(ports=3, fsr_hz=50e9).true_map()
+    >>> gradient = ml_phase_gradient(A, np.array([0.0, 1.0]), 1e-3, 5e-7)  # rad/W
+
+    Its standard deviation is the Cramer-Rao bound: 9.75 MHz for an ideal 3x3 meter at
+    1 mW with 0.5 uW noise and a 50 GHz FSR:
+
+    >>> print(np.round(phase_std_rad(gradient, 5e-7) * 50e9 / (2 * np.pi) / 1e6, 2))
+    [9.75 9.75]
     """
     matrix = _map_or_stack("map_", map_, (None, 3))
     weight = _inverse_variance(noise_std_w, matrix.shape[-2])
@@ -179,6 +189,16 @@ def phase_std_rad(gradient, noise_std_w) -> np.ndarray:
     Returns
     -------
     ndarray, shape (N,), rad
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.model import phase_std_rad
+    >>> gradient = np.array([[1000.0, -500.0, -500.0]])  # rad/W of one reading
+    >>> print(phase_std_rad(gradient, 5e-7))  # sqrt(sum g^2 sigma^2), rad
+    [0.00061237]
+    >>> print(phase_std_rad(gradient, np.array([5e-7, 5e-7, 1e-6])))  # noise per port
+    [0.00075]
     """
     g = _matrix("gradient", gradient, (None, None))
     noise = check_noise_std("noise_std_w", noise_std_w, g.shape[1])
@@ -276,6 +296,32 @@ def fit_parameter_covariance(
     -------
     ndarray, shape (n k + q, n k + q)
         In the order ``A[0, 0], A[0, 1], ..., A[n-1, k-1], theta``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.model import cone_vectors, delay_phase_rad, fit_parameter_covariance
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> phase = delay_phase_rad(f_hz, cal.center_hz_, cal.delay_s_)
+    >>> X = cone_vectors(phase)  # the object vectors, (200, 3)
+    >>> offset_hz = (f_hz - cal.center_hz_)[:, None]
+    >>> D = 2 * np.pi * offset_hz * cone_vectors(phase + np.pi / 2)  # dX / dtau
+    >>> D[:, 2] = 0.0  # the cone axis does not move
+    >>> noise_w = cal.noise_std_w_
+    >>> covariance = fit_parameter_covariance(X, D, cal.map_, noise_w, weighted=False)
+    >>> covariance.shape  # the 9 map entries and the delay
+    (10, 10)
+
+    The delay's standard error, as an FSR's, is the one the fit reports:
+
+    >>> print(f"{np.sqrt(covariance[-1, -1]) * cal.fsr_hz_**2 / 1e6:.1f} MHz")
+    4.1 MHz
+    >>> print(f"{cal.delay_std_s_ * cal.fsr_hz_**2 / 1e6:.1f} MHz")
+    4.1 MHz
     """
     x = _matrix("objects", objects, (None, None))
     d = np.asarray(objects_delay_derivative, dtype=float)
@@ -373,6 +419,39 @@ def calibration_frequency_variance_hz2(
     Returns
     -------
     ndarray, shape (N,), Hz^2
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.model import cone_vectors, delay_phase_rad, fit_parameter_covariance
+    >>> from wavemeter.model import calibration_frequency_variance_hz2, pinv_phase_gradient
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> phase = delay_phase_rad(f_hz, cal.center_hz_, cal.delay_s_)
+    >>> X = cone_vectors(phase)  # the object vectors, (200, 3)
+    >>> offset_hz = (f_hz - cal.center_hz_)[:, None]
+    >>> D = 2 * np.pi * offset_hz * cone_vectors(phase + np.pi / 2)  # dX / dtau
+    >>> D[:, 2] = 0.0  # the cone axis does not move
+    >>> noise_w = cal.noise_std_w_
+    >>> covariance = fit_parameter_covariance(X, D, cal.map_, noise_w, weighted=False)
+    >>> covariance.shape  # the 9 map entries and the delay
+    (10, 10)
+    >>> test = device.powers(f_hz[[50, 150]], power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> inverse = np.linalg.pinv(cal.map_)
+    >>> gradient = pinv_phase_gradient(test, inverse)
+    >>> estimate = test @ inverse.T  # P u(t) of each reading
+    >>> variance = calibration_frequency_variance_hz2(
+    ...     gradient, estimate, cal.phase(test), cal.delay_s_, covariance
+    ... )
+
+    The calibration's share is small beside a reading's own noise (14 MHz): about
+    sqrt(3 / N) of it for N = 200 sweep readings:
+
+    >>> print(np.round(np.sqrt(variance) / 1e6, 1))
+    [1.7 1.7]
     """
     delay_s = check_positive("delay_s", delay_s)
     to_hz = 1.0 / (2.0 * np.pi * delay_s)
@@ -386,6 +465,15 @@ def student_factor(dof) -> float:
 
     Inflates a standard deviation whose noise was estimated with ``dof`` degrees of
     freedom, so that ``z = error / std`` has unit variance.
+
+    Examples
+    --------
+    >>> from wavemeter.model import student_factor
+    >>> for dof in (5, 30, 600):  # a noise estimated on few readings widens the stated std
+    ...     print(dof, round(student_factor(dof), 3))
+    5 1.291
+    30 1.035
+    600 1.002
     """
     if (
         isinstance(dof, bool)

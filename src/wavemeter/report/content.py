@@ -19,7 +19,6 @@ import numpy as np
 
 from ..analysis.evaluation import crlb_per_reading_hz, evaluate_calibrations
 from ..calibration.contract.base import BaseCalibrator
-from ..calibration.contract.flags import flag_counts
 from ..exceptions import InputError, recorded_calibration_warnings
 from ..model.errors import frequency_error_hz
 from ..validation import check_fitted, check_frequency, check_per_reading, check_powers
@@ -144,10 +143,7 @@ def _compared(calibration, sweep: _Readings, port_phases_rad):
             other = comparison_calibration(
                 calibration, sweep.powers_w, sweep.frequency_hz, sweep.monitor_w, port_phases_rad
             )
-        except InputError as exc:
-            # a calibration with a bound of its own is reported alone
-            if "crlb" not in calibration.capabilities:
-                raise
+        except InputError as exc:  # a calibration no other method compares with: alone
             reason = str(exc)
     if not calibration.comparison_misfits_expected:
         for warning in noted:
@@ -181,7 +177,8 @@ def report_content(
         JSON-ready numbers shown in the page: ``methods``, ``crlb_rms_hz``,
         ``noise_std_w`` and ``noise_from`` as :func:`~wavemeter.analysis.evaluate_calibrations`
         gives them for these methods and readings (the numbers ``wavemeter evaluate``
-        prints), ``unread`` (per method, the readings it could not read, by flag),
+        prints; each method's ``flagged`` counts are those ``measure`` prints), ``unread``
+        (per method, the readings it could not read, by flag),
         ``evaluated_on``, ``samples``, ``comparison`` (its
         label, None when there is none) and ``comparison_error`` (why not, else None),
         ``comparison_warnings`` (``[cause] message`` of each warning the comparison's fit
@@ -223,11 +220,6 @@ def report_content(
             "inside the calibrated band",
             parameter="sweep" if test is None else "test",
         )
-    inputs = {"temperature_k": evaluation.temperature_k[~read]} if thermal else {}
-    unread = {
-        name: flag_counts(cal.flags(powers[~read], **_truth_inputs(cal, truth[~read], inputs)))
-        for name, cal in methods.items()
-    }
     kept = _Readings(
         truth[read],
         powers[read],
@@ -250,8 +242,10 @@ def report_content(
         sweep_readings.monitor_w,
         sweep_readings.temperature_k,
     )
-    figures = {
-        "fringes": plot_panels(panels, reference.port_names_, model_label=reference_name),
+    figures = {}
+    if panels:  # a method with no model of the fringes draws none
+        figures["fringes"] = plot_panels(panels, reference.port_names_, model_label=reference_name)
+    figures |= {
         "object_space": plotting.plot_object_space(samples),
         "retrieved": plotting.plot_retrieved_frequency(kept.frequency_hz, retrieved, center),
         "residual": plotting.plot_residuals(
@@ -282,7 +276,11 @@ def report_content(
     summary = {
         "evaluated_on": "calibration sweep" if test is None else "test readings",
         "samples": int(truth.size),
-        "unread": {name: counts for name, counts in unread.items() if counts},
+        "unread": {
+            name: figures["unread"]
+            for name, figures in numbers["methods"].items()
+            if figures["unread"]
+        },
         "crlb_rms_hz": numbers["crlb_rms_hz"],
         "noise_std_w": numbers["noise_std_w"],
         "noise_from": numbers["crlb_method"],
@@ -304,11 +302,3 @@ def report_content(
             }
         )
     return figures, summary
-
-
-def _truth_inputs(calibration, truth_hz, inputs: dict) -> dict:
-    """The per-reading inputs a calibration needs when read at known frequencies."""
-    given = dict(inputs) if _needs_temperature(calibration) else {}
-    if "coarse_hz" in calibration.requires:
-        given["coarse_hz"] = truth_hz
-    return given

@@ -97,7 +97,7 @@ def write_report(
     Returns
     -------
     list of Path
-        The HTML file, then the PNG files.
+        The HTML file, then the PNG files of the figures drawn.
 
     Raises
     ------
@@ -107,6 +107,22 @@ def write_report(
         and ``force`` is false (``parameter`` is ``"force"``); nothing is written then.
     NotFittedError
         When ``calibration`` is not fitted.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from types import SimpleNamespace
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> sweep = SimpleNamespace(powers_w=powers, frequency_hz=f_hz)  # or a wavemeter.io.Table
+    >>> out = Path(tempfile.mkdtemp()) / "report.html"
+    >>> written = wm.write_report(cal, sweep, out_html=out, dpi=40)
+    >>> out in written, sorted({path.suffix for path in written})
+    (True, ['.html', '.png'])
     """
     if str(out_html) == STDOUT:
         raise InputError(
@@ -119,11 +135,16 @@ def write_report(
     for path in outputs:
         check_output(path, inputs=list(files.values()), force=force)
     figures, summary = report_content(calibration, sweep, test, port_phases_rad)
-    images = {name: png_bytes(figures[name], dpi) for name in figure_names(calibration)}
+    # the figures the calibration drew (one with no model of the fringes draws none of them)
+    drawn = [name for name in figure_names(calibration) if name in figures]
+    images = {name: png_bytes(figures[name], dpi) for name in drawn}
     page = render_page(calibration, summary, images, files)
-    for path, png in zip(outputs[1:], images.values(), strict=True):
+    written = [outputs[0]] + [
+        outputs[0].with_name(f"{outputs[0].stem}-{name}.png") for name in drawn
+    ]
+    for path, png in zip(written[1:], images.values(), strict=True):
         with atomic_path(path) as temporary:
             temporary.write_bytes(png)
-    with atomic_path(outputs[0]) as temporary:
+    with atomic_path(written[0]) as temporary:
         temporary.write_text(page, encoding="utf-8")
-    return outputs
+    return written

@@ -19,6 +19,7 @@ from datetime import UTC, datetime
 import numpy as np
 
 from ..calibration.contract.base import COMMON_DIAGNOSTICS, BaseCalibrator
+from ..calibration.contract.flags import flag_summary
 from ..calibration.contract.summary import Table, value_text
 from ..units import SPEED_OF_LIGHT_M_S
 from .formatting import port_label, scientific, significant
@@ -336,6 +337,19 @@ def _error_rows(summary: dict) -> list[list[str]]:
     return rows
 
 
+def _flag_note(summary: dict) -> str:
+    """Each method's flags on the evaluation readings, counted as ``measure`` counts them."""
+    samples = summary["samples"]
+    lines = [
+        f"{name}: {flag_summary(figures['flagged'], figures['flagged_readings'], samples)}"
+        for name, figures in summary["methods"].items()
+        if figures["flagged_readings"]
+    ]
+    if not lines:
+        return ""
+    return f'<p class="note">Flags: {html.escape("; ".join(lines))}.</p>'
+
+
 def _unread_note(summary: dict) -> str:
     """How many evaluation readings a method could not read, by flag (none: nothing)."""
     unread = summary.get("unread") or {}
@@ -439,6 +453,7 @@ def render_page(
         + '<p class="note">RMS / CRLB near 1.00: limited by detector noise. The bound uses the '
         "noise estimated from the calibration residual and the learned map as the true one.</p>"
         + _unread_note(summary)
+        + _flag_note(summary)
         + _comparison_note(summary)
         + _checks_html(summary)
         + figures_html(images, captions)

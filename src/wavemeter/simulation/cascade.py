@@ -52,6 +52,17 @@ class CascadeInterferometer:
     Notes
     -----
     A reading's columns are stage 1's ports, then stage 2's, ... (:attr:`stage_ports`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> meter = wm.CascadeInterferometer.table1(fsrs_hz=(5e12, 500e9, 50e9), seed=2)
+    >>> meter.stage_ports
+    ((0, 1, 2), (3, 4, 5), (6, 7, 8))
+    >>> powers = meter.powers(np.array([193.4e12, 193.41e12]), power_w=1e-3)
+    >>> powers.shape  # each reading: stage 1's ports, then stage 2's, then stage 3's
+    (2, 9)
     """
 
     stages: tuple[Interferometer, ...]

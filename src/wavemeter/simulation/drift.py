@@ -66,6 +66,18 @@ def slow_power_drift(samples: int, relative_amplitude: float, rng=None, cycles: 
     ndarray, shape (N,)
         Power factor (dimensionless), in ``[1 - relative_amplitude, 1 + relative_amplitude]``
         with one of the bounds reached.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.simulation import slow_power_drift
+    >>> factor = slow_power_drift(2001, 0.02, rng=3)  # a source power wandering by about 2 %
+    >>> factor.shape
+    (2001,)
+    >>> print(f"{factor.min():.3f} to {factor.max():.3f}")
+    0.980 to 1.014
+    >>> print(np.abs(np.diff(factor)).max() < 1e-3)  # slow: tiny steps from reading to reading
+    True
     """
     samples = _check_samples(samples)
     relative_amplitude = _check_fraction("relative_amplitude", relative_amplitude)
@@ -104,6 +116,14 @@ def flicker_power_noise(samples: int, relative_std: float, rng=None) -> np.ndarr
     ------
     InputError
         When ``relative_std`` is so large that this draw takes the power to zero or below.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.simulation import flicker_power_noise
+    >>> factor = flicker_power_noise(4096, 0.01, rng=3)  # 1 % pink fluctuation of the power
+    >>> print(f"mean {factor.mean():.3f}, std {factor.std():.3f}")
+    mean 1.000, std 0.010
     """
     samples = _check_samples(samples, minimum=2)
     relative_std = check_finite("relative_std", relative_std)
@@ -154,6 +174,17 @@ def thermal_ramp_rad(
     -------
     ndarray, shape (N,), rad
         To pass as ``bias_drift_rad``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.simulation import thermal_ramp_rad
+    >>> drift = thermal_ramp_rad(5, total_k=0.5, rad_per_k=0.3)  # a 0.5 K rise during the sweep
+    >>> print(np.round(drift, 4))
+    [0.     0.0375 0.075  0.1125 0.15  ]
+    >>> cycle = thermal_ramp_rad(200, total_k=0.5, rad_per_k=0.3, shape="cycle", cycles=3)
+    >>> print(f"{np.ptp(cycle):.3f} rad peak to peak")
+    0.150 rad peak to peak
     """
     samples = _check_samples(samples)
     total_k = check_finite("total_k", total_k)

@@ -112,6 +112,25 @@ class Interferometer(InterferometerPhysics):
     -----
     A faulty device is a copy of a clean one:
     ``dataclasses.replace(device, dark_offset_w=..., dispersion_s2=...)``.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> ideal = wm.Interferometer.ideal(ports=3, fsr_hz=50e9)
+    >>> print(f"{ideal.true_fsr_hz / 1e9:.1f} GHz")
+    50.0 GHz
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # Table 1: coupler, delay, responsivity
+    >>> print(f"{device.true_fsr_hz / 1e9:.2f} GHz")  # the delay is 3 % off its design
+    51.50 GHz
+    >>> f_hz = device.sweep_hz(200)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> powers.shape
+    (200, 3)
+
+    Arm loss and the receivers' responsivities take part of the 1 mW source power:
+
+    >>> print(f"total {powers.sum(axis=1).mean() * 1e3:.2f} mW of 1 mW in")
+    total 0.73 mW of 1 mW in
     """
 
     output_coupler: np.ndarray

@@ -1,36 +1,16 @@
 """A laser whose frequency wanders with power-law noise and drift, sampled at a rate.
 
-The laser's frequency has the one-sided frequency-noise PSD (Hz^2/Hz)
+:func:`laser_frequency_hz` draws readings of a laser with the one-sided frequency-noise PSD
+``S_nu(f) = h0 + h_-1 / f + h_-2 / f^2`` (Hz^2/Hz; white, flicker and random-walk FM) plus
+a linear drift. Reading ``k`` is the laser's mean frequency over ``[k, k + 1] / rate`` (a
+counter with a gate of one sample), so the Allan family of the readings is exactly that of
+the continuous-time laser (:func:`wavemeter.analysis.power_law_deviations`). Flicker FM is
+shaped in the frequency domain to the exact PSD of interval means over
+``FLICKER_OVERSPAN`` times the record; each term draws from its own stream spawned from
+``rng``.
 
-    S_nu(f) = h0 + h_-1 / f + h_-2 / f^2
-
-(``h0`` white FM, ``h_-1`` flicker FM, ``h_-2`` random-walk FM) plus a linear drift.
-Reading ``k`` is the laser's mean frequency over its sample interval ``[k, k + 1] / rate``
-(a frequency counter with a gate of one sample): the Allan family of the readings is then
-exactly that of the continuous-time laser at every ``tau = m / rate``
-(:func:`wavemeter.analysis.power_law_deviations`), and their PSD is ``S_nu`` at
-frequencies well below the rate (above, the averaging's ``sinc^2`` and aliasing shape it;
-white FM stays flat at ``h0``).
-
-- White FM: independent normal readings of variance ``h0 rate / 2`` (the mean of white
-  noise of level ``h0`` over ``1 / rate``).
-- Random walk: a Wiener process with steps of variance ``Dv / rate`` per sample
-  (``Dv = 2 pi^2 h_-2``, since a random walk growing by ``Dv`` per second has the PSD
-  ``Dv / (2 pi^2 f^2)``), summed from 0 at ``t = 0``; a reading is the mean of its two
-  ends plus the Brownian bridge's own mean over the interval (variance ``Dv / (12
-  rate)``), so that it is the exact interval mean.
-- Flicker FM: white noise shaped in the frequency domain (``numpy.fft``) to the exact
-  PSD of interval means of ``h_-1 / f``, ``(h_-1 / (pi^2 rate)) sin^2(pi x) (zeta(3, x) +
-  zeta(3, 1 - x))`` at ``x = f / rate`` (Hurwitz zeta: the aliases ``f + j rate`` summed
-  with their ``sinc^2``), over four times the record, of which the first quarter is kept
-  (so the record is not periodic and keeps its slowest fluctuations). (allantools' Kasdin
-  generator draws from numpy's global random state and has the discrete PSD ``h_-1 pi /
-  (rate sin(pi x))``, equal to ``h_-1 / f`` only well below the rate; this one follows
-  ``rng``.)
-- Drift ``D``: ``D t`` at the interval's middle, ``t = (k + 1/2) / rate``.
-
-Each term draws from its own stream spawned from ``rng``, so a seed gives the same white
-noise whatever the other levels are.
+Theory (how each term is drawn): the docs' noise page (``docs/theory/noise.rst``,
+"Simulated lasers").
 """
 
 from __future__ import annotations
@@ -108,6 +88,19 @@ def laser_frequency_hz(
     ndarray, shape (N,), Hz
         To pass as the frequencies of
         :meth:`Interferometer.powers <wavemeter.simulation.Interferometer.powers>`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.simulation import laser_frequency_hz
+    >>> rate_hz, h0 = 1e6, 1e4  # readings at 1 MHz, white FM of 1e4 Hz^2/Hz
+    >>> f_hz = laser_frequency_hz(4096, rate_hz, center_hz=193.4e12, white_fm_hz2_per_hz=h0, rng=1)
+
+    White FM of level h0 gives readings of variance h0 rate / 2 (a 71 kHz std here):
+
+    >>> expected_hz = np.sqrt(h0 * rate_hz / 2)
+    >>> print(f"std {np.std(f_hz) / 1e3:.0f} kHz, expected {expected_hz / 1e3:.0f} kHz")
+    std 70 kHz, expected 71 kHz
     """
     samples = _check_samples(samples)
     rate_hz = check_positive("rate_hz", rate_hz)

@@ -41,6 +41,22 @@ class SpectralPreset:
         The delay imbalance (s) ``dispersion_s2`` is that of: ``beta_2 L`` grows with the
         imbalance length, so a device of delay ``tau`` has ``dispersion_s2 tau /
         reference_delay_s`` (as :meth:`CascadeInterferometer.table1` scales it).
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> from wavemeter.simulation import SPECTRAL_PRESETS
+    >>> preset = SPECTRAL_PRESETS["sin"]  # silicon nitride
+    >>> print(f"GDD {preset.dispersion_s2:.1e} s^2, delay {preset.reference_delay_s * 1e12:.0f} ps")
+    GDD 4.0e-28 s^2, delay 20 ps
+    >>> chip = wm.Interferometer.table1(ports=3, seed=7).with_spectral(preset, seed=3)
+
+    Dispersion makes the FSR change across the C band:
+
+    >>> for f_hz in (191e12, 196e12):
+    ...     print(f"{f_hz / 1e12:.0f} THz: FSR {chip.local_fsr_hz(f_hz) / 1e9:.3f} GHz")
+    191 THz: FSR 51.519 GHz
+    196 THz: FSR 51.486 GHz
     """
 
     dispersion_s2: float

@@ -29,6 +29,19 @@ class ThermalPreset:
         for a positive value.
     delay_per_k : float
         Relative change of the delay imbalance per kelvin (1/K): ``d tau / (tau dT)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> from wavemeter.simulation import THERMAL_PRESETS
+    >>> preset = THERMAL_PRESETS["soi"]  # silicon on insulator
+    >>> print(f"{preset.fringe_shift_hz_per_k / 1e9:.1f} GHz/K, delay {preset.delay_per_k:.1e} /K")
+    10.0 GHz/K, delay 4.3e-05 /K
+    >>> chip = wm.Interferometer.ideal(ports=3, fsr_hz=50e9).with_thermal("soi")
+    >>> shift_hz = chip.thermal_phase_rad_per_k * chip.true_fsr_hz / (2 * np.pi)
+    >>> print(f"the chip's fringes move {shift_hz / 1e9:.1f} GHz/K")
+    the chip's fringes move 10.0 GHz/K
     """
 
     fringe_shift_hz_per_k: float

@@ -53,7 +53,7 @@ class Projector:
         # B' coupled_j per port j (n, c, q): ~0, the coupled directions are off the basis
         samples, ports, kept_count = self.coupled.shape
         products = inner_products(basis, self.coupled.reshape(samples, -1))
-        self.basis_coupled = products.reshape(-1, ports, kept_count).transpose(1, 0, 2)
+        self.basis_coupled = products.reshape(basis.shape[1], ports, kept_count).transpose(1, 0, 2)
 
     def per_port(self, values: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """``values`` (N, ...) less their projection on the fitted columns, into ``out``

@@ -1,31 +1,16 @@
 """Check a design FSR against the sweep before any delay grid is built.
 
-A design FSR typed in the wrong unit (``50`` for 50 GHz) would make the delay search scan
-billions of trial delays, or lock on an alias of the fringes. Three checks, in this order,
-refuse it with an :class:`~wavemeter.exceptions.InputError` (``parameter="fsr_hz"``) that
-states the FSR the sweep itself shows:
+:func:`check_design_fsr` refuses a design FSR the sweep cannot support (``50`` typed for
+50 GHz) with an :class:`~wavemeter.exceptions.InputError` (``parameter="fsr_hz"``) that
+states the FSR the sweep itself shows. Three checks, in order: sampling (every trial FSR
+sees less than half a fringe per reading), span (at least ``MIN_SPAN_FSR`` of the design
+FSR), agreement (the sweep's own fringe period from :func:`estimate_fsr` within the
+searched bracket widened by ``AGREEMENT_MARGIN``). The estimate scores the strongest
+periodogram peaks and short trial delays by the learned-map cost ``J``, on at most
+``MAX_ESTIMATE_POINTS`` resampled readings.
 
-1. **Sampling (Nyquist).** The ports together sample the fringe ``exp(i t)``; since the map
-   ``A`` absorbs a reflection ``t -> -t``, a phase step ``phi`` per reading cannot be told
-   from ``2 pi - phi``, so every trial FSR must see less than half a fringe per step. The
-   smallest FSR the search tries is ``fsr_hz (1 - fsr_tolerance)``; the median frequency
-   step of the sweep must stay below half of it.
-2. **Span.** The sweep must cover at least ``MIN_SPAN_FSR`` (0.1) of the design FSR.
-3. **Agreement.** The sweep's own fringe period (:func:`estimate_fsr`) must lie within
-   the searched bracket ``fsr_hz (1 +- fsr_tolerance)`` widened by ``AGREEMENT_MARGIN``
-   (a factor 1.25). Near misses are left to the search, whose edge check names them; far
-   misses are refused here with the estimate as the suggestion.
-
-The estimate: a periodogram of the mean-removed port powers, resampled onto an even
-frequency grid and zero-padded 8 times (its bins are ``1 / (8 span)`` apart in delay, the
-scan step of the delay search), proposes the strongest fringe periods; together with trial
-delays below one fringe per sweep (which the periodogram cannot resolve) they are scored
-by the learned-map cost ``J`` and the best is refined by bounded Brent. Periodogram and
-``J`` agree for sweeps of many fringes; ``J`` alone decides for partial spans. At most
-``MAX_ESTIMATE_POINTS`` resampled readings and ``J`` evaluations on ~40 trial delays keep
-its time and memory bounded; ``J`` comes from one pass of binned moments
-(:class:`~wavemeter.calibration.models.moments.FringeMoments`), or from direct fits when the
-trial delays are so long that the bins would hold about one reading each.
+Theory (why each check, how the estimate is made): the docs' fit-diagnostics page
+(``docs/theory/diagnostics.rst``, "Checking the design FSR against the sweep").
 """
 
 from __future__ import annotations

@@ -12,8 +12,8 @@ bookkeeping the thermal model shares (:func:`detector_noise_w`,
 the naming of causes with their warnings and remedies in :mod:`.misfit_causes`, the checks
 of the arguments in :mod:`.misfit_inputs`, and the generic statistics (model-free noise,
 projections, nested cosine tests) in :mod:`wavemeter.stats`. The theory (the model, the
-noise without it, each test, how a cause is named, what cannot be seen) is in
-``docs/theory-drafts/misfit.md``.
+noise without it, each test, how a cause is named, what cannot be seen) is in the docs'
+fit-diagnostics page (``docs/theory/diagnostics.rst``).
 """
 
 from __future__ import annotations
@@ -29,22 +29,28 @@ from ...stats.blocks import orthonormal_columns
 from ...stats.model_free_noise import model_free_noise
 from ...stats.nested_tests import ResidualTests
 from ...stats.projection import RANK_TOLERANCE, Projector
+from .axis_tests import axis_quantisation, axis_test
+from .band_tests import band_tests
 from .misfit_causes import (
     ill_conditioned_warning,
     misfit_warning,
     offset_warning,
     partial_span_warning,
+    quantised_axis_warning,
     unequal_noise,
 )
 from .misfit_inputs import checked_design, checked_inputs, checked_phase_derivatives, checked_vector
 from .residual_tests import (
+    DISPERSION_MIN_SPAN_FSR,
     HARMONICS,
+    SMOOTH_ORDERS,
     harmonic_columns,
     images,
     lag1_autocorrelation,
     pinv_variance_ratio,
     rms,
     scatter_tests,
+    smooth_scales,
     span_fsr,
     structure_tests,
     tangents,
@@ -71,6 +77,8 @@ MIN_READINGS_PER_FSR = 16
 POOLED_NOISE_P_VALUE = 0.01
 #: residual below this many float64 epsilons of the readings: an exact (noiseless) fit
 ROUNDOFF_EPSILONS = 1e4
+#: the p-values of :func:`~.band_tests.band_tests`, None when they are not made
+BAND_P_VALUES = ("band", "band_slope", "band_remainder")
 
 
 @dataclass(frozen=True)
@@ -105,8 +113,10 @@ class MisfitReport:
     p_values : dict of str to float or None
         p-value of each test (``"power"``, ``"phase"``, ``"dispersion"``, ``"harmonics"``,
         ``"smooth"`` over their scales, Bonferroni-corrected; ``"power_scatter"``,
-        ``"phase_scatter"``, ``"unequal_noise"``); None where the test was not made. A test
-        fails below ``TEST_P_VALUE``.
+        ``"phase_scatter"``; on a sweep of several FSRs with smooth structure ``"band"``,
+        ``"band_slope"``, ``"band_remainder"``; on a rounded axis ``"quantised_axis"``;
+        ``"unequal_noise"``); None where the test was not made. A test fails below
+        ``TEST_P_VALUE``.
     power_error_rms : float
         RMS over the readings of the relative source-power error, smooth in time, that
         remains in the residual (what the fit did not absorb of a drift).
@@ -215,6 +225,7 @@ def misfit_report(
     phase_noise_std_rad=None,
     design=None,
     phase_derivatives=None,
+    test_axis: bool = True,
 ) -> MisfitReport:
     """Test a fitted calibration sweep against the model and name what departs from it.
 
@@ -259,6 +270,10 @@ def misfit_report(
         Derivatives ``dt_k / d theta_i`` (rad per unit) of the model phase by the ``q``
         nonlinear parameters shared by the ports (a phase polynomial's coefficients). None:
         the delay alone, ``2 pi (f - f0)``.
+    test_axis : bool
+        Test the frequency axis for rounding (``quantised_axis``). When it is rounded, the
+        other causes are named on the readings moved back onto the recorded axis (a report
+        made with ``test_axis=False``).
 
     Returns
     -------
@@ -288,6 +303,7 @@ def misfit_report(
     )
     unit = cone_vectors(phase)
     objects = unit if power is None else unit * power[:, None]
+    design_given = design
     if design is None:
         design = objects if offsets is None else np.column_stack([objects, np.ones(samples)])
     basis = orthonormal_columns(checked_design(design, samples))
@@ -295,7 +311,6 @@ def misfit_report(
     # costs more to map into memory than to compute
     del design
     image = images(matrix, objects)
-    del objects
     residual = np.subtract(readings, image)
     if offsets is not None:
         residual -= offsets
@@ -304,7 +319,6 @@ def misfit_report(
     residual_squares = np.einsum("ij,ij->j", residual, residual)
     residual_rms = np.sqrt(residual_squares / residual_dof)
     span = span_fsr(phase)
-    del phase
     dense = samples >= MIN_READINGS_PER_FSR * max(span, 1.0)
     model_free = samples >= MIN_MODEL_FREE_READINGS and dense
     if model_free:
@@ -330,7 +344,7 @@ def misfit_report(
     detector_dof = noise_dof * float(np.min(detector / noise)) ** 4
     noise_note, unequal_p = unequal_noise(detector, detector_dof, names)
     # whitening weights: one noise for all ports unless theirs differ
-    # (``docs/theory-drafts/misfit.md``)
+    # (``docs/theory/diagnostics.rst``, "The residual tests")
     pooled = unequal_p >= POOLED_NOISE_P_VALUE
     weight = np.full(ports, np.sqrt(np.mean(noise**2))) if pooled else noise
     scatter = scatter_tests(residual, image, tangent, residual_dof, pooled, expected)
@@ -347,25 +361,81 @@ def misfit_report(
     tests = ResidualTests(residual, projector, residual_dof, tolerance, out=residual)
     harmonics = tests.columns(partial(harmonic_columns, unit, power))
     harmonic_test, harmonic_scores = tests.per_port(harmonics, (2 * len(HARMONICS),))
-    del unit, harmonics
+    del harmonics
     # relative to each port's own noise
     harmonic_power = harmonic_scores * (weight / noise) ** 2 / max(harmonic_test.dof // ports, 1)
     structure = structure_tests(
         tests, harmonic_test, image, tangent, frequency, center, span, scatter
     )
-
-    notes = []
-    if not exact_fit:
-        notes.append(
-            misfit_warning(structure, names, ratio, lag1, harmonic_power, span, delay, model_free)
+    band = None
+    if span > DISPERSION_MIN_SPAN_FSR and structure.smooth_failed:
+        # the fringe's radius, the image less its cone-axis part: a common second-order
+        # change of the fringe phase moves the readings along it
+        radial = images(matrix, objects * np.array([1.0, 1.0, 0.0]))
+        radial /= weight
+        scales = smooth_scales(samples, SMOOTH_ORDERS[-1])
+        band = band_tests(
+            tests,
+            projector,
+            residual_dof,
+            objects,
+            (image, tangent, radial),
+            frequency,
+            scales,
+            scales[-1],
+            matrix.ndim == 2,
         )
-    if offsets is not None and not dark_given:
-        notes.append(offset_warning(offsets, offset_std, readings, names))
-    notes.append(partial_span_warning(span, delay))
-    if not (weighted_retrieval or exact_fit):
-        notes.append(noise_note)
+        del radial
+    del objects, unit
+    axis = axis_quantisation(frequency) if test_axis and not exact_fit else None
+    quantised = None
+    if axis is not None:
+        quantised = axis_test(tests, axis, tangent, np.einsum("ij,ij->i", tangent, tangent), delay)
+    p_values = {
+        **structure.p_values(),
+        **(band.p_values() if band is not None else dict.fromkeys(BAND_P_VALUES)),
+        "quantised_axis": None if quantised is None else quantised.test.p_value,
+        "unequal_noise": unequal_p,
+    }
+    if quantised is not None and quantised.follows:
+        # the other causes are named on the readings moved back onto the recorded axis
+        relative = 1.0 if power is None else power
+        moved = cone_vectors(phase + quantised.phase_error_rad, relative)
+        readings = readings - images(matrix, moved) + images(matrix, cone_vectors(phase, relative))
+        del moved
+        inner = misfit_report(
+            readings,
+            frequency,
+            center,
+            delay,
+            matrix,
+            scale=scale,
+            offset_w=offset_w,
+            offset_std_w=offset_std_w,
+            dark_given=dark_given,
+            weighted_retrieval=weighted_retrieval,
+            phase_rad=phase_rad,
+            phase_noise_std_rad=phase_noise_std_rad,
+            design=design_given,
+            phase_derivatives=phase_derivatives,
+            test_axis=False,
+        )
+        notes = [quantised_axis_warning(axis, quantised, samples, delay), *inner.warnings]
+    else:
+        notes = []
+        if not exact_fit:
+            notes.append(
+                misfit_warning(
+                    structure, band, names, ratio, lag1, harmonic_power, span, delay, model_free
+                )
+            )
+        if offsets is not None and not dark_given:
+            notes.append(offset_warning(offsets, offset_std, readings, names))
+        notes.append(partial_span_warning(span, delay))
+        if not (weighted_retrieval or exact_fit):
+            notes.append(noise_note)
     condition = float(np.max(np.linalg.cond(matrix)))
-    if not weighted_retrieval:
+    if not (weighted_retrieval or quantised is not None and quantised.follows):
         notes.append(ill_conditioned_warning(variance_ratio, condition))
     return MisfitReport(
         residual_rms_w=residual_rms,
@@ -378,7 +448,7 @@ def misfit_report(
         span_fsr=span,
         condition_number=condition,
         pinv_variance_ratio=variance_ratio,
-        p_values={**structure.p_values(), "unequal_noise": unequal_p},
+        p_values=p_values,
         power_error_rms=rms(structure.power_error),
         phase_error_rms_rad=rms(structure.phase_error_rad),
         offset_w=offsets,

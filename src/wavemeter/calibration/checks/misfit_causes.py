@@ -2,11 +2,14 @@
 
 From the tests on the residual (:mod:`.residual_tests`) the residual gets at most one of
 ``power_drift``, ``phase_drift``, ``dispersion`` and ``other_misfit`` (the candidate with
-the largest excess energy, ties named phase, power, other); the checks of the map and the
+the largest excess energy, ties named phase, power, other; on a sweep of several FSRs a
+structure a polynomial in frequency explains is ``dispersion`` when it is a phase or the
+ports change each in its own way, :mod:`.band_tests`); a rounded frequency axis the
+residual follows is ``quantised_axis`` (:mod:`.axis_tests`); the checks of the map and the
 sweep add ``detector_offset``, ``partial_span``, ``unequal_noise`` and ``ill_conditioned``.
 Each is a :class:`~wavemeter.exceptions.CalibrationWarning` whose ``cause`` is one of
 :data:`CAUSES`, with what was seen (its numbers) and what to do (:data:`REMEDIES`). The
-rules are in ``docs/theory-drafts/misfit.md`` ("Naming the cause", "Checks of the map and
+rules are in ``docs/theory/diagnostics.rst`` ("Naming the cause", "Checks of the map and
 the sweep").
 """
 
@@ -17,6 +20,9 @@ from scipy import stats
 
 from ...exceptions import CalibrationWarning
 from ...stats.nested_tests import TEST_P_VALUE, ResidualTest
+from ...units import frequency_text
+from .axis_tests import AxisQuantisation, AxisTest
+from .band_tests import BAND_DEGREES, BandTests
 from .residual_tests import DISPERSION_MIN_SPAN_FSR, Structure, rms
 
 __all__ = [
@@ -30,7 +36,9 @@ __all__ = [
     "SPAN_TOLERANCE",
     "UNEQUAL_NOISE_RATIO",
     "MAX_PINV_VARIANCE_RATIO",
+    "SLOPE_SHARE",
     "misfit_warning",
+    "quantised_axis_warning",
     "offset_warning",
     "unequal_noise",
     "partial_span_warning",
@@ -46,6 +54,7 @@ CAUSES = (
     "partial_span",
     "unequal_noise",
     "ill_conditioned",
+    "quantised_axis",
     "other_misfit",
 )
 #: share of the smooth structure a cause must explain to be named
@@ -62,6 +71,10 @@ SPAN_TOLERANCE = 0.05
 UNEQUAL_NOISE_RATIO = 1.3
 #: pseudo-inverse phase variance over the Cramer-Rao bound's that is ill-conditioned
 MAX_PINV_VARIANCE_RATIO = 1.2**2
+#: share of a wide sweep's structure polynomial in frequency that no common change of the
+#: source power or the fringe phase explains, from which the device's wavelength dependence
+#: is named (a drift leaves less: only its second-order terms)
+SLOPE_SHARE = 0.05
 
 #: the first remedy of a misfit no cause explains on a sweep of several FSRs
 WIDE_SWEEP_REMEDY = (
@@ -89,6 +102,11 @@ REMEDIES = {
         "frequency, orders chosen by cross-validation), or per FSR (CalibrationSet)"
     ),
     "partial_span": "calibrate over at least one FSR",
+    "quantised_axis": (
+        "record the frequency (or wavelength) at full precision: export it from the "
+        "instrument or its software with all its digits, not through a spreadsheet or a "
+        "format that rounds it, and calibrate again"
+    ),
     "unequal_noise": 'use the maximum-likelihood retrieval (retrieval="ml"), which weights '
     "the ports by their noise",
     "ill_conditioned": 'use the maximum-likelihood retrieval (retrieval="ml"), which reaches '
@@ -106,8 +124,8 @@ def _excess(test: ResidualTest | None) -> float:
     return test.excess if test is not None and test.failed else 0.0
 
 
-def _cause(structure: Structure) -> str:
-    """The alternative that explains the residual best (``docs/theory-drafts/misfit.md``)."""
+def _cause(structure: Structure, band: BandTests | None) -> str:
+    """The alternative that explains the residual best (``docs/theory/diagnostics.rst``)."""
     if not structure.smooth_failed:
         scatter = structure.scatter
         return "power_drift" if scatter.power_excess >= scatter.phase_excess else "phase_drift"
@@ -118,17 +136,50 @@ def _cause(structure: Structure) -> str:
         "other_misfit": structure.harmonics.excess,
     }
     best = max(explained.values())
-    if best <= 0.0 or best < EXPLAINED_FRACTION * structure.smooth.excess:
-        return "other_misfit"
-    cause = next(name for name, value in explained.items() if _ties(value, best))
+    cause = (
+        "other_misfit"
+        if best <= 0.0 or best < EXPLAINED_FRACTION * structure.smooth.excess
+        else next(name for name, value in explained.items() if _ties(value, best))
+    )
+    # harmonics of the fringe (a detector's nonlinearity) are no change with frequency,
+    # though a polynomial times the fringe mimics them over a few FSRs
+    harmonic = cause == "other_misfit" and _ties(structure.harmonics.excess, best)
+    if (
+        not harmonic
+        and _in_frequency(structure, band)
+        and (cause == "phase_drift" or _ports_own(band))
+    ):
+        return "dispersion"
     if cause == "phase_drift" and dispersion > 0.0 and _ties(dispersion, phase):
         return "dispersion"
     return cause
 
 
+def _in_frequency(structure: Structure, band: BandTests | None) -> bool:
+    """Whether a map polynomial in frequency explains the smooth structure of a wide sweep:
+    what is smooth along the rows beyond it passes, or ties with nothing."""
+    if band is None or not band.band.failed:
+        return False
+    if not band.remainder.failed:
+        return True
+    smooth = structure.smooth.excess
+    return _ties(smooth - band.remainder.excess, smooth)
+
+
+def _ports_own(band: BandTests) -> bool:
+    """Whether the ports change with frequency each in its own way: beyond a common change
+    of power and phase (``SLOPE_SHARE`` of the structure polynomial in frequency)."""
+    return band.slope.failed and band.slope.excess >= SLOPE_SHARE * band.band.excess
+
+
 def _ties(value: float, best: float) -> bool:
     """Whether ``value`` explains as much as ``best`` within the tolerance of a tie."""
     return best - value <= TIE_FRACTION * best + TIE_Z * np.sqrt(max(best, 0.0))
+
+
+def _p_text(p_value: float) -> str:
+    """``p-value 3.1e-09``, or ``p-value < 1e-300`` where it underflows."""
+    return "p-value < 1e-300" if p_value < 1e-300 else f"p-value {p_value:.2g}"
 
 
 def _port_list(names, mask) -> str:
@@ -155,11 +206,12 @@ def _phase_clause(error: np.ndarray, delay_s: float) -> str:
     )
 
 
-def misfit_warning(structure, names, ratio, lag1, harmonic_power, span, delay, model_free):
-    """The one warning that names the misfit, or None when every residual test passes."""
+def misfit_warning(structure, band, names, ratio, lag1, harmonic_power, span, delay, model_free):
+    """The one warning that names the misfit, or None when every residual test passes
+    (``band`` the tests of a wide sweep against a polynomial in frequency, or None)."""
     if not structure.failed:
         return None
-    cause = _cause(structure)
+    cause = _cause(structure, band)
     residual = f"lag-1 autocorrelation of the residual up to {lag1.max():.2f}"
     if model_free:
         high = ratio >= min(ratio.max(), 1.0 + 0.5 * (ratio.max() - 1.0))
@@ -187,6 +239,15 @@ def misfit_warning(structure, names, ratio, lag1, harmonic_power, span, delay, m
             f"remains in the residual after the fit ({residual}); without a power monitor "
             "part of a drift is absorbed into the map and the FSR"
         )
+        if _in_frequency(structure, band) and band.single_map:
+            seen += (
+                f"; over this {span:.3g} FSR sweep a polynomial in frequency explains it, as "
+                "detectors whose responsivity changes with the wavelength alike would give: "
+                "a monitor does not remove that, a wide-band calibration (WidebandCalibrator) "
+                "does"
+            )
+    elif cause == "dispersion" and _in_frequency(structure, band):
+        seen = _band_clause(structure, band, span, delay) + f" ({residual})"
     elif cause == "phase_drift":
         seen = (
             f"the fringe phase drifts along the sweep: "
@@ -215,6 +276,65 @@ def misfit_warning(structure, names, ratio, lag1, harmonic_power, span, delay, m
             # over many FSRs the couplers and photodiodes change with the wavelength
             return _warning(cause, seen, f"{WIDE_SWEEP_REMEDY}; else {REMEDIES[cause]}")
     return _warning(cause, seen)
+
+
+def _band_clause(structure: Structure, band: BandTests, span: float, delay: float) -> str:
+    """What a wide sweep's structure polynomial in frequency shows: the ports' own changes,
+    the phase's curvature, or both."""
+    parts = []
+    if _ports_own(band):
+        share = band.slope.excess / band.band.excess
+        parts.append(
+            f"the ports' fringes change with frequency each in its own way, as the couplers' "
+            f"and detectors' wavelength dependence makes them and no drift in time does: "
+            f"{100 * share:.3g} % of the structure is no common change of the source power or "
+            f"the fringe phase ({_p_text(band.slope.p_value)})"
+        )
+    dispersion = structure.dispersion
+    if dispersion is not None and dispersion.failed:
+        parts.append(
+            f"{_phase_clause(structure.dispersion_rad, delay)} even in f - f0 remains, as "
+            "group-delay dispersion gives"
+        )
+    elif not parts:
+        parts.append(
+            f"{_phase_clause(structure.phase_error_rad, delay)} remains, the FSR changing "
+            "across the sweep (on a one-way sweep a slow drift of the chip temperature "
+            "would leave the same)"
+        )
+    return (
+        f"the device changes with frequency over the {span:.3g} FSR sweep: a polynomial of "
+        f"degree {BAND_DEGREES} in frequency explains the residual's smooth structure "
+        f"({_p_text(band.band.p_value)}); " + "; ".join(parts)
+    )
+
+
+def quantised_axis_warning(
+    axis: AxisQuantisation, test: AxisTest, samples: int, delay_s: float
+) -> CalibrationWarning:
+    """``quantised_axis``: the recorded axis is rounded and the residual follows it."""
+    grid = ""
+    if axis.grid is not None:
+        unit, step = axis.grid
+        grid = (
+            f", every value on a grid of {frequency_text(step, 3)} in frequency"
+            if unit == "frequency"
+            else f", every value on a grid of {step * 1e9:g} nm in wavelength"
+        )
+    error = test.phase_error_rad
+    per_rad_mhz = 1e-6 / (2.0 * np.pi * delay_s)
+    departure = rms(axis.departure_hz)
+    return _warning(
+        "quantised_axis",
+        f"the frequency axis is rounded: {axis.distinct} distinct values in {samples} "
+        f"readings (median step {frequency_text(axis.step_hz, 3)}{grid}), and the residual "
+        "phase follows each reading's departure from a smooth sweep (coefficient "
+        f"{test.coefficient:.2f}, 1 when it follows the rounding one for one; "
+        f"{_p_text(test.test.p_value)}): a sawtooth of {rms(error):.3g} rad RMS "
+        f"({rms(error) * per_rad_mhz:.3g} MHz) within each step, as rounding to steps of "
+        f"about {frequency_text(np.sqrt(12.0) * departure, 3)} gives; the calibration is "
+        "learned at frequencies up to half a step from the true ones",
+    )
 
 
 def offset_warning(offsets, offset_std, readings, names):

@@ -8,7 +8,7 @@ fringe phase and cosines of the row on every port (other structure) (:func:`stru
 and the scatter of each reading along ``a_P`` and ``a_t`` against the rest
 (:func:`scatter_tests`); also the per-reading directions themselves, the effective span in
 FSRs, the lag-1 autocorrelation and the pseudo-inverse's phase variance over the bound. The
-theory is in ``docs/theory-drafts/misfit.md``; the report that runs these is
+theory is in ``docs/theory/diagnostics.rst``; the report that runs these is
 :func:`~wavemeter.calibration.checks.misfit.misfit_report`.
 """
 
@@ -39,6 +39,7 @@ __all__ = [
     "scatter_tests",
     "Structure",
     "structure_tests",
+    "smooth_scales",
     "rms",
 ]
 
@@ -168,7 +169,7 @@ class Scatter:
 
 
 def scatter_tests(residual, image, tangent, dof: float, pooled: bool, phase_noise_rad) -> Scatter:
-    """Tests 6 and 7 (``docs/theory-drafts/misfit.md``) on the residual (N, n) and the directions
+    """Tests 6 and 7 (``docs/theory/diagnostics.rst``) on the residual (N, n) and the directions
     ``a_P`` (``image``) and ``a_t`` (``tangent``) of every reading (N, n); ``pooled``: one
     noise level for every port; ``phase_noise_rad`` (N,) the phase scatter the model
     expects besides the detector noise (0 for none).
@@ -262,7 +263,7 @@ class Structure:
         return self.smooth_failed or self.scatter.failed
 
 
-def _orders(samples: int, largest: int) -> tuple[int, ...]:
+def smooth_scales(samples: int, largest: int) -> tuple[int, ...]:
     """Scales of SMOOTH_ORDERS up to ``largest`` and a quarter of the readings."""
     top = max(min(samples // 4, largest), 1)
     return tuple(k for k in SMOOTH_ORDERS if k <= top) or (top,)
@@ -271,8 +272,8 @@ def _orders(samples: int, largest: int) -> tuple[int, ...]:
 def structure_tests(tests, harmonic_test, image, tangent, frequency, center, span, scatter):
     """Tests 1-3 and 5 on the whitened residual (``image`` and ``tangent`` whitened too)."""
     samples = frequency.size
-    orders = _orders(samples, MAX_COUPLED_ORDER)
-    background = _orders(samples, SMOOTH_ORDERS[-1])
+    orders = smooth_scales(samples, MAX_COUPLED_ORDER)
+    background = smooth_scales(samples, SMOOTH_ORDERS[-1])
     # first: its columns are the largest set, while the fewest other arrays are held
     smooth, _ = tests.per_port(tests.cosines(background[-1]), background)
     image_weight, tangent_weight = (np.einsum("ij,ij->i", a, a) for a in (image, tangent))

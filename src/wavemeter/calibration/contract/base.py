@@ -23,6 +23,16 @@ import numpy as np
 from ...exceptions import InputError, WavemeterError
 from ...validation import check_fitted, check_positive
 from ..files.document import save_calibration, state_array
+from ..files.fields import (
+    NOISE_RELATIVE,
+    OFFSET_RULE,
+    SPREAD_RELATIVE,
+    FieldRule,
+    RecordRule,
+    ScaleRule,
+    largest_magnitude,
+    rule_table,
+)
 from ..files.registry import register
 from .figures import FigureData, FringePanel
 from .params import ParamsMixin
@@ -79,6 +89,21 @@ class Part:
         The fitted sub-calibration.
     range_hz : (float, float)
         The frequencies it reads (Hz): a window's edges, a stage's band.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(800, span_fsr=4)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal_set = wm.CalibrationSet(fsr_hz=50e9).fit(powers, f_hz)
+    >>> parts = cal_set.parts()  # a set's windows: one fitted calibrator each
+    >>> len(parts), parts[0].kind
+    (4, 'window')
+    >>> print(parts[0].label)
+    window 0 (193.296864 to 193.348368 THz)
+    >>> print(f"{parts[0].calibration.fsr_hz_ / 1e9:.2f} GHz")
+    51.50 GHz
     """
 
     label: str
@@ -88,7 +113,44 @@ class Part:
 
 
 class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
-    """Common machinery of every calibrator; not used on its own (module docstring)."""
+    """Common machinery of every calibrator; not used on its own (module docstring).
+
+    Examples
+    --------
+    A calibrator of your own subclasses ``BaseCalibrator`` (reading, flags, streaming,
+    files, the summary) and :class:`SweepFitMixin` (the checked fit), and writes its
+    settings, ``_learn`` and ``_phase``. This one learns the map at a known FSR; a
+    ``method`` tag (not given here) would register it for files and the command line:
+
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.calibration import BaseCalibrator, SweepFitMixin
+    >>> from wavemeter.model import cone_vectors, delay_phase_rad
+    >>> class KnownDelayCalibrator(SweepFitMixin, BaseCalibrator):  # the map at a known FSR
+    ...     def __init__(self, fsr_hz=50e9):
+    ...         self.fsr_hz = fsr_hz
+    ...     def _learn(self, sweep):
+    ...         phase_rad = delay_phase_rad(sweep.frequency_hz, self.center_hz_, 1 / self.fsr_hz)
+    ...         objects = cone_vectors(phase_rad, 1.0 if sweep.scale is None else sweep.scale)
+    ...         self.map_ = np.linalg.lstsq(objects, sweep.powers_w, rcond=None)[0].T
+    ...         self.fsr_hz_ = float(self.fsr_hz)
+    ...     def _phase(self, readings):
+    ...         objects = readings @ np.linalg.pinv(self.map_).T
+    ...         return np.arctan2(objects[:, 1], objects[:, 0])
+    >>> cal = KnownDelayCalibrator(fsr_hz=device.true_fsr_hz).fit(powers, f_hz)
+
+    The contract gives it the rest: checked readings, per-reading status and uncertainty:
+
+    >>> readings = np.vstack([powers[100:102], np.full(3, np.nan)])  # the last one not a reading
+    >>> reading = cal.readout(readings)
+    >>> print(np.round((reading.frequency_hz - f_hz[[100, 101, 0]]) / 1e6), reading.flags)
+    [-2. -3. nan] [0 0 8]
+    >>> print(f"{cal.calibration_rms_hz_ / 1e6:.0f} MHz RMS on its own sweep")
+    14 MHz RMS on its own sweep
+    """
 
     #: the tag in calibration files; a class with a tag of its own registers itself
     method: ClassVar[str] = ""
@@ -105,6 +167,37 @@ class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
     #: the comparison method is expected to misfit this method's sweeps (sweeps at several
     #: temperatures, over many FSRs): its warnings belong to the report, not to the user
     comparison_misfits_expected: ClassVar[bool] = False
+    #: what each number of the file's ``state`` may hold: field path -> rule (or rules),
+    #: added to or replaced by subclasses (:mod:`wavemeter.calibration.files.fields`)
+    state_rules: ClassVar[Mapping[str, object]] = rule_table({})
+    #: what each number of the file's ``reading_model`` may hold; the sweep's highest total
+    #: power is the power scale of a class whose state sets none
+    reading_model_rules: ClassVar[Mapping[str, object]] = rule_table(
+        {
+            "dark_w": OFFSET_RULE,
+            "offset_w": OFFSET_RULE,
+            "total_power_range_w": (
+                ScaleRule(
+                    "the sweep's lowest and highest total power",
+                    largest_magnitude,
+                    "the sweep's highest total power",
+                ),
+                FieldRule(
+                    "the sweep's lowest and highest total power",
+                    "W",
+                    NOISE_RELATIVE[0],
+                    SPREAD_RELATIVE,
+                    scale="power_w",
+                    open_low=True,
+                ),
+            ),
+        }
+    )
+    #: the records of ``diagnostics_`` a report presents (the common ones' presentation is
+    #: tolerant: only the ports' list must be one)
+    diagnostics_rules: ClassVar[Mapping[str, object]] = rule_table(
+        {"ports": RecordRule("the ports' records", "list")}
+    )
     #: learned attributes common to every calibrator, saved by every calibration file
     common_attributes: ClassVar[tuple[str, ...]] = (
         "fsr_hz_",
@@ -301,7 +394,8 @@ class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
             low, high = state_array(state, "total_power_range_w", (2,))
             if not 0 < low <= high:
                 raise InputError(
-                    f"field 'total_power_range_w' must be 0 < low <= high (W), got {[low, high]}"
+                    "field 'total_power_range_w' must be 0 < low <= high (W), got "
+                    f"{[float(low), float(high)]}"
                 )
             self.total_power_range_w_ = (float(low), float(high))
 

@@ -39,6 +39,24 @@ class FringePanel:
         What the panel shows (a window, a stage), or empty.
     port_names : tuple of str
         The ports drawn (empty: the calibration's).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> panel = cal.fringe_panels(f_hz, powers)[0]  # what the report's fringe figure draws
+    >>> panel.powers_w.shape, panel.model_powers_w.shape
+    ((200, 3), (1000, 3))
+    >>> residual_w = panel.powers_w - panel.fitted_w
+
+    The residual's RMS is the detector noise of the simulation (0.5 uW):
+
+    >>> print(f"{np.sqrt(np.mean(residual_w**2)) * 1e6:.2f} uW")
+    0.47 uW
     """
 
     center_hz: float
@@ -68,6 +86,16 @@ class Series:
         A text beside each point (empty: none).
     emphasis : None or ndarray of bool, shape (M,)
         Points to ring (e.g. a chosen candidate).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.calibration import Series
+    >>> order = np.arange(1, 5)
+    >>> rms = Series("held-out error", order, np.array([40e6, 15e6, 14e6, 14e6]), style="points")
+    >>> bound = Series("Cramer-Rao bound", order, np.full(4, 13.6e6), style="level")
+    >>> rms.label, rms.style, float(bound.y[0] / 1e6)
+    ('held-out error', 'points', 13.6)
     """
 
     label: str
@@ -98,6 +126,26 @@ class FigureData:
         Origin of a frequency axis (Hz).
     note : str
         A line of text drawn in the figure (e.g. why the orders were chosen).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.calibration import FigureData, Series
+
+    A figure a calibrator asks its report for (``report_figures``): data and labels, drawn
+    by the report:
+
+    >>> order = np.arange(1, 5)
+    >>> figure = FigureData(
+    ...     "cross_validation",
+    ...     "Held-out error against the phase order.",
+    ...     x_label="phase order",
+    ...     y_label="RMS error",
+    ...     y_unit="Hz",
+    ...     series=(Series("held-out", order, np.array([40e6, 15e6, 14e6, 14e6]), style="points"),),
+    ... )
+    >>> figure.name, [series.label for series in figure.series]
+    ('cross_validation', ['held-out'])
     """
 
     name: str

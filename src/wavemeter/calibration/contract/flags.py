@@ -1,46 +1,17 @@
 """Per-reading quality flags: a bit mask that says when a reading cannot be trusted.
 
-Every calibrator's :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.flags` returns one
-integer per reading whose bits are :class:`ReadingFlag` members:
+Every calibrator's :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.flags` returns
+one integer per reading whose bits are :class:`ReadingFlag` members: ``OFF_MODEL`` (1),
+``OUTSIDE_SPAN`` (2), ``POWER_RANGE`` (4), ``INVALID`` (8), ``TEMPERATURE_RANGE`` (16),
+``ORDER_AMBIGUOUS`` (32). The pure functions here decide each rule
+(:func:`off_model_threshold`, :func:`power_flags`, :func:`temperature_flags`) from the
+thresholds below; the calibrators supply the numbers.
 
-``OFF_MODEL`` (1)
-    The reading's weighted distance to the calibrated cone, ``chi2 = sum_j r_j^2 / s_j^2``
-    (``r`` the residual of the maximum-likelihood fit of phase and power, ``s_j`` the
-    calibrated noise of port ``j``), is improbable: its p-value is below
-    ``OFF_MODEL_P_VALUE`` (1e-6). With the noise estimated on ``dof`` degrees of freedom,
-    ``chi2 / (n - 2)`` follows an F distribution with ``(n - 2, dof)`` degrees of freedom.
-    Only calibrators with a cone map (the learned ones) test it.
-``OUTSIDE_SPAN`` (2)
-    The frequency lies outside the calibrated span by more than 5 standard deviations,
-    for a calibration over less than one FSR (which extrapolates there); for a
-    calibration set, the coarse frequency lies outside the span its windows cover.
-``POWER_RANGE`` (4)
-    The reading's total power (the sum over ports, dark-corrected) lies outside the range
-    of the calibration sweep by more than a factor ``POWER_RANGE_FACTOR`` (2); or by more
-    than ``UNCHECKED_OFFSET_FACTOR`` (1.05) when the calibration could not learn the
-    detector offsets (no dark readings given, and no power monitor that varied, which lets
-    the learned calibrator fit them): at a constant source power an offset is absorbed
-    into the map, exactly, and costs accuracy only at other powers.
-``INVALID`` (8)
-    A value is NaN or infinite (a sentinel the reader turned into NaN), or there is no
-    light: the total power is below ``NO_LIGHT_FRACTION`` (1 %) of the sweep's smallest.
-``TEMPERATURE_RANGE`` (16)
-    For a thermally compensated calibration: the reading's chip temperature lies outside
-    the calibrated temperature range by more than ``TEMPERATURE_MARGIN_FRACTION`` (10 %) of
-    that range, or ``TEMPERATURE_MARGIN_STD`` (5) sensor standard deviations if more: the
-    linear thermal model is extrapolated there.
-``ORDER_AMBIGUOUS`` (32)
-    For a calibration that reads the fringe order from a coarse frequency (the wide-band
-    one): the frequency found lies more than a quarter of the local FSR from the coarse
-    value. A coarse value off by less than that is never flagged and always picks the right
-    order; one off by more is flagged until it is three quarters of an FSR off, beyond
-    which it picks a wrong order unseen (no reading of one interferometer can tell).
-    For a cascade of stages (which needs no coarse value): the probability that some
-    stage picked a wrong order, from the stages' uncertainties and each hand-over's
-    residual (:meth:`~wavemeter.calibration.methods.cascade.CascadeCalibrator.order_error_probability`),
-    exceeds the calibration's ``max_order_error`` (default 1e-6).
-
-The pure functions here decide each rule; the calibrators supply the numbers.
+The rule behind each bit: the docs' fit-diagnostics page
+(``docs/theory/diagnostics.rst``, "The rules of the reading flags"); what each bit means
+for a user and what to do: the user guide's sweep page ("Flags"). How ``OFF_MODEL``'s
+distribution is scaled when the sweep shows a model error:
+:mod:`~wavemeter.calibration.contract.off_model`.
 """
 
 from __future__ import annotations
@@ -52,6 +23,7 @@ from scipy import special
 
 __all__ = [
     "ReadingFlag",
+    "flag_summary",
     "OFF_MODEL_P_VALUE",
     "POWER_RANGE_FACTOR",
     "UNCHECKED_OFFSET_FACTOR",
@@ -78,7 +50,25 @@ TEMPERATURE_MARGIN_STD = 5.0
 
 
 class ReadingFlag(enum.IntFlag):
-    """Bits of the per-reading quality mask (0: nothing to report)."""
+    """Bits of the per-reading quality mask (0: nothing to report).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> readings = powers[:3].copy()
+    >>> readings[1] = np.nan  # a reading the instrument could not make
+    >>> readings[2] *= 4  # four times the power of the sweep
+    >>> flags = cal.flags(readings)
+    >>> [wm.ReadingFlag(int(bits)) for bits in flags]
+    [<ReadingFlag: 0>, <ReadingFlag.INVALID: 8>, <ReadingFlag.POWER_RANGE: 4>]
+    >>> bool(flags[2] & wm.ReadingFlag.POWER_RANGE)
+    True
+    """
 
     OFF_MODEL = 1
     OUTSIDE_SPAN = 2
@@ -143,6 +133,25 @@ def flag_counts(flags) -> dict[str, int]:
     mask = np.asarray(flags, dtype=np.int64)
     counts = {bit.name: int(np.count_nonzero(mask & bit)) for bit in ReadingFlag}
     return {name: count for name, count in counts.items() if count}
+
+
+def flag_summary(counts: dict[str, int], flagged: int, readings: int) -> str:
+    """``flagged 12 of 1000 readings: OFF_MODEL 10, OUTSIDE_SPAN 2``: the words every command
+    and the report count flags in (a reading may have several bits, so the counts can add
+    up to more than the readings flagged).
+
+    Parameters
+    ----------
+    counts : dict of str to int
+        Readings with each bit, by bit name (:func:`flag_counts`).
+    flagged : int
+        Readings with any bit.
+    readings : int
+        Readings in all.
+    """
+    text = f"flagged {flagged} of {readings} readings"
+    listed = ", ".join(f"{name} {count}" for name, count in counts.items())
+    return f"{text}: {listed}" if listed else text
 
 
 def temperature_flags(

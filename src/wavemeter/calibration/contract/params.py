@@ -56,10 +56,7 @@ class ParamsMixin:
 
     def get_params_for_file(self) -> dict:
         """Settings as JSON-ready values: arrays and tuples become lists, as JSON reads them."""
-        return {
-            key: np.asarray(value).tolist() if isinstance(value, (np.ndarray, tuple)) else value
-            for key, value in self.get_params().items()
-        }
+        return {key: _json_ready(value) for key, value in self.get_params().items()}
 
     @classmethod
     def _params_from_file(cls, params: dict) -> dict:
@@ -70,3 +67,14 @@ class ParamsMixin:
     def _settings_repr(self) -> str:
         params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}({params})"
+
+
+def _json_ready(value):
+    """Arrays, tuples and lists (of any depth and ragged) as lists; other values as given."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (tuple, list)):
+        return [_json_ready(item) for item in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

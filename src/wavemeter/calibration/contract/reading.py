@@ -284,7 +284,7 @@ class ReadingMixin:
         return result
 
     def flags(self, powers, *, coarse_hz=None, temperature_k=None):
-        """Quality bit mask per reading (:class:`~wavemeter.calibration.contract.flags.ReadingFlag`).
+        """Quality bit mask per reading (:class:`~wavemeter.calibration.ReadingFlag`).
 
         Parameters
         ----------

@@ -30,6 +30,14 @@ class ReadingInputs:
         Approximate frequency of each reading (Hz), within half an FSR.
     temperature_k : None or ndarray, shape (N,)
         Chip temperature of each reading (K).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.calibration import ReadingInputs
+    >>> inputs = ReadingInputs(coarse_hz=np.array([193.40e12, 193.45e12]))  # no temperature given
+    >>> inputs.coarse_hz.shape, inputs.temperature_k is None
+    ((2,), True)
     """
 
     coarse_hz: np.ndarray | None = None
@@ -83,6 +91,22 @@ class Readout:
         What the calibration found of the block as a whole, for
         :meth:`~wavemeter.calibration.contract.base.BaseCalibrator.readout_notes` (a
         cascade: how much noisier than its sweep the readings are); empty for most.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> readout = cal.readout(powers[:3])
+    >>> print(np.round((readout.frequency_hz - f_hz[:3]) / 1e6))  # MHz off the truth
+    [-3.  6.  4.]
+    >>> print(np.round(readout.frequency_std_hz / 1e6))  # each reading's stated std (MHz)
+    [14. 14. 14.]
+    >>> readout.flags.tolist(), readout.extras
+    ([0, 0, 0], {})
     """
 
     frequency_hz: np.ndarray
@@ -109,6 +133,20 @@ class StreamReading:
     extras : mapping of str to float
         The calibration's extra outputs (its ``reading_outputs``, e.g. a cascade's
         ``order_error_probability``), by name; NaN for a reading that cannot be read.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> for reading in cal.stream(powers[:2]):  # one reading at a time, as it arrives
+    ...     f_thz, std_mhz = reading.frequency_hz / 1e12, reading.frequency_std_hz / 1e6
+    ...     print(f"{f_thz:.6f} THz +- {std_mhz:.0f} MHz, flags {reading.flags}")
+    193.374245 THz +- 14 MHz, flags 0
+    193.374512 THz +- 14 MHz, flags 0
     """
 
     frequency_hz: float

@@ -31,6 +31,25 @@ class FitValue:
         SI unit of ``value`` and ``stderr`` (empty for pure numbers).
     label : str
         How people read its name (``"group-delay dispersion"``); empty: the key's words.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> fsr = cal.summary().values["fsr_hz"]
+    >>> fsr.unit
+    'Hz'
+
+    The fitted FSR's standard error (4 MHz) covers its distance to the true FSR (4.8 MHz):
+
+    >>> print(f"{fsr.value / 1e9:.4f} GHz +- {fsr.stderr / 1e6:.1f} MHz")
+    51.5076 GHz +- 4.1 MHz
+    >>> print(f"true {device.true_fsr_hz / 1e9:.4f} GHz")
+    true 51.5029 GHz
     """
 
     value: float
@@ -59,6 +78,19 @@ class Table:
         Cells: text, integers, or floats in the column's display unit.
     text : str
         What the table means, in a sentence or two.
+
+    Examples
+    --------
+    >>> from wavemeter.calibration import Table
+    >>> stages = Table(
+    ...     name="stages",
+    ...     title="Stages",
+    ...     columns=("stage", "FSR [GHz]", "noise [MHz]"),
+    ...     rows=((1, 514.0, 641.0), (2, 50.2, 58.0)),
+    ...     text="The cascade's stages, coarsest first.",
+    ... )
+    >>> dict(zip(stages.columns, stages.rows[1]))
+    {'stage': 2, 'FSR [GHz]': 50.2, 'noise [MHz]': 58.0}
     """
 
     name: str
@@ -116,6 +148,18 @@ class Check:
         What they say, in a sentence or two.
     table : Table or None
         The numbers in rows, where there are many.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(800, span_fsr=4)
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal_set = wm.CalibrationSet(fsr_hz=50e9).fit(powers, f_hz)
+    >>> test = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> checks = cal_set.evaluation_checks(test, f_hz)  # a set checks its maps on the neighbours
+    >>> [(check.name, check.title) for check in checks]
+    [('adjacent', 'Maps applied to the neighbouring FSRs ([1], Fig. 9)')]
     """
 
     name: str
@@ -166,8 +210,42 @@ def _frequency_with_error(value: FitValue) -> str:
     return text
 
 
+#: how the misfit report's noise estimates read (``diagnostics_["fit"]["noise_method"]``)
+_NOISE_SOURCES = {
+    "second_difference": "the readings' second differences (model-free)",
+    "residual": "the calibration residual",
+}
+
+
+def _setting_text(name: str, value) -> str:
+    """One setting as people read it: a frequency in its unit, ``default`` for None, lists
+    and nested settings (a set's window) in words, never a Python repr."""
+    if value is None:
+        return "default"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, dict):
+        method = value.get("method")
+        inner = value.get("params") if isinstance(value.get("params"), dict) else {}
+        listed = ", ".join(f"{key} {_setting_text(key, item)}" for key, item in inner.items())
+        return f"{method} ({listed})" if method else listed
+    if isinstance(value, (list, tuple)):
+        return ", ".join(
+            f"({_setting_text(name, item)})"
+            if isinstance(item, (list, tuple))
+            else _setting_text(name, item)
+            for item in value
+        )
+    if isinstance(value, (int, float)) and name.endswith("_hz"):
+        return frequency_text(float(value))
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
 def _settings_text(settings: dict) -> str:
-    return ", ".join(f"{name}={value!r}" for name, value in settings.items())
+    """``fsr_hz 50 GHz; fsr_tolerance 0.2; retrieval pinv``: library names, values in words."""
+    return "; ".join(f"{name} {_setting_text(name, value)}" for name, value in settings.items())
 
 
 def _is_number(value) -> bool:
@@ -205,7 +283,8 @@ def _fit_lines(fit, ports) -> list[str]:
     ]
     method, dof = fit.get("noise_method"), fit.get("noise_dof")
     if isinstance(method, str):
-        lines.append(_line("noise from", f"{method} ({_number(dof)} degrees of freedom)"))
+        source = _NOISE_SOURCES.get(method, method.replace("_", " "))
+        lines.append(_line("noise from", f"{source} ({_number(dof)} degrees of freedom)"))
     if _is_number(fit.get("condition_number")):
         ratio_text = fit.get("pinv_variance_ratio")
         extra = (
@@ -218,6 +297,60 @@ def _fit_lines(fit, ports) -> list[str]:
     if isinstance(offsets, list) and offsets:
         text = ", ".join(f"{_number(value)} W" for value in offsets)
         lines.append(_line("offsets", f"{text} (fitted, subtracted)"))
+    return lines
+
+
+#: the verdicts of a re-anchoring's reference check, the least worrying first
+_CHECK_ORDER = ("untested", "ok", "warned", "refused")
+
+
+def _check_text(check: dict) -> str:
+    """A reference check in words: its verdict and the reported line's scatter."""
+    verdict = check.get("verdict") if check.get("verdict") in _CHECK_ORDER else "?"
+    lines = [line for line in check.get("lines") or [] if isinstance(line, dict)]
+    tested = [line for line in lines if _is_number(line.get("p_value"))]
+    if verdict == "untested" or not tested:
+        return f"{verdict}: no line with two readings"
+    line = min(tested, key=lambda item: item["p_value"])
+    return (
+        f"{verdict}: scatter {_number(line.get('scatter_ratio'))} times the calibration's "
+        f"noise ({_number(line.get('observed_scatter_rad'))} rad, expected "
+        f"{_number(line.get('expected_scatter_rad'))} rad), p = {_number(check.get('p_value'))} "
+        f"over {len(tested)} line(s)"
+    )
+
+
+def _reanchor_lines(record) -> list[str]:
+    """Lines for a re-anchoring record: the shift, and how the reference readings scattered
+    (the worst window's for a set); tolerant of records read from files."""
+    if not isinstance(record, dict):
+        return []
+    windows = record.get("windows")
+    records = [item for item in windows if isinstance(item, dict)] if windows else [record]
+    lines_hz = record.get("lines_hz")
+    count = len(lines_hz) if isinstance(lines_hz, list) else "?"
+    readings = record.get("readings")
+    on = f"{count} line(s), {readings if isinstance(readings, int) else '?'} readings"
+    if windows:
+        text = f"{len(records)} windows on {on}"
+    else:
+        text = (
+            f"phase shift {_number(record.get('phase_shift_rad'))} rad (std "
+            f"{_number(record.get('phase_shift_std_rad'))} rad) on {on}"
+        )
+    lines = [_line("re-anchored", text)]
+    checks = [item.get("reference_check") for item in records]
+    checks = [check for check in checks if isinstance(check, dict)]
+    if checks:
+        worst = max(
+            checks,
+            key=lambda check: (
+                _CHECK_ORDER.index(check.get("verdict"))
+                if check.get("verdict") in _CHECK_ORDER
+                else 0
+            ),
+        )
+        lines.append(_line("reference check", _check_text(worst)))
     return lines
 
 
@@ -241,6 +374,7 @@ def _diagnostics_lines(diagnostics: dict) -> list[str]:
             )
         )
     lines += _fit_lines(diagnostics.get("fit"), ports)
+    lines += _reanchor_lines(diagnostics.get("reanchor"))
     notes = diagnostics.get("warnings")
     for note in notes if isinstance(notes, list) else []:
         if isinstance(note, dict):
@@ -283,6 +417,26 @@ class FitReport:
         orders of a wide band).
     notes : tuple of str
         What the method adds in words (the calibrated temperatures and what they resolve).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> report = cal.summary()  # what the calibration learned, as every command shows it
+    >>> report.method, report.samples, report.ports
+    ('learned', 200, ('p1', 'p2', 'p3'))
+    >>> list(report.values)[:4]
+    ['fsr_hz', 'design_fsr_hz', 'center_hz', 'calibration_rms_hz']
+    >>> fsr = report.values["fsr_hz"]
+    >>> print(f"FSR {fsr.value / 1e9:.4f} GHz +- {fsr.stderr / 1e6:.1f} MHz")
+    FSR 51.5076 GHz +- 4.1 MHz
+    >>> rms = report.values["calibration_rms_hz"]
+    >>> print(f"{rms.value / 1e6:.1f} MHz RMS on the sweep")
+    13.5 MHz RMS on the sweep
     """
 
     method: str

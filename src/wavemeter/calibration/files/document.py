@@ -6,10 +6,11 @@ calibration predicts bit for bit what the saved one did.
 A file is untrusted input. Reading is bounded (at most ``MAX_FILE_BYTES``, nesting at most
 ``MAX_DEPTH`` deep, integers of at most ``MAX_INTEGER_DIGITS`` digits, so a device, a FIFO
 or a crafted document cannot exhaust memory or the stack), and every number is checked
-before the calibrator is rebuilt: finite, of the right shape and range (an FSR > 0 and
-below an optical centre frequency, a span ``[low, high]``, a map of full rank, a delay equal
-to ``1 / FSR``). Anything else is a :class:`~wavemeter.exceptions.FileFormatError` naming
-the file and the field.
+before the calibrator is rebuilt: the header's (an FSR of at least 1 kHz and below an
+optical centre frequency, a span ``[low, high]`` of light), the state's by the rules its
+class declares (:mod:`~wavemeter.calibration.files.fields`), then the model's (a map of full
+rank, a delay equal to ``1 / FSR``). Anything else is a
+:class:`~wavemeter.exceptions.FileFormatError` naming the file and the field.
 """
 
 from __future__ import annotations
@@ -26,7 +27,16 @@ import numpy as np
 from ...atomic import atomic_path
 from ...exceptions import FileFormatError, InputError, WavemeterError
 from ...validation import MIN_SAMPLES, check_fitted
+from .fields import (
+    CENTER_RANGE_HZ,
+    DELAY_RTOL,
+    MIN_FSR_HZ,
+    check_fields,
+    check_setting_types,
+    header_scales,
+)
 from .registry import calibrator_class, registered
+from .rules import shown
 
 __all__ = [
     "CENTER_RANGE_HZ",
@@ -72,11 +82,6 @@ MAX_FILE_BYTES = 64 * 2**20
 MAX_DEPTH = 64
 #: longest integer literal (the port and sample counts need a few digits)
 MAX_INTEGER_DIGITS = 30
-#: centre frequencies a calibration of light may have (Hz): 1 THz (300 um) to 3 PHz
-#: (100 nm), wider than the band the column readers accept, so any optical fit loads
-CENTER_RANGE_HZ = (1e12, 3e15)
-#: relative mismatch allowed between a stored delay and 1 / FSR (rounding only)
-DELAY_RTOL = 1e-9
 
 
 def _package_version() -> str:
@@ -136,6 +141,21 @@ def save_calibration(calibrator: FittedCalibrator, path, metadata: dict | None =
         Target file, conventionally ``*.wmcal.json``.
     metadata : dict, optional
         JSON-ready notes kept with the calibration (source file, units, ...).
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> path = Path(tempfile.mkdtemp()) / "chip.wmcal.json"
+    >>> wm.save_calibration(cal, path, metadata={"chip": "W7-14"})
+    >>> loaded = wm.load_calibration(path)
+    >>> print(loaded.method, loaded.fsr_hz_ == cal.fsr_hz_)
+    learned True
     """
     document = calibration_to_dict(calibrator, metadata)
     text = json.dumps(document, indent=1, allow_nan=False)
@@ -171,7 +191,7 @@ def state_float(
         raise InputError(f"field {key!r} is missing")
     value = state[key]
     if not _is_real(value) or not math.isfinite(value):
-        raise InputError(f"field {key!r} must be a finite number, got {value!r:.80}")
+        raise InputError(f"field {key!r} must be a finite number, got {shown(value)}")
     value = float(value)
     if minimum is not None and (value < minimum or (open_minimum and value == minimum)):
         relation = ">" if open_minimum else ">="
@@ -195,9 +215,12 @@ def state_array(state: dict, key: str, shape: tuple) -> np.ndarray:
     try:
         array = np.asarray(state[key])
     except (ValueError, TypeError) as exc:
-        raise InputError(f"field {key!r} must be nested lists of numbers ({exc})") from exc
+        raise InputError(
+            f"field {key!r} must be nested lists of numbers of equal lengths, got "
+            f"{shown(state[key])}"
+        ) from exc
     if array.dtype.kind not in "iuf":
-        raise InputError(f"field {key!r} must hold numbers only, got {array.dtype} values")
+        raise InputError(f"field {key!r} must hold numbers only, got {shown(state[key])}")
     matches = array.ndim == len(shape) and all(
         size is None or size == actual for size, actual in zip(shape, array.shape, strict=True)
     )
@@ -210,7 +233,7 @@ def state_array(state: dict, key: str, shape: tuple) -> np.ndarray:
 def _number(document: dict, key: str, path) -> float:
     value = document.get(key)
     if not _is_real(value) or not math.isfinite(value):
-        raise _fail(path, f"field {key!r} must be a finite number, got {value!r:.80}")
+        raise _fail(path, f"field {key!r} must be a finite number, got {shown(value)}")
     return float(value)
 
 
@@ -219,7 +242,7 @@ def _count(document: dict, key: str, path, minimum: int) -> int:
     if isinstance(value, float) and value.is_integer():
         value = int(value)
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise _fail(path, f"field {key!r} must be an integer >= {minimum}, got {value!r:.80}")
+        raise _fail(path, f"field {key!r} must be an integer >= {minimum}, got {shown(value)}")
     return value
 
 
@@ -234,7 +257,7 @@ def _frequencies(document: dict, path) -> tuple[float, float, tuple[float, float
         and all(_is_real(value) and math.isfinite(value) for value in span)
         and span[0] <= span[1]
     ):
-        raise _fail(path, f"field 'span_hz' must be [low, high] in Hz, got {span!r:.80}")
+        raise _fail(path, f"field 'span_hz' must be [low, high] in Hz, got {shown(span)}")
     low, high = float(span[0]), float(span[1])
     lowest, highest = CENTER_RANGE_HZ
     if not lowest <= center <= highest:
@@ -245,15 +268,21 @@ def _frequencies(document: dict, path) -> tuple[float, float, tuple[float, float
         )
     if not low <= center <= high:
         raise _fail(path, f"field 'center_hz' {center!r} must lie in span_hz [{low!r}, {high!r}]")
-    if not 0 < fsr < center:
-        raise _fail(path, f"field 'fsr_hz' must be > 0 and below the centre frequency, got {fsr!r}")
+    if not 0 < low or not high <= 2 * highest:
+        raise _fail(path, f"field 'span_hz' must hold optical frequencies, got {shown(span)}")
+    if not MIN_FSR_HZ <= fsr < center:
+        raise _fail(
+            path,
+            f"field 'fsr_hz' must be >= {MIN_FSR_HZ:g} Hz (a delay of at most 1 ms) and below "
+            f"the centre frequency, got {fsr!r}",
+        )
     return fsr, center, (low, high)
 
 
 def _optional_object(document: dict, key: str, path) -> dict:
     value = document.get(key, {})
     if not isinstance(value, dict):
-        raise _fail(path, f"field {key!r} must be an object, got {type(value).__name__}")
+        raise _fail(path, f"field {key!r} must be an object, got {shown(value)}")
     return value
 
 
@@ -267,7 +296,7 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
     ``path`` names the source in error messages (a file, or a window of a set).
     """
     if not isinstance(document, dict):
-        raise _fail(path, f"calibration fields must be an object, got {type(document).__name__}")
+        raise _fail(path, f"calibration fields must be an object, got {shown(document)}")
     method = document.get("method")
     try:
         cls = calibrator_class(method)
@@ -275,14 +304,17 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
         raise _fail(path, str(exc)) from exc
     if cls is None:
         raise _fail(
-            path, f"unknown calibration method {method!r:.80}; known: {sorted(registered())}"
+            path,
+            f"unknown calibration method {shown(method)}; known: {', '.join(sorted(registered()))}",
         )
     params = document.get("params")
     state = document.get("state")
     if not isinstance(params, dict) or not isinstance(state, dict):
         raise _fail(path, "fields 'params' and 'state' must be objects")
     try:
-        calibrator = cls(**cls._params_from_file(params))
+        settings = cls._params_from_file(params)
+        check_setting_types(cls, settings)
+        calibrator = cls(**settings)
         calibrator._check_params()
     except (TypeError, ValueError) as exc:
         raise _fail(path, f"parameters do not fit method {method!r}: {exc}") from exc
@@ -293,11 +325,13 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
         or len(names) != n_ports
         or not all(isinstance(name, str) for name in names)
     ):
-        raise _fail(path, f"field 'port_names' must list {n_ports} names, got {names!r:.80}")
+        raise _fail(path, f"field 'port_names' must list {n_ports} names, got {shown(names)}")
     fsr, center, span = _frequencies(document, path)
     rms = _number(document, "calibration_rms_hz", path)
-    if rms < 0:
-        raise _fail(path, f"field 'calibration_rms_hz' must be >= 0, got {rms!r}")
+    if not 0 <= rms <= center:
+        raise _fail(
+            path, f"field 'calibration_rms_hz' must be >= 0 and below the centre, got {rms!r}"
+        )
     calibrator.fsr_hz_ = fsr
     calibrator.center_hz_ = center
     calibrator.span_hz_ = span
@@ -307,9 +341,12 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
     calibrator.calibration_rms_hz_ = rms
     # files of 0.1 have no diagnostics
     calibrator.diagnostics_ = _optional_object(document, "diagnostics", path)
+    # files of schema 1 have no reading model: no dark readings, offsets or power range
+    reading_model = _optional_object(document, "reading_model", path)
     try:
-        # files of schema 1 have no reading model: no dark readings, offsets or power range
-        calibrator._set_reading_model_state(_optional_object(document, "reading_model", path))
+        scales = header_scales(fsr, center, span, n_ports, calibrator.n_samples_)
+        check_fields(cls, scales, state, reading_model, calibrator.diagnostics_)
+        calibrator._set_reading_model_state(reading_model)
         calibrator._set_state(state)
         calibrator._check_state()
     except _STATE_ERRORS as exc:
@@ -317,7 +354,8 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
     if abs(calibrator.fsr_hz_ / fsr - 1.0) > DELAY_RTOL:
         raise _fail(
             path,
-            f"field 'fsr_hz' {fsr!r} disagrees with the state's delay ({calibrator.fsr_hz_!r})",
+            f"field 'fsr_hz' {fsr!r} disagrees with the state, whose delay gives an FSR of "
+            f"{calibrator.fsr_hz_!r} Hz",
         )
     return calibrator
 
@@ -360,14 +398,14 @@ def _checked_document(document, path) -> CalibrationFile:
     ):
         raise _fail(
             path,
-            f"calibration schema_version {version!r:.40} is not supported by wavemeter "
+            f"calibration schema_version {shown(version)} is not supported by wavemeter "
             f"{_package_version()} (reads 1..{SCHEMA_VERSION}); upgrade wavemeter",
         )
     header = {}
     for key in ("wavemeter_version", "created_utc"):
         value = document.get(key)
         if value is not None and not isinstance(value, str):
-            raise _fail(path, f"field {key!r} must be a string, got {type(value).__name__}")
+            raise _fail(path, f"field {key!r} must be a string, got {shown(value)}")
         header[key] = value
     metadata = _optional_object(document, "metadata", path)
     return CalibrationFile(
@@ -476,5 +514,21 @@ def load_calibration(path) -> FittedCalibrator:
     FileFormatError
         When the file is missing, too large, truncated, not JSON, of another format or
         version, or its content is inconsistent. The message names the file and the field.
+
+    Examples
+    --------
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> path = Path(tempfile.mkdtemp()) / "chip.wmcal.json"
+    >>> wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz).save(path)
+    >>> cal = wm.load_calibration(path)  # the class comes from the file's method tag
+    >>> print(cal.method, f"{cal.fsr_hz_ / 1e9:.2f} GHz")
+    learned 51.51 GHz
+    >>> print(abs(cal.predict(powers[:1])[0] - f_hz[0]) < 100e6)
+    True
     """
     return read_calibration_file(path).calibrator

@@ -71,6 +71,14 @@ def calibrator_class(tag: str) -> type | None:
     ------
     WavemeterError
         When the entry point of ``tag`` cannot be loaded or names no calibrator of that tag.
+
+    Examples
+    --------
+    >>> from wavemeter.calibration import calibrator_class
+    >>> calibrator_class("learned").__name__  # the tag a calibration file names
+    'Calibrator'
+    >>> calibrator_class("no_such_method") is None
+    True
     """
     if not isinstance(tag, str):
         return None
@@ -84,7 +92,17 @@ def calibrator_class(tag: str) -> type | None:
 def registered() -> dict[str, type]:
     """A copy of the table: tag -> class, the built-in ones in registration order, then
     those of the installed plug-ins (one that cannot be loaded is left out with a
-    :class:`~wavemeter.exceptions.CalibrationWarning` saying why)."""
+    :class:`~wavemeter.exceptions.CalibrationWarning` saying why).
+
+    Examples
+    --------
+    >>> from wavemeter.calibration import registered
+    >>> table = registered()
+    >>> table["learned"].__name__
+    'Calibrator'
+    >>> [tag for tag in table if tag in ("learned", "conventional", "wideband", "cascade")]
+    ['conventional', 'learned', 'wideband', 'cascade']
+    """
     for point in _entry_points():
         if point.name not in _CLASSES and point.name not in _TRIED:
             try:

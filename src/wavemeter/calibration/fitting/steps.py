@@ -143,6 +143,40 @@ class SweepFitMixin:
 
     The class writes ``_learn(sweep)``: set the learned attributes (``fsr_hz_`` and its
     own) from the validated sweep, whose layout ``_start_fit`` has already recorded.
+
+    Examples
+    --------
+    ``fit`` as the checked steps every fit shares: the sweep checked, the design FSR
+    compared with the sweep's fringes, every port's fringe judged, then the class's own
+    ``_learn``, then the residual tested against the cone model. A calibrator that learns
+    in one step writes only ``_learn`` (and ``_phase``):
+
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.calibration import BaseCalibrator, SweepFitMixin
+    >>> from wavemeter.model import cone_vectors, delay_phase_rad
+    >>> class KnownDelayCalibrator(SweepFitMixin, BaseCalibrator):  # the map at a known FSR
+    ...     def __init__(self, fsr_hz=50e9):
+    ...         self.fsr_hz = fsr_hz
+    ...     def _learn(self, sweep):
+    ...         phase_rad = delay_phase_rad(sweep.frequency_hz, self.center_hz_, 1 / self.fsr_hz)
+    ...         objects = cone_vectors(phase_rad, 1.0 if sweep.scale is None else sweep.scale)
+    ...         self.map_ = np.linalg.lstsq(objects, sweep.powers_w, rcond=None)[0].T
+    ...         self.fsr_hz_ = float(self.fsr_hz)
+    ...     def _phase(self, readings):
+    ...         objects = readings @ np.linalg.pinv(self.map_).T
+    ...         return np.arctan2(objects[:, 1], objects[:, 0])
+    >>> try:  # the fit's checks come with the mixin
+    ...     KnownDelayCalibrator(fsr_hz=50).fit(powers, f_hz)
+    ... except wm.InputError as error:
+    ...     print(error.parameter)
+    fsr_hz
+    >>> cal = KnownDelayCalibrator(fsr_hz=device.true_fsr_hz).fit(powers, f_hz)
+    >>> sorted(cal.diagnostics_)[:3]
+    ['diagnostic_samples', 'fit', 'fsr_estimate_hz']
     """
 
     def fit(

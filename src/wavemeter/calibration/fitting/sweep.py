@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...exceptions import InputError
+from ...units import OPTICAL_BAND_HZ, WAVELENGTH_UNITS, optical_unit_guess
 from ...validation import (
     MIN_SAMPLES,
     check_dark,
@@ -67,6 +68,22 @@ class Sweep:
         Chip temperature of each reading (K).
     monitor_mean_w : None or float
         The monitor's mean over the whole sweep, when these readings are a sample of it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.calibration import Sweep
+    >>> sweep = Sweep(powers, f_hz, None, ["p1", "p2", "p3"])  # what a calibrator's _learn is given
+    >>> sweep.samples, sweep.ports, sweep.scale is None
+    (200, 3, True)
+    >>> print(f"{sweep.center_hz / 1e12:.4f} THz, {np.ptp(sweep.span_hz) / 1e9:.2f} GHz span")
+    193.3999 THz, 51.25 GHz span
+    >>> sweep.rows(slice(0, 50)).samples
+    50
     """
 
     powers_w: np.ndarray
@@ -157,11 +174,29 @@ def checked_sweep(
     raw = check_powers(powers, min_samples=MIN_SAMPLES)
     samples, ports = raw.shape
     frequency = check_frequency(frequency_hz, samples)
+    check_frequency_unit(frequency)
     monitor = check_monitor(power_monitor_w, samples)
     dark = check_dark(dark_w, ports)
     names = checked_port_names(port_names, ports)
     temperature = checked_temperature(temperature_k, samples, temperature_required_by)
     return Sweep(raw if dark is None else raw - dark, frequency, monitor, names, dark, temperature)
+
+
+def check_frequency_unit(frequency_hz: np.ndarray) -> None:
+    """Refuse frequencies that are not optical in Hz but would be in another unit (THz,
+    nm...): a unit slip, named with the unit the values look like."""
+    low, high = OPTICAL_BAND_HZ
+    if low <= frequency_hz.min() and frequency_hz.max() <= high:
+        return
+    unit = optical_unit_guess(frequency_hz)
+    if unit is not None and unit != "Hz":
+        kind = "wavelengths" if unit in WAVELENGTH_UNITS else "frequencies"
+        raise InputError(
+            f"frequency_hz must be in Hz; its values {frequency_hz.min():.6g} to "
+            f"{frequency_hz.max():.6g} look like {kind} in {unit}: convert them to "
+            "frequencies in Hz",
+            parameter="frequency_hz",
+        )
 
 
 @dataclass(eq=False)
@@ -184,6 +219,22 @@ class FitContext:
         Per-port offsets are fitted (a monitored power that varied, no dark readings).
     temperature_range_k : None or list of float
         The whole sweep's lowest and highest chip temperature (K), where given.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> from wavemeter.calibration import FitContext, Sweep
+
+    What a fit has found so far, handed from step to step of a calibrator whose fit has
+    steps of its own; it starts from the checked sweep:
+
+    >>> ctx = FitContext(Sweep(powers, f_hz, None, ["p1", "p2", "p3"]))
+    >>> ctx.sweep.samples, ctx.notes, ctx.affine, ctx.temperature_range_k
+    (200, [], False, None)
     """
 
     sweep: Sweep

@@ -30,12 +30,13 @@ from ...validation import (
 )
 from ..contract.base import BaseCalibrator, Part
 from ..contract.summary import FitValue
+from ..files import fields
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
 from ..models.band_reading import band_cone_distance
 from .cascade_chain import ChainReadingMixin
-from .cascade_handover import HandoverChecksMixin, stage_label
+from .cascade_handover import HandoverChecksMixin, handover_rules, stage_label
 from .cascade_params import design_fsrs_hz, stage_columns
-from .cascade_report import cascade_tables, order_error_check
+from .cascade_report import CASCADE_RECORD_RULES, cascade_tables, order_error_check
 from .learned import RETRIEVALS
 from .wideband import WidebandCalibrator
 
@@ -100,11 +101,61 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
     diagnostics_ : dict
         ``"cascade"``: stages (FSR, orders, RMS, z-score spread on the sweep), hand-overs
         and the edge margin; ``"warnings"``: every stage's warnings, named by stage.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> meter = wm.CascadeInterferometer.table1(fsrs_hz=(500e9, 50e9), seed=2)  # 2 stages
+    >>> band_hz = np.linspace(193.2e12, 193.5e12, 2000)  # one sweep over a 300 GHz band
+    >>> powers = meter.powers(band_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> powers.shape
+    (2000, 6)
+    >>> cal = wm.CascadeCalibrator(fsr_hz=(500e9, 50e9)).fit(powers, band_hz)
+
+    The stages' fitted FSRs (the coarse stage's delay is off its 500 GHz design):
+
+    >>> print([f"{fsr / 1e9:.0f} GHz" for fsr in cal.stage_fsrs_hz_])
+    ['514 GHz', '50 GHz']
+
+    Readings are absolute with no coarse input, each with its probability of a wrong order:
+
+    >>> test_hz = np.array([193.25e12, 193.4e12])
+    >>> test = meter.powers(test_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> reading = cal.readout(test)
+    >>> print(np.abs(reading.frequency_hz - test_hz) < 5 * reading.frequency_std_hz)
+    [ True  True]
+    >>> print(reading.extras["order_error_probability"] < 1e-6)
+    [ True  True]
     """
 
     method = "cascade"
     absolute_frequency = True
     capabilities = frozenset({"frequency_std", "crlb", "power_monitor"})
+    #: the stages' numbers are checked as each stage's file (:func:`calibrator_from_fields`)
+    state_rules = fields.rule_table(
+        {
+            "stage_ports.*": fields.FieldRule(
+                "a port's index", "", 0, 1, scale="last_port", integer=True
+            ),
+            "edge_margin_std": fields.FieldRule(
+                "the smallest margin to the band's edges",
+                "std",
+                -fields.MAX_MARGIN_STD,
+                fields.MAX_MARGIN_STD,
+            ),
+            # a chi-square median (0.45 for 3 ports) times the square of a noise scale
+            # within 1e-6 to 1e3
+            "cone_distance_median": fields.FieldRule(
+                "a stage's median distance from its cone", "", 1e-12, 1e6
+            ),
+            "model_error_hz": fields.FieldRule(
+                "a stage's error beyond its uncertainty", "Hz", 0.0, 1.0, scale="band_hz"
+            ),
+            **handover_rules("handovers"),
+        }
+    )
+    diagnostics_rules = CASCADE_RECORD_RULES
 
     def __init__(
         self,
@@ -443,8 +494,13 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, BaseCalibrator):
         self.handovers_ = handovers
         self.edge_margin_std_ = state_float(state, "edge_margin_std")
         self.cone_distance_median_ = state_array(state, "cone_distance_median", (len(design),))
-        if np.any(self.cone_distance_median_ <= 0):
-            raise InputError("field 'cone_distance_median' must hold positive numbers")
         self.model_error_hz_ = state_array(state, "model_error_hz", (len(design),))
-        if np.any(self.model_error_hz_ < 0):
-            raise InputError("field 'model_error_hz' must hold numbers >= 0 (Hz)")
+
+    def _check_state(self) -> None:
+        super()._check_state()
+        record = (self.diagnostics_ or {}).get("cascade")
+        if record and len(record["stages"]) != len(self.stages_):
+            raise InputError(
+                f"field 'diagnostics.cascade.stages' must list the {len(self.stages_)} stages, "
+                f"got {len(record['stages'])}"
+            )

@@ -5,7 +5,7 @@ each hand-over's record on the sweep (FSR ratio, margin in standard deviations, 
 largest ratio the noise allows, predicted and seen wrong orders), refuses a hand-over
 whose wrong-order rate exceeds ``max_order_error``, warns when the sweep saw improbably
 many wrong orders, measures the coarsest stage's edge margin and each stage's error
-beyond its uncertainty, and says what a coarsest stage's misfit means in a cascade.
+beyond its uncertainty, and says what a coarsest stage's misfit costs in a cascade.
 Theory: the docs' cascade page.
 """
 
@@ -19,9 +19,10 @@ from scipy import special, stats
 from ...exceptions import CalibrationWarning, InputError
 from ...model.orders import handover_error_rate
 from ...units import frequency_text
+from ..files.fields import MAX_FSR_RATIO, MAX_MARGIN_STD, record_number
 from .cascade_reading import NOISE_P_VALUE, CascadeReading
 
-__all__ = ["HANDOVER_CAUSE", "HandoverChecksMixin", "stage_label"]
+__all__ = ["HANDOVER_CAUSE", "HandoverChecksMixin", "handover_rules", "stage_label"]
 
 #: the cause of a warning that the sweep saw more wrong orders than the rates predict
 HANDOVER_CAUSE = "order_handover"
@@ -29,11 +30,43 @@ HANDOVER_REMEDY = (
     "look for steps in the sweep (a mode hop of the laser, a wavelength reference that "
     "slipped, a stage that drifted) and re-record it"
 )
-#: misfit causes whose residual a map changing with wavelength also leaves on a stage
-#: swept over less than its FSR
-SWEEP_MISFIT_CAUSES = ("power_drift", "detector_offset", "phase_drift", "other_misfit")
+#: misfit causes of the coarsest stage whose cost in a cascade its warning states
+SWEEP_MISFIT_CAUSES = (
+    "power_drift",
+    "detector_offset",
+    "phase_drift",
+    "dispersion",
+    "other_misfit",
+)
 #: p-value below which the wrong orders seen on the sweep contradict the predicted ones
 HANDOVER_P_VALUE = 1e-6
+
+
+#: most stages a cascade's record may name
+MAX_STAGES = 100
+#: the numbers of a hand-over's record: key, what, unit, low, high, whole, scale (of the
+#: bounds: the band for a standard deviation, the sweep's readings for a count)
+_HANDOVER_NUMBERS = (
+    ("from_stage", "the coarser stage", "", 1, MAX_STAGES, True, None),
+    ("to_stage", "the finer stage", "", 2, MAX_STAGES, True, None),
+    ("ratio", "the FSR ratio", "", 1.0, MAX_FSR_RATIO, False, None),
+    ("median_std_hz", "the median standard deviation", "Hz", 0.0, 1.0, False, "band_hz"),
+    ("margin_std", "the median margin", "std", -MAX_MARGIN_STD, MAX_MARGIN_STD, False, None),
+    ("worst_margin_std", "the least margin", "std", -MAX_MARGIN_STD, MAX_MARGIN_STD, False, None),
+    ("largest_usable_ratio", "the largest usable ratio", "", 0.0, MAX_MARGIN_STD, False, None),
+    ("predicted_rate", "the predicted wrong-order rate", "", 0.0, 1.0, False, None),
+    ("expected_wrong", "the wrong orders expected", "", 0.0, 1.0, False, "samples"),
+    ("wrong_on_sweep", "the wrong orders seen on the sweep", "", 0, 1.0, True, "samples"),
+)
+
+
+def handover_rules(prefix: str) -> dict:
+    """What each number of the hand-overs' records under ``prefix`` may hold (a calibration
+    file's rules, :mod:`~wavemeter.calibration.files.fields`)."""
+    return {
+        f"{prefix}.*.{key}": record_number(what, unit, low, high, integer, scale)
+        for key, what, unit, low, high, integer, scale in _HANDOVER_NUMBERS
+    }
 
 
 def stage_label(index: int, fsr_hz: float) -> str:
@@ -115,19 +148,16 @@ class HandoverChecksMixin:
         return float(np.min(distance / chain.std_hz[0][ends]))
 
     def _coarsest_context(self, note: CalibrationWarning) -> CalibrationWarning:
-        """A misfit of the coarsest stage, with what it means in a cascade: the stage's
-        band is narrower than its FSR, where a map changing with wavelength cannot be told
-        from the phase, and its uncertainties (the model-free noise) carry the misfit into
-        the hand-over margin, not into the answer."""
+        """A misfit of the coarsest stage, with what it means in a cascade: its
+        uncertainties (the model-free noise, the error its sweep showed beyond them) carry
+        the misfit into the hand-over margin, not into the answer."""
         label = stage_label(0, self._design_fsrs_hz()[0])
         if note.cause not in SWEEP_MISFIT_CAUSES or not str(note).startswith(f"{label}:"):
             return note
         margin = self.handovers_[0]["margin_std"]
         context = (
-            "in a cascade the coarsest stage covers less than one of its FSRs, where a map "
-            "changing with wavelength (coupler and detector slopes, which over a sweep look "
-            "like a drift) cannot be told from the phase and leaves a residual of this kind: "
-            "the stage's uncertainties include it, so it costs hand-over margin (now "
+            "in a cascade the coarsest stage's uncertainties include what its sweep shows "
+            "beyond the noise, so this costs hand-over margin (now "
             f"{margin:.3g} standard deviations to stage 2), not the finest stage's accuracy"
         )
         return CalibrationWarning(

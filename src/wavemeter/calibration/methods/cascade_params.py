@@ -13,10 +13,13 @@ __all__ = ["design_fsrs_hz", "stage_columns"]
 def design_fsrs_hz(values) -> tuple[float, ...]:
     """The design FSRs (Hz) of a cascade's stages, checked: two or more, positive,
     strictly decreasing (coarsest first)."""
-    if isinstance(values, (str, bytes)) or np.ndim(values) != 1 or len(values) < 2:
+    flat = isinstance(values, (list, tuple, np.ndarray)) and all(
+        np.ndim(value) == 0 for value in values
+    )
+    if not flat or len(values) < 2:
         raise InputError(
             "fsr_hz must be the design FSRs of two or more stages (Hz, coarsest first), "
-            f"got {values!r}",
+            f"got {values!r:.80}",
             parameter="fsr_hz",
         )
     try:

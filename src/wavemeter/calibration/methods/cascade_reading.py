@@ -19,6 +19,7 @@ from scipy import stats
 from ...model.orders import any_error_probability
 from ...model.uncertainty import student_factor
 from ..contract.flags import off_model_threshold
+from ..contract.off_model import chi2_median
 from ..contract.streaming import SCREEN_MARGIN
 from ..models.band_reading import band_cone_distance
 from ..models.wideband_fit import NEWTON_STEPS, PREDICT_ITERATIONS
@@ -84,13 +85,6 @@ class CascadeReading:
     def order_error_probability(self) -> np.ndarray:
         """Probability (per reading) that some stage took a wrong order."""
         return any_error_probability(self.error_probability)
-
-
-@functools.lru_cache(maxsize=64)
-def chi2_median(free: int, noise_dof: float) -> float:
-    """The median of a cone distance under the calibrated noise: ``free F(free, noise_dof)``
-    (``free = n - 2`` degrees of freedom, the noise estimated on ``noise_dof``)."""
-    return free * float(stats.f.median(free, noise_dof))
 
 
 def noise_scale(distance: np.ndarray, reference_median: float, noise_median: float) -> float:

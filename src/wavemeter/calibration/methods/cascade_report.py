@@ -13,8 +13,33 @@ import numpy as np
 
 from ..contract.flags import ReadingFlag
 from ..contract.summary import Check, Table
+from ..files import fields
+from .cascade_handover import handover_rules
 
-__all__ = ["cascade_tables", "order_error_check", "order_errors"]
+__all__ = ["CASCADE_RECORD_RULES", "cascade_tables", "order_error_check", "order_errors"]
+
+
+_number = fields.record_number
+#: what the record the report presents (``diagnostics_["cascade"]``) holds, as a file's
+#: diagnostics rules: a file whose record lacks them is refused on load, not in the report
+#: (the count of stages is the cascade's ``_check_state``)
+CASCADE_RECORD_RULES = fields.rule_table(
+    {
+        "cascade": fields.RecordRule("the cascade's record", "object"),
+        "cascade.stages": fields.RecordRule("the stages' records", "list"),
+        "cascade.stages.*.stage": _number("a stage", "", 1, integer=True),
+        "cascade.stages.*.ports": fields.RecordRule("a stage's ports", "texts"),
+        "cascade.stages.*.fsr_hz": _number("a stage's FSR", "Hz", 0.0),
+        "cascade.stages.*.phase_order": _number("a phase order", "", 1, integer=True),
+        "cascade.stages.*.map_order": _number("a map order", "", 0, integer=True),
+        "cascade.stages.*.median_std_hz": _number("a median standard deviation", "Hz", 0.0),
+        "cascade.stages.*.rms_hz": _number("an RMS error", "Hz", 0.0),
+        "cascade.stages.*.z_std": _number("a z-score spread", "", 0.0),
+        "cascade.handovers": fields.RecordRule("the hand-overs' records", "list"),
+        **handover_rules("cascade.handovers"),
+        "cascade.edge_margin_std": _number("the edge margin", "std"),
+    }
+)
 
 
 def cascade_tables(record: dict, design_fsrs_hz, max_order_error: float) -> tuple[Table, ...]:

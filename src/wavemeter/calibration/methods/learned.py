@@ -24,6 +24,7 @@ from ..checks.misfit import MisfitReport, misfit_report
 from ..contract.base import BaseCalibrator
 from ..contract.records import ReadingInputs
 from ..contract.summary import FitValue
+from ..files import fields
 from ..files.document import state_array, state_float
 from ..fitting.steps import (
     SweepFitMixin,
@@ -116,6 +117,11 @@ class Calibrator(
         Scan and refinement of ``J(tau)`` (not saved to file).
     calibration_rms_hz_ : float
         RMS frequency error on the calibration sweep itself (Hz).
+    off_model_basis_ : OffModelBasis or None
+        The sweep's distances to the cone and what ``OFF_MODEL`` compares a reading's
+        with: the detector noise, or, where those distances show a model error, the noise
+        scaled to their median (:mod:`~wavemeter.calibration.contract.off_model`). None for
+        a file written by 0.7 or older (the detector-noise test).
     diagnostics_ : dict
         The sweep's own FSR estimate, every port's fringe amplitude and significance, the
         fit diagnostics (:mod:`wavemeter.calibration.checks.misfit`), the readings they saw
@@ -133,13 +139,35 @@ class Calibrator(
 
     Examples
     --------
+    Calibrate a simulated 3x3 meter (Table 1's impairments) from a sweep of 200 readings
+    over one FSR at 1 mW with 0.5 uW of detector noise:
+
+    >>> import numpy as np
     >>> import wavemeter as wm
-    >>> device = wm.Interferometer.table1(ports=3, seed=7)
-    >>> f_hz = device.sweep_hz(2001)
-    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
     >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
-    >>> round(cal.fsr_hz_ / 1e9, 2)
-    50.79
+    >>> cal.map_.shape
+    (3, 3)
+
+    The delay search finds the device's FSR (its delay is 3 % off the 50 GHz design) to
+    within 5 MHz:
+
+    >>> print(f"fitted FSR {cal.fsr_hz_ / 1e9:.2f} GHz, true {device.true_fsr_hz / 1e9:.2f} GHz")
+    fitted FSR 51.51 GHz, true 51.50 GHz
+
+    On ten readings the sweep did not contain, the error is at the per-reading Cramer-Rao
+    bound of this device (14 MHz, see :func:`~wavemeter.crlb_frequency_std`), which the stated
+    standard deviation follows:
+
+    >>> test_hz = f_hz[5::20] + 1e8
+    >>> test = device.powers(test_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> error_hz = cal.predict(test) - test_hz
+    >>> print(f"RMS error {np.sqrt(np.mean(error_hz**2)) / 1e6:.0f} MHz")
+    RMS error 17 MHz
+    >>> print(f"stated std {np.median(cal.frequency_std_hz(test)) / 1e6:.0f} MHz")
+    stated std 14 MHz
     """
 
     method = "learned"
@@ -148,6 +176,16 @@ class Calibrator(
     nonlinear_parameters: ClassVar[int] = 1
     #: most readings the checks and diagnostics see (:mod:`~wavemeter.calibration.models.subsample`)
     diagnostic_samples: ClassVar[int] = DIAGNOSTIC_SAMPLES
+    #: what each number of the file's state may hold (:mod:`~wavemeter.calibration.files.fields`)
+    state_rules = fields.rule_table(
+        {
+            "map": fields.MAP_RULE,
+            "delay_s": fields.DELAY_RULE,
+            "delay_std_s": fields.DELAY_STD_RULE,
+            **fields.NOISE_MODEL_RULES,
+            "parameter_covariance": fields.CovarianceRule(tail=(("the delay", "delay_s", 1.0),)),
+        }
+    )
 
     def __init__(
         self,
@@ -232,8 +270,8 @@ class Calibrator(
 
     def _judged(self, ctx: LearnedContext) -> list:
         """The fit judged on the readings in ``ctx``: the RMS error on them, the misfit
-        report (its model-free noise taken where it finds a misfit), ``diagnostics_``;
-        every warning, in order."""
+        report (its model-free noise taken where it finds a misfit), their distances to
+        the cone (``off_model_basis_``), ``diagnostics_``; every warning, in order."""
         sweep = ctx.sweep
         readings = sweep.powers_w - self.offset_w_
         inputs = ReadingInputs(temperature_k=sweep.temperature_k)
@@ -246,6 +284,7 @@ class Calibrator(
         if noise is not None:  # weight and state uncertainties with the model-free noise
             self.port_noise_std_w_, self.noise_dof_ = noise
             self._set_covariance(ctx)
+        self._judge_distances(self._ml_cone_distance(readings))
         self.diagnostics_, notes = diagnostics_record(
             ctx, misfit, method=self._method_record(ctx), notes=self._fit_notes(ctx)
         )
@@ -347,13 +386,22 @@ class Calibrator(
             A deep copy with the corrected ``map_`` (and ``delay_s_``, ``fsr_hz_``,
             ``delay_std_s_``) and ``diagnostics_["reanchor"]``: ``phase_shift_rad``,
             ``phase_shift_std_rad``, ``delay_change_s`` (None when kept),
-            ``delay_change_std_s``, ``lines_hz``, ``readings``.
+            ``delay_change_std_s``, ``lines_hz``, ``readings``, ``reference_check`` (how
+            each line's readings scattered against the calibration's noise).
 
         Raises
         ------
         InputError
             Naming ``powers``, ``frequency_hz`` or ``temperature_k`` for readings or values
-            that are missing, not finite or of the wrong shape.
+            that are missing, not finite or of the wrong shape; ``frequency_hz`` when the
+            readings of a line scatter far beyond the calibration's noise (not readings of
+            that line: :mod:`~wavemeter.calibration.models.reference_check`).
+
+        Warns
+        -----
+        CalibrationWarning
+            (cause ``"reference_scatter"``) When a line scatters more than the calibration's
+            noise, short of that; the warning is kept in the copy's ``diagnostics_``.
         """
         check_fitted(self)
         raw, frequency, _ = check_reference_readings(
@@ -369,6 +417,7 @@ class Calibrator(
             self.delay_s_,
             delay_std_s=self.delay_std_s_,
             reading_phase_std_rad=reading_std * (2.0 * np.pi / self.fsr_hz_),
+            noise_dof=self.noise_dof_,
         )
         return reanchored_copy(self, fit)
 
@@ -395,6 +444,7 @@ class Calibrator(
             "port_noise_std_w": self.port_noise_std_w_.tolist(),
             "noise_dof": self.noise_dof_,
             "parameter_covariance": self.parameter_covariance_.tolist(),
+            **self._off_model_state(),
         }
 
     def _set_state(self, state: dict) -> None:
@@ -421,10 +471,9 @@ class Calibrator(
                     f"field 'parameter_covariance' must be square of size {sizes[0]} or "
                     f"{sizes[1]}, got shape {self.parameter_covariance_.shape}"
                 )
-            if np.any(self.port_noise_std_w_ <= 0):
-                raise ValueError("field 'port_noise_std_w' must hold positive numbers (W)")
         else:
             # schema 1: one pooled noise, its degrees of freedom, no parameter covariance
             self.port_noise_std_w_ = np.full(ports, self.noise_std_w_)
             self.noise_dof_ = max(self.n_samples_ * ports - 3.0 * ports - 1.0, 3.0)
             self.parameter_covariance_ = None
+        self._set_off_model_state(state)

@@ -4,7 +4,8 @@
 :class:`~wavemeter.calibration.methods.learned.Calibrator` and its thermal subclass: the
 paper's pseudo-inverse and arctangent (or the cone maximum likelihood), the standard
 deviation of that estimator by the delta method (:mod:`wavemeter.model.uncertainty`), the
-Cramer-Rao bound under the calibrated map, the ``OFF_MODEL`` test, and one pass per
+Cramer-Rao bound under the calibrated map, the ``OFF_MODEL`` test (its threshold from
+:mod:`~wavemeter.calibration.contract.off_model`), and one pass per
 reading for ``readout`` and ``stream``. A subclass whose phase follows more than the
 delay (the thermal one) changes ``_hz_per_rad``, ``_phase_rad``, ``_frequency_of_phase``,
 ``_object_phase_rad`` and the gradient and sensor terms.
@@ -36,7 +37,8 @@ from ...model.uncertainty import (
     student_factor,
 )
 from ...validation import check_choice, check_fitted, reading_array
-from ..contract.flags import ReadingFlag, off_model_threshold
+from ..contract.flags import ReadingFlag
+from ..contract.off_model import OffModelMixin
 from ..contract.reading import ERRORS
 from ..contract.records import ReadingInputs, Readout, StreamReading
 from ..contract.streaming import SCREEN_MARGIN
@@ -44,7 +46,7 @@ from ..contract.streaming import SCREEN_MARGIN
 __all__ = ["LearnedReadingMixin"]
 
 
-class LearnedReadingMixin:
+class LearnedReadingMixin(OffModelMixin):
     """Reading with one cone map (module docstring)."""
 
     #: the phase is the delay's alone, ``2 pi (f - center) delay``: predict runs the fused
@@ -199,15 +201,16 @@ class LearnedReadingMixin:
         residual = (readings - power[:, None] * (cone_vectors(phase_rad) @ self.map_.T)) / noise
         return np.einsum("ij,ij->i", residual, residual)
 
-    def _off_model_threshold(self) -> float:
-        """The weighted squared distance beyond which a reading is ``OFF_MODEL``."""
-        return off_model_threshold(self.n_ports_, self.noise_dof_)
+    def _ml_cone_distance(self, readings) -> np.ndarray:
+        """Weighted squared distance (N,) of each reading (offset-corrected) to the
+        calibrated cone at the maximum-likelihood phase: the nearest point."""
+        phase = fused_ml_phase_rad(readings, self.map_, noise_std_w=self.port_noise_std_w_)
+        return self._cone_distance(readings, phase)
 
     def _off_model(self, readings, inputs: ReadingInputs):
-        """Weighted squared distance of each reading to the calibrated cone (at the
-        maximum-likelihood phase, the nearest point), tested."""
-        phase = fused_ml_phase_rad(readings, self.map_, noise_std_w=self.port_noise_std_w_)
-        return self._cone_distance(readings, phase) > self._off_model_threshold()
+        """Each reading's distance to the calibrated cone, tested against the threshold
+        (:class:`~wavemeter.calibration.contract.off_model.OffModelMixin`)."""
+        return self._ml_cone_distance(readings) > self._off_model_threshold()
 
     def _screened_off_model(self, readings, phase_rad) -> np.ndarray:
         """:meth:`_off_model` of readings whose retrieved phase is ``phase_rad``: the

@@ -39,6 +39,7 @@ from ..contract.base import BaseCalibrator
 from ..contract.params import clone
 from ..contract.records import ReadingInputs
 from ..contract.summary import FitValue
+from ..files import fields
 from ..files.document import calibrator_fields, calibrator_from_fields, state_array, state_float
 from ..files.registry import calibrator_class
 from .learned import Calibrator
@@ -90,10 +91,45 @@ class CalibrationSet(WindowReadingMixin, BaseCalibrator):
         the coarse value (Hz).
     diagnostics_ : dict
         Those of the whole-sweep fit: the sweep's own FSR, port health, warnings.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)
+    >>> f_hz = device.sweep_hz(800, span_fsr=4)  # a sweep over four FSRs
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal_set = wm.CalibrationSet(fsr_hz=50e9).fit(powers, f_hz)
+    >>> len(cal_set.windows_)  # one calibration per FSR-wide window
+    4
+
+    The global delay fit finds the device's FSR; each window then has its own map:
+
+    >>> print(f"{cal_set.fsr_hz_ / 1e9:.2f} GHz, true {device.true_fsr_hz / 1e9:.2f} GHz")
+    51.50 GHz, true 51.50 GHz
+
+    Two test readings in different windows, each read within five of its standard
+    deviations:
+
+    >>> test_hz = f_hz[[100, 500]] + 1e8
+    >>> test = device.powers(test_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> reading = cal_set.readout(test, coarse_hz=test_hz + 5e9)  # a coarse value picks the window
+    >>> print(np.abs(reading.frequency_hz - test_hz) < 5 * reading.frequency_std_hz)
+    [ True  True]
     """
 
     method = "calibration_set"
     requires = frozenset({"coarse_hz"})
+    #: the windows' numbers are checked as each window's file (:func:`calibrator_from_fields`)
+    state_rules = fields.rule_table(
+        {
+            "delay_s": fields.DELAY_RULE,
+            "delay_std_s": fields.DELAY_STD_RULE,
+            "window_edges_hz": fields.FieldRule(
+                "a window edge", "Hz", 0.0, 2 * fields.CENTER_RANGE_HZ[1], open_low=True
+            ),
+        }
+    )
 
     def __init__(self, fsr_hz: float = 50e9, fsr_tolerance: float = 0.2, window=None):
         self.fsr_hz = fsr_hz
@@ -163,11 +199,17 @@ class CalibrationSet(WindowReadingMixin, BaseCalibrator):
                 else {"port_phases_rad": phases},
             }
         if not isinstance(window, dict) or not isinstance(window.get("params"), dict):
-            raise InputError(f"window must be an object with method and params, got {window!r}")
+            raise InputError(
+                f"window must be an object with method and params, got {fields.shown(window)}"
+            )
         window_class = calibrator_class(window.get("method"))
         if window_class is None or window_class is cls:
-            raise InputError(f"unknown window calibration method {window.get('method')!r}")
-        params["window"] = window_class(**window_class._params_from_file(window["params"]))
+            raise InputError(
+                f"unknown window calibration method {fields.shown(window.get('method'))}"
+            )
+        settings = window_class._params_from_file(window["params"])
+        fields.check_setting_types(window_class, settings)
+        params["window"] = window_class(**settings)
         return params
 
     # ------------------------------------------------------------------ fitting

@@ -50,6 +50,7 @@ from ..models.thermal_fit import (
     thermal_phase_rad,
 )
 from .learned import Calibrator, LearnedContext
+from .thermal_fields import THERMAL_DIAGNOSTICS_RULES, THERMAL_STATE_RULES
 from .thermal_reading import ThermalReadingMixin
 
 __all__ = ["RATE_BUDGET_K", "ThermalCalibrator", "ThermalContext"]
@@ -108,6 +109,30 @@ class ThermalCalibrator(ThermalReadingMixin, Calibrator):
         unambiguous and searched bias-rate ranges and the effective spread.
 
     The other attributes are those of :class:`~wavemeter.calibration.methods.learned.Calibrator`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> chip = wm.Interferometer.table1(ports=3, seed=7).with_thermal("sin")  # silicon nitride
+    >>> temperatures_k = np.repeat([293.0, 294.0, 295.0], 200)  # three sweeps, 1 K apart
+    >>> f_hz = np.tile(chip.sweep_hz(200), 3)
+    >>> powers = chip.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1, temperature_k=temperatures_k)
+    >>> cal = wm.ThermalCalibrator(fsr_hz=50e9).fit(powers, f_hz, temperature_k=temperatures_k)
+
+    The fitted bias rate gives the fringe shift per kelvin the simulated chip has:
+
+    >>> shift = cal.thermal_phase_rad_per_k_ * cal.fsr_hz_ / (2 * np.pi)
+    >>> true = chip.thermal_phase_rad_per_k * chip.true_fsr_hz / (2 * np.pi)
+    >>> print(f"fringes move {shift / 1e9:.2f} GHz/K (true {true / 1e9:.2f} GHz/K)")
+    fringes move 2.60 GHz/K (true 2.60 GHz/K)
+
+    A reading 1 K beyond the calibrated range is still read within 50 MHz:
+
+    >>> test = chip.powers(f_hz[:5], power_w=1e-3, rng=2, temperature_k=296.0)
+    >>> error_hz = cal.predict(test, temperature_k=296.0) - f_hz[:5]
+    >>> print(np.abs(error_hz).max() < 50e6)
+    True
     """
 
     method = "thermal"
@@ -118,6 +143,9 @@ class ThermalCalibrator(ThermalReadingMixin, Calibrator):
     nonlinear_parameters: ClassVar[int] = 3
     #: the phase follows the temperature too: predicted step by step
     plain_delay_phase: ClassVar[bool] = False
+    #: what each number of the file may hold (:mod:`~wavemeter.calibration.files.fields`)
+    state_rules = THERMAL_STATE_RULES
+    diagnostics_rules = THERMAL_DIAGNOSTICS_RULES
 
     def __init__(
         self,
@@ -453,17 +481,18 @@ class ThermalCalibrator(ThermalReadingMixin, Calibrator):
         }
 
     def _set_state(self, state: dict) -> None:
-        if "parameter_covariance" not in state:
-            raise InputError("a thermal calibration file must hold 'parameter_covariance'")
+        if "parameter_covariance" not in state or "port_noise_std_w" not in state:
+            raise InputError(
+                "a thermal calibration file must hold 'port_noise_std_w' and 'parameter_covariance'"
+            )
         super()._set_state(state)
         self.thermal_phase_rad_per_k_ = state_float(state, "thermal_phase_rad_per_k")
         self.thermal_delay_per_k_ = state_float(state, "thermal_delay_per_k")
-        self.reference_temperature_k_ = state_float(
-            state, "reference_temperature_k", minimum=0.0, open_minimum=True
-        )
+        self.reference_temperature_k_ = state_float(state, "reference_temperature_k")
         low, high = state_array(state, "temperature_range_k", (2,))
-        if not 0 < low <= high:
+        if not low <= high:
             raise InputError(
-                f"field 'temperature_range_k' must be 0 < low <= high (K), got {[low, high]}"
+                f"field 'temperature_range_k' must be [low, high] (K), got "
+                f"{[float(low), float(high)]}"
             )
         self.temperature_range_k_ = (float(low), float(high))

@@ -143,6 +143,7 @@ class ThermalReadingMixin:
             self.delay_s_ * stretch,
             delay_std_s=self.delay_std_s_ * stretch,
             reading_phase_std_rad=reading_std / per_rad,
+            noise_dof=self.noise_dof_,
         )
         if fit.delay_change_s is not None:
             fit = dataclasses.replace(

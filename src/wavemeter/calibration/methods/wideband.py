@@ -22,6 +22,7 @@ from ...units import frequency_text
 from ...validation import check_choice, check_positive
 from ..contract.base import BaseCalibrator
 from ..contract.summary import FitValue
+from ..files import fields
 from ..files.document import state_array, state_float
 from ..fitting.steps import (
     SweepFitMixin,
@@ -32,7 +33,7 @@ from ..fitting.steps import (
     rms,
 )
 from ..fitting.sweep import FitContext, Sweep
-from ..models.band_reading import band_phase_rad
+from ..models.band_reading import band_cone_distance, band_phase_rad
 from ..models.learned_fit import RETRIEVALS, fit_learned_map, port_noise_std_w
 from ..models.wideband_fit import BandModel, check_monotonic, fit_band, map_coefficients
 from ..models.wideband_orders import (
@@ -47,9 +48,13 @@ from ..models.wideband_orders import (
 )
 from .wideband_checks import BandChecksMixin
 from .wideband_reading import ORDER_MARGIN_FSR, BandReadingMixin
-from .wideband_report import PHASE_COEFFICIENT_NAMES, BandReportMixin
+from .wideband_report import BAND_RECORD_RULES, PHASE_COEFFICIENT_NAMES, BandReportMixin
 
-__all__ = ["ORDER_MARGIN_FSR", "WidebandCalibrator"]
+__all__ = ["MAX_PHASE_TERM", "ORDER_MARGIN_FSR", "WidebandCalibrator"]
+
+#: largest phase coefficient a file may hold, in units of the phase a linear term gives half
+#: the band (pi span / FSR): dispersion changes the FSR across a band by percents, not tenfold
+MAX_PHASE_TERM = 10.0
 
 #: readings within one design FSR of the middle start the fit: at least this many
 MIN_CENTRAL_READINGS = 16
@@ -127,19 +132,78 @@ class WidebandCalibrator(
         gives the local FSR.
     offset_w_ : ndarray, shape (n,)
         Fitted per-port offsets (W); zeros unless fitted.
-    port_noise_std_w_, noise_std_w_, noise_dof_, parameter_covariance_
-        As for :class:`~wavemeter.calibration.methods.learned.Calibrator`; the covariance holds the
+    port_noise_std_w_, noise_std_w_, noise_dof_, parameter_covariance_, off_model_basis_
+        As for :class:`~wavemeter.calibration.methods.learned.Calibrator` (the sweep's cone
+        distances each under the map at its frequency); the covariance holds the
         map coefficients (row-major over ports, then the design columns) and ``b``.
     diagnostics_ : dict
         As the learned calibrator's, plus ``"wideband"``: orders, how they were chosen
         (the cross-validation curve), the phase coefficients with standard errors and the
         residual phase per FSR window across the band.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> chip = wm.Interferometer.table1(ports=3, seed=7).with_spectral("sin", seed=3)  # dispersion
+    >>> f_hz = chip.sweep_hz(2000, span_fsr=10)  # ten FSRs, 500 GHz
+    >>> powers = chip.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)
+    >>> cal = wm.WidebandCalibrator(fsr_hz=50e9).fit(powers, f_hz)
+
+    Dispersion bends the phase: cross-validation on held-out FSRs picks a quadratic phase
+    and a map linear in frequency:
+
+    >>> cal.phase_order_, cal.map_order_
+    (2, 1)
+    >>> test_hz = f_hz[50::400] + 1e8
+    >>> test = chip.powers(test_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> coarse_hz = test_hz + 5e9  # a coarse frequency within half an FSR picks the order
+    >>> error_hz = cal.predict(test, coarse_hz=coarse_hz) - test_hz
+    >>> print(np.abs(error_hz).max() < 100e6)
+    True
     """
 
     method = "wideband"
     requires = frozenset({"coarse_hz"})
     comparison_misfits_expected = True
     capabilities = frozenset({"frequency_std", "crlb", "power_monitor"})
+    diagnostics_rules = BAND_RECORD_RULES
+    #: what each number of the file's state may hold (:mod:`~wavemeter.calibration.files.fields`)
+    state_rules = fields.rule_table(
+        {
+            "phase_order": fields.FieldRule(
+                "the phase polynomial's order", "", 1, MAX_PHASE_ORDER, integer=True
+            ),
+            "map_order": fields.FieldRule("the map's order", "", 0, MAX_MAP_ORDER, integer=True),
+            "n_parameters": fields.FieldRule("the fitted parameters", "", 1, integer=True),
+            "phase_coefficients_rad": fields.FieldRule(
+                "a phase coefficient",
+                "rad",
+                high=MAX_PHASE_TERM,
+                scale="band_phase_rad",
+                magnitude=True,
+            ),
+            "map_coefficients": (
+                fields.ScaleRule(
+                    "the map's coefficients",
+                    fields.largest_singular_value,
+                    "the largest singular value of the map's mean over the band",
+                ),
+                fields.FieldRule(
+                    "a map coefficient",
+                    "W",
+                    high=fields.SPREAD_RELATIVE,
+                    scale="power_w",
+                    magnitude=True,
+                ),
+            ),
+            **fields.NOISE_MODEL_RULES,
+            "parameter_covariance": fields.CovarianceRule(
+                tail=(("a phase coefficient", "band_phase_rad", MAX_PHASE_TERM),),
+                tail_repeats="phase_order",
+            ),
+        }
+    )
 
     def __init__(
         self,
@@ -200,6 +264,8 @@ class WidebandCalibrator(
         if noise is not None:  # weight and state uncertainties with the model-free noise
             self.port_noise_std_w_, self.noise_dof_ = noise
             self._set_covariance(ctx)
+        maps = self.band_model_.maps_at(sweep.frequency_hz)
+        self._judge_distances(band_cone_distance(readings, maps, self.port_noise_std_w_))
         record = self._band_record(ctx, self._residual_phase_by_window(ctx, readings))
         self.diagnostics_, notes = diagnostics_record(ctx, misfit, method={"wideband": record})
         return notes
@@ -387,6 +453,7 @@ class WidebandCalibrator(
             "port_noise_std_w": self.port_noise_std_w_.tolist(),
             "noise_dof": self.noise_dof_,
             "parameter_covariance": self.parameter_covariance_.tolist(),
+            **self._off_model_state(),
         }
 
     def _set_state(self, state: dict) -> None:
@@ -399,16 +466,25 @@ class WidebandCalibrator(
         self.half_span_hz_ = 0.5 * (self.span_hz_[1] - self.span_hz_[0])
         if not self.half_span_hz_ > 0:
             raise ValueError("field 'span_hz' must have low < high for a wide-band calibration")
-        self._set_model(
-            state_array(state, "phase_coefficients_rad", (phase_order,)),
-            state_array(state, "map_coefficients", (map_order + 1, ports, 3)),
-        )
+        coefficients_rad = state_array(state, "phase_coefficients_rad", (phase_order,))
+        linear = 2.0 * np.pi * self.half_span_hz_ / self.fsr_hz_  # the delay, in rad
+        if not abs(coefficients_rad[0] / linear - 1.0) <= fields.DELAY_RTOL:
+            raise InputError(
+                "field 'phase_coefficients_rad' must start with the linear term 2 pi (half the "
+                f"span) / fsr_hz = {linear!r} rad (the delay), got {coefficients_rad.tolist()}"
+            )
+        try:
+            self._set_model(
+                coefficients_rad, state_array(state, "map_coefficients", (map_order + 1, ports, 3))
+            )
+        except InputError as exc:  # the fit's wording: say which field
+            raise InputError(
+                f"field 'phase_coefficients_rad' must give a phase rising across the band: {exc}"
+            ) from exc
         self.cost_ = state_float(state, "cost_w2", minimum=0.0)
         self.residual_rms_ = state_float(state, "residual_rms_w", minimum=0.0)
         self.noise_std_w_ = state_float(state, "noise_std_w", minimum=0.0)
         self.port_noise_std_w_ = state_array(state, "port_noise_std_w", (ports,))
-        if np.any(self.port_noise_std_w_ <= 0):
-            raise ValueError("field 'port_noise_std_w' must hold positive numbers (W)")
         self.noise_dof_ = state_float(state, "noise_dof", minimum=2.0, open_minimum=True)
         columns = 3 * (map_order + 1)
         self.parameter_covariance_ = state_array(state, "parameter_covariance", (None, None))
@@ -420,3 +496,9 @@ class WidebandCalibrator(
                 f"got shape {self.parameter_covariance_.shape}"
             )
         self.n_parameters_ = parameter_count(ports, phase_order, map_order, self._affine())
+        if state.get("n_parameters") != self.n_parameters_:
+            raise InputError(
+                f"field 'n_parameters' must be {self.n_parameters_}, the parameters of the orders "
+                f"and ports, got {fields.shown(state.get('n_parameters'))}"
+            )
+        self._set_off_model_state(state)

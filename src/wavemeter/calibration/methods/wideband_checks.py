@@ -4,7 +4,7 @@ fit diagnostics on the band model.
 :class:`BandChecksMixin` gives :class:`~wavemeter.calibration.methods.wideband.WidebandCalibrator`
 the parameter covariance (map coefficients, offsets and phase coefficients), the misfit
 report of :mod:`~wavemeter.calibration.checks.misfit` on the band model (whose
-``dispersion`` remedy is a higher phase order), the residual phase per FSR window and the
+``dispersion`` remedy is a higher phase or map order), the residual phase per FSR window and the
 ``diagnostics_["wideband"]`` record.
 """
 
@@ -17,6 +17,7 @@ import numpy as np
 from ...exceptions import CalibrationWarning
 from ...model.cone import wrap_phase_rad
 from ...model.uncertainty import fit_parameter_covariance
+from ...stats.nested_tests import TEST_P_VALUE
 from ..checks.misfit import misfit_report
 from ..models.band_reading import residual_phase_by_window
 from ..models.wideband_fit import band_object_derivatives, band_objects
@@ -48,23 +49,45 @@ class BandChecksMixin:
 
     def _set_covariance(self, ctx) -> None:
         objects, derivatives = self._sweep_design(ctx)
-        self.parameter_covariance_ = fit_parameter_covariance(
+        covariance = fit_parameter_covariance(
             objects,
             derivatives,
             self._design_matrix(ctx.affine),
             self.port_noise_std_w_,
             weighted=False,
         )
+        gauge = ctx.fit.gauge
+        if gauge is not None:
+            # the map's order-1 rotation was held at zero: the covariance on that plane,
+            # ``C - C g (g' C g)^-1 g' C`` (``g`` the constraint's gradient)
+            columns = objects.shape[1]
+            gradient = np.zeros(covariance.shape[0])
+            for port in range(self.n_ports_):
+                gradient[port * columns + 3 : port * columns + 6] = gauge[port]
+            along = covariance @ gradient
+            covariance = covariance - np.outer(along, along) / float(gradient @ along)
+        self.parameter_covariance_ = covariance
 
     def _misfit_report(self, ctx):
-        """The fit diagnostics on the band model; a phase the polynomial left, even in
-        frequency (``dispersion``), is remedied by a higher phase order here."""
+        """The fit diagnostics on the band model; a change with frequency the model left
+        (``dispersion``) is remedied here by a higher phase order (a phase even in
+        frequency) or map order (ports that change each in its own way)."""
         report = self._band_misfit_report(ctx)
         if "dispersion" not in report.causes:
             return report
+        failed = {
+            name
+            for name in ("dispersion", "band_slope")
+            if report.p_values.get(name) is not None and report.p_values[name] < TEST_P_VALUE
+        }
+        raise_orders = []
+        if "dispersion" in failed or not failed:
+            raise_orders.append(f"a higher phase_order (this fit has {self.phase_order_})")
+        if "band_slope" in failed:
+            raise_orders.append(f"a higher map_order (this fit has {self.map_order_})")
         remedy = (
-            f"set a higher phase_order (this fit has {self.phase_order_}), or sweep more FSRs "
-            "so that cross-validation can choose the orders"
+            f"set {' and '.join(raise_orders)}, or sweep more FSRs so that cross-validation "
+            "can choose the orders"
         )
         notes = tuple(
             CalibrationWarning(

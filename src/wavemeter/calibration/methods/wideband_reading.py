@@ -5,7 +5,8 @@ from its coarse frequency.
 (pseudo-inverse or cone maximum likelihood), the frequency of that phase nearest the
 coarse value, the standard deviation by the delta method with every fitted number's
 covariance, the Cramer-Rao bound, and the flags (``OUTSIDE_SPAN``, ``ORDER_AMBIGUOUS``,
-``OFF_MODEL``); a coarse value more than half an FSR outside the band has no map.
+``OFF_MODEL`` against the threshold of :mod:`~wavemeter.calibration.contract.off_model`);
+a coarse value more than half an FSR outside the band has no map.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from ...model.cone import wrap_phase_rad
 from ...model.uncertainty import student_factor
 from ...validation import check_fitted
 from ..contract.flags import SPAN_MARGIN_STD, ReadingFlag
+from ..contract.off_model import OffModelMixin
 from ..contract.records import ReadingInputs, Readout
 from ..models.band_reading import (
     band_crlb_hz,
@@ -31,7 +33,7 @@ __all__ = ["ORDER_MARGIN_FSR", "BandReadingMixin"]
 ORDER_MARGIN_FSR = 0.25
 
 
-class BandReadingMixin:
+class BandReadingMixin(OffModelMixin):
     """The reading side of :class:`~wavemeter.calibration.methods.wideband.WidebandCalibrator`
     (module docstring)."""
 
@@ -136,6 +138,8 @@ class BandReadingMixin:
         flags[np.abs(frequency - coarse) > ORDER_MARGIN_FSR * local_fsr] |= (
             ReadingFlag.ORDER_AMBIGUOUS
         )
-        off_model = band_off_model(readings, maps, self.port_noise_std_w_, self.noise_dof_)
+        off_model = band_off_model(
+            readings, maps, self.port_noise_std_w_, self._off_model_threshold()
+        )
         flags[off_model] |= ReadingFlag.OFF_MODEL
         return Readout(frequency, std, flags, {}, phase)

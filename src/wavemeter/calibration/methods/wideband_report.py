@@ -14,6 +14,7 @@ import numpy as np
 
 from ..contract.figures import FigureData, Series
 from ..contract.summary import Table
+from ..files import fields
 from ..files.registry import calibrator_class
 from .figures import (
     FRINGE_HALF_WIDTH_FSR,
@@ -24,6 +25,7 @@ from .figures import (
 )
 
 __all__ = [
+    "BAND_RECORD_RULES",
     "BandReportMixin",
     "PHASE_COEFFICIENT_NAMES",
     "band_figures",
@@ -39,6 +41,33 @@ PHASE_COEFFICIENT_NAMES = {
     3: "third-order dispersion",
     4: "fourth-order dispersion",
 }
+
+
+_number = fields.record_number
+#: what the record the report presents (``diagnostics_["wideband"]``) holds, as a file's
+#: diagnostics rules: a file whose record lacks them is refused on load, not in the report
+BAND_RECORD_RULES = fields.rule_table(
+    {
+        "wideband": fields.RecordRule("the wide-band record", "object"),
+        "wideband.orders": fields.RecordRule("how the orders were chosen", "object"),
+        "wideband.orders.reason": fields.RecordRule("why", "text"),
+        "wideband.orders.candidates": fields.RecordRule("the orders scored", "list"),
+        "wideband.orders.candidates.*.phase_order": _number("a phase order", "", 1, integer=True),
+        "wideband.orders.candidates.*.map_order": _number("a map order", "", 0, integer=True),
+        "wideband.orders.candidates.*.parameters": _number(
+            "a parameter count", "", 1, integer=True
+        ),
+        "wideband.orders.candidates.*.cv_rms_hz": _number("a held-out RMS", "Hz", 0.0),
+        "wideband.orders.candidates.*.chosen": fields.RecordRule("the choice", "flag"),
+        "wideband.residual_phase": fields.RecordRule(
+            "the residual phase per FSR window", "list", min_items=1
+        ),
+        "wideband.residual_phase.*.center_hz": _number("a window's centre", "Hz", 0.0),
+        "wideband.residual_phase.*.rms_rad": _number("a residual phase RMS", "rad", 0.0),
+        "wideband.residual_phase.*.mean_rad": _number("a mean residual phase", "rad"),
+        "wideband.residual_phase.*.readings": _number("a window's readings", "", 0, integer=True),
+    }
+)
 
 
 def band_tables(record: dict) -> tuple[Table, ...]:

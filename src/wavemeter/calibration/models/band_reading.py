@@ -1,7 +1,8 @@
 """What a fitted wide-band model says of each reading: its phase, uncertainty and bound.
 
-Every reading has its own map ``A(f)`` (:class:`~wavemeter.calibration.models.wideband_fit.BandModel`),
-so the single-map formulas of :mod:`wavemeter.model` are applied with a stack of maps:
+Every reading has its own map ``A(f)``
+(:class:`~wavemeter.calibration.models.wideband_fit.BandModel`), so the single-map
+formulas of :mod:`wavemeter.model` are applied with a stack of maps:
 
 * the phase by the pseudo-inverse or the cone maximum likelihood under each reading's map;
 * the frequency variance by the delta method (:mod:`wavemeter.model.uncertainty`): the
@@ -9,7 +10,8 @@ so the single-map formulas of :mod:`wavemeter.model` are applied with a stack of
   reading's frequency, plus the calibration's own covariance along
   ``df / dA_j = -(g (x) L_j(y) x) df/dt`` and ``df / db_i = -y^i df/dt``;
 * the Cramer-Rao bound under each reading's map and the port noise;
-* the off-model test of the flags (:func:`~wavemeter.calibration.contract.flags.off_model_threshold`);
+* the cone distance the flags' off-model test compares with its threshold
+  (:mod:`~wavemeter.calibration.contract.off_model`);
 * the residual phase of the sweep per FSR window, for the diagnostics.
 
 :class:`~wavemeter.calibration.methods.wideband.WidebandCalibrator` answers with these functions.
@@ -29,7 +31,6 @@ from ...model.uncertainty import (
     phase_std_rad,
     pinv_phase_gradient,
 )
-from ..contract.flags import off_model_threshold
 from .wideband_fit import BandModel, band_objects
 from .wideband_orders import fsr_windows
 
@@ -130,11 +131,11 @@ def band_cone_distance(readings, maps, noise_std_w) -> np.ndarray:
     return np.einsum("ij,ij->i", residual, residual)
 
 
-def band_off_model(readings, maps, noise_std_w, noise_dof: float) -> np.ndarray:
-    """Whether each reading's weighted squared distance to its map's cone is improbable
-    (``OFF_MODEL``)."""
-    distance = band_cone_distance(readings, maps, noise_std_w)
-    return distance > off_model_threshold(readings.shape[1], noise_dof)
+def band_off_model(readings, maps, noise_std_w, threshold: float) -> np.ndarray:
+    """Whether each reading's weighted squared distance to its map's cone exceeds
+    ``threshold`` (``OFF_MODEL``: the calibration's
+    :class:`~wavemeter.calibration.contract.off_model.OffModelMixin` threshold)."""
+    return band_cone_distance(readings, maps, noise_std_w) > threshold
 
 
 def residual_phase_by_window(frequency_hz, residual_rad, low_hz: float, fsr_hz: float) -> list:

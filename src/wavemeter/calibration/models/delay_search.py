@@ -1,40 +1,17 @@
 """One-dimensional search for the delay ``tau`` (equivalently the FSR) that minimises a cost.
 
 The cost ``J(tau)`` of a sweep spanning ``K`` FSRs has local minima about ``1/K`` apart in
-relative delay, so a plain golden-section search over a wide bracket can stop on a wrong
-one. The search first scans the delays on a grid finer than that spacing, then refines the
-best grid point with scipy's golden-section search (the paper's choice) or bounded Brent.
+relative delay, so :func:`search_delay` first scans a grid ``GRID_POINTS_PER_MINIMUM``
+times finer than that (:func:`bracket_grid`), continues up to ``EDGE_POINTS`` steps
+downhill beyond an end of the bracket, then refines the best point with golden-section
+search (the paper's choice) or bounded Brent. An optimum outside the bracket raises
+:class:`~wavemeter.exceptions.EdgeMinimumError` naming where the cost is lowest;
+:func:`check_fringes_explained` tells a fringe outside the bracket from no fringe at all.
+Brackets that would need more than ``MAX_GRID_POINTS`` points are refused before anything
+is evaluated.
 
-The main minimum of ``J`` is about ``2/K`` wide (between its first side minima) and
-removes nearly all the fringe power, while a side minimum removes only a few per cent of
-it. A scan step of ``1/(8 K)`` puts several grid points inside the main minimum.
-
-**Edges.** When the lowest cost of the scan is on an end of the bracket (a true delay
-within about half a step of the edge, inside or out, or further out), the scan goes on
-downhill beyond that end, one step at a time, until the cost rises or ``EDGE_POINTS``
-(4) steps were taken; a main minimum on or near the edge then has grid points on both of
-its sides and is refined like any other. The cost is evaluated nowhere else: the
-refinement stays between the two grid neighbours of the best point. The refined optimum
-decides, the bracket being closed: ``fsr_hz (1 - fsr_tolerance) <= 1 / tau <= fsr_hz (1 +
-fsr_tolerance)`` is accepted, anything else raises
-:class:`~wavemeter.exceptions.EdgeMinimumError` naming the FSR where the cost is lowest
-(to the precision of the fit: a true FSR within a few of its standard errors of an edge
-may fall either way). When the last point scanned is still the lowest, the error names
-it and says the true FSR is at or beyond it. A lowest point inside the bracket is refined
-inside it, exactly as without the edge points.
-
-**Causes.** Given the cost of a model that explains no fringe (``unfitted_cost``), a best
-delay explaining less than half the fringe power is not the fringes' period
-(:func:`check_fringes_explained`). Given also the cost noise alone leaves
-(``noise_cost``), that is told apart: readings varying more than ``NO_FRINGE_RATIO`` (2)
-times the noise carry a fringe, so the true FSR is outside the bracket
-(:class:`~wavemeter.exceptions.EdgeMinimumError`); otherwise the readings carry no fringe
-above the noise at all (:class:`~wavemeter.exceptions.InputError`, ``parameter="powers"``).
-
-The scan has at most ``8 K (u_hi - u_lo) + 1 + EDGE_POINTS`` points (``u`` the delay
-relative to design); brackets whose ``8 K (u_hi - u_lo) + 1 + 2 EDGE_POINTS`` exceeds
-``MAX_GRID_POINTS`` are refused before anything is evaluated, so the memory and the
-number of cost evaluations are bounded whatever the inputs.
+Theory (the grid step, the edges, the causes): the docs' cone-model page
+(``docs/theory/cone.rst``, "The delay search").
 """
 
 from __future__ import annotations

@@ -91,14 +91,40 @@ def port_noise_from_squares(squares: np.ndarray, samples: int, columns: int, sha
 
 
 def retrieve_phase_rad(powers, map_pinv: np.ndarray) -> np.ndarray:
-    """Phase ``atan2(x_hat_2, x_hat_1)`` (rad) of ``x_hat = A+ p`` for readings (N, n)."""
+    """Phase ``atan2(x_hat_2, x_hat_1)`` (rad) of ``x_hat = A+ p`` for readings (N, n).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> phase = wm.retrieve_phase_rad(powers[:3], np.linalg.pinv(cal.map_))
+    >>> print(np.allclose(phase, cal.phase(powers[:3])))
+    True
+    """
     readings = np.asarray(powers, dtype=float)
     # two matrix-vector products keep both quadratures contiguous for the arctangent
     return np.arctan2(readings @ map_pinv[1], readings @ map_pinv[0])
 
 
 def predict_frequency_hz(powers, map_: np.ndarray, center_hz: float, fsr_hz: float) -> np.ndarray:
-    """Frequency (Hz) of readings (N, n) under a map (n, 3): pinv, arctangent, FSR scale."""
+    """Frequency (Hz) of readings (N, n) under a map (n, 3): pinv, arctangent, FSR scale.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> cal = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> f_direct = wm.predict_frequency_hz(powers[:3], cal.map_, cal.center_hz_, cal.fsr_hz_)
+    >>> print(np.allclose(f_direct, cal.predict(powers[:3]), rtol=0, atol=1.0))  # within 1 Hz
+    True
+    """
     return phase_to_frequency_hz(retrieve_phase_rad(powers, linalg.pinv(map_)), center_hz, fsr_hz)
 
 
@@ -112,7 +138,8 @@ class LearnedFit:
         Delay ``tau`` at the minimum of ``J`` (s).
     delay_std_s : float or None
         Its standard error (s): ``sqrt(s^2 / G)`` with ``s`` the noise estimate and ``G``
-        the Gauss-Newton curvature (:func:`wavemeter.calibration.models.linear_map.delay_information`),
+        the Gauss-Newton curvature
+        (:func:`wavemeter.calibration.models.linear_map.delay_information`),
         i.e. ``var(tau) = 2 s^2 / (N J''(tau))``.
     map_ : ndarray, shape (n, 3) or (n, 4)
         Least-squares map at ``delay_s`` (W); with ``affine`` a fourth column of offsets.

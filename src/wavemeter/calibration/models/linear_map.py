@@ -100,15 +100,9 @@ def unfitted_cost(powers: np.ndarray, scale=None, affine: bool = False) -> float
 def delay_information(
     frequency_hz, center_hz: float, delay_s: float, map_: np.ndarray, scale=None
 ) -> float:
-    """Gauss-Newton curvature of the summed squared residual in the delay, map profiled out.
-
-    With ``S(tau) = N J(tau)`` the summed squared residual after the best map for each
-    ``tau``, the Gauss-Newton approximation of its curvature at the minimum is
-    ``S''(tau) = 2 G``, ``G = ||(I - Pi_X) D A^T||_F^2``, where ``D = dX/dtau`` (N, 3) is
-    the derivative of the object matrix and ``Pi_X`` the projector onto its columns (the
-    directions the map can absorb). With white noise of variance ``s^2`` per reading the
-    Fisher information on ``tau`` is ``G / s^2``, so ``var(tau) = s^2 / G
-    = 2 s^2 / (N J''(tau))``.
+    """Gauss-Newton curvature ``G`` of the summed squared residual in the delay, map profiled
+    out: ``var(tau) = s^2 / G`` for white noise of variance ``s^2`` per reading (theory: the
+    docs' uncertainty page, ``docs/theory/uncertainty.rst``, "The delay's standard error").
 
     Parameters
     ----------

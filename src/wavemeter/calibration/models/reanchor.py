@@ -1,33 +1,17 @@
 """Re-anchoring a single-map calibration to reference lines of known frequency.
 
 A calibration learned at one temperature reads a chip at another with its bias phase moved
-by ``delta``: ``p = P A u(t + delta) = P (A R(delta)) u(t)``, ``R`` the rotation of the first
-two object components (about the cone axis). Readings of one or more reference lines of
-known frequency (a reference laser, a gas-cell line) measure ``delta``; the corrected map is
-``A R(delta)``. With lines spread over enough of the FSR they also measure a change of the
-delay ``tau``:
+by ``delta``: ``p = P A u(t + delta) = P (A R(delta)) u(t)``, ``R`` a rotation about the
+cone axis. Readings of reference lines of known frequency measure ``delta``
+(:func:`line_phases`: one circular-mean phase per line, with its variance) and, with lines
+spread over enough of the FSR, a change of the delay (:func:`fit_reanchor`: weighted least
+squares, the delay refitted only where the lines know it better than the calibration's
+``delay_std_s_``). :func:`reanchored_copy` returns the corrected deep copy, its parameter
+covariance rotated with the map and widened by the lines' uncertainty
+(:func:`reanchored_covariance`).
 
-    t_measured(f) = 2 pi (f - f0) tau' + delta,
-
-with ``t_measured`` the phase the calibration retrieves. The rules:
-
-* **lines**: readings with the same known frequency are one line; its phase is the mean on
-  the circle (the angle of the mean of ``exp(i t)``);
-* **a line's variance**: that of its readings about the line's mean, divided by their
-  number ``k`` -- the spread of the readings when ``k >= LINE_SPREAD_MIN_READINGS``,
-  otherwise the mean of the model's per-reading phase variances (the calibrator's
-  ``frequency_std_hz`` without the calibration part, in rad);
-* **the fit**: weighted least squares (weights ``1 / variance``) of the wrapped phase
-  differences ``t_measured - 2 pi (f - f0) tau``, unwrapped about their weighted circular
-  mean, on ``delta`` alone or on ``delta`` and ``tau' - tau``;
-* **the delay** is refitted only when at least two lines are given and the standard error
-  the lines give it is smaller than the calibration's own ``delay_std_s_``; otherwise it is
-  kept and ``delta`` is the weighted mean of the differences.
-
-The corrected calibrator is a deep copy; its parameter covariance is the original one
-rotated with the map (the delay's rows replaced by the lines' when refitted), plus the
-uncertainty of ``delta`` (and of the delay) along the directions they move the map
-(conservative: the original bias uncertainty is kept though the lines re-measure it).
+Theory (the rules): the docs' thermal page (``docs/theory/thermal.rst``, "Re-anchoring to
+reference lines").
 """
 
 from __future__ import annotations
@@ -42,6 +26,7 @@ from scipy.spatial.transform import Rotation
 from ...exceptions import InputError
 from ...model.cone import delay_phase_rad, wrap_phase_rad
 from ...validation import check_per_reading, check_powers
+from .reference_check import ReferenceCheck, check_reference_scatter, reference_warning
 
 __all__ = [
     "LINE_SPREAD_MIN_READINGS",
@@ -81,6 +66,9 @@ class ReanchorFit:
         The distinct line frequencies (Hz), increasing.
     readings : int
         Number of readings used.
+    reference_check : ReferenceCheck or None
+        How the readings of each line scattered against the calibration's noise; None
+        without readings or a model noise.
     """
 
     phase_shift_rad: float
@@ -90,9 +78,11 @@ class ReanchorFit:
     covariance: np.ndarray
     lines_hz: tuple[float, ...]
     readings: int
+    reference_check: ReferenceCheck | None = None
 
     def record(self) -> dict:
         """The JSON-ready entry ``diagnostics_["reanchor"]``."""
+        check = self.reference_check
         return {
             "phase_shift_rad": self.phase_shift_rad,
             "phase_shift_std_rad": self.phase_shift_std_rad,
@@ -100,6 +90,7 @@ class ReanchorFit:
             "delay_change_std_s": self.delay_change_std_s,
             "lines_hz": list(self.lines_hz),
             "readings": self.readings,
+            "reference_check": None if check is None else check.record(),
         }
 
 
@@ -211,8 +202,10 @@ def fit_reanchor(
     *,
     delay_std_s: float | None,
     reading_phase_std_rad=None,
+    noise_dof: float | None = None,
 ) -> ReanchorFit:
-    """Bias phase shift (and delay change) that reference lines ask of a calibration.
+    """Bias phase shift (and delay change) that reference lines ask of a calibration, once
+    their readings scatter like lines (:func:`check_reference_scatter`).
 
     Parameters
     ----------
@@ -229,13 +222,31 @@ def fit_reanchor(
         one (never when None).
     reading_phase_std_rad : None or array_like, shape (N,)
         The model's phase standard deviation of each reading (rad); see :func:`line_phases`.
+        Without it the readings' scatter is not checked.
+    noise_dof : float or None
+        Degrees of freedom of the calibration's noise estimate, for the check.
 
     Returns
     -------
     ReanchorFit
+
+    Raises
+    ------
+    InputError
+        When the readings of a line scatter far beyond the calibration's noise: not
+        readings of the lines given (:mod:`~wavemeter.calibration.models.reference_check`).
+
+    Warns
+    -----
+    CalibrationWarning
+        (cause ``"reference_scatter"``) When a line scatters more than the noise, short of
+        that.
     """
     phase = np.asarray(phase_rad, dtype=float)
     frequency = np.asarray(frequency_hz, dtype=float)
+    check = None
+    if reading_phase_std_rad is not None:
+        check = check_reference_scatter(phase, frequency, reading_phase_std_rad, noise_dof)
     lines, mean, variance = line_phases(phase, frequency, reading_phase_std_rad)
     difference = wrap_phase_rad(mean - delay_phase_rad(lines, center_hz, delay_s))
     weight = 1.0 / variance
@@ -266,6 +277,7 @@ def fit_reanchor(
         covariance=covariance,
         lines_hz=tuple(float(line) for line in lines),
         readings=int(frequency.size),
+        reference_check=check,
     )
 
 
@@ -330,7 +342,8 @@ def reanchored_copy(calibrator, fit: ReanchorFit, record: dict | None = None):
         A fitted calibrator with ``map_`` (n, 3), ``_set_map`` and ``delay_s_``; untouched.
     fit : ReanchorFit
     record : None or dict
-        JSON-ready ``diagnostics_["reanchor"]`` of the copy; default ``fit.record()``.
+        JSON-ready ``diagnostics_["reanchor"]`` of the copy; default ``fit.record()``. A
+        reference check that warned adds its warning to ``diagnostics_["warnings"]``.
 
     Returns
     -------
@@ -352,9 +365,14 @@ def reanchored_copy(calibrator, fit: ReanchorFit, record: dict | None = None):
         corrected.parameter_covariance_ = reanchored_covariance(
             covariance, corrected.map_, fit, getattr(calibrator, "nonlinear_parameters", 1)
         )
-    corrected.diagnostics_ = {
+    diagnostics = {
         **(corrected.diagnostics_ or {}),
         "reanchor": fit.record() if record is None else record,
     }
+    if fit.reference_check is not None and fit.reference_check.verdict == "warned":
+        notes = diagnostics.get("warnings")
+        notes = list(notes) if isinstance(notes, list) else []
+        diagnostics["warnings"] = [*notes, reference_warning(fit.reference_check).record()]
+    corrected.diagnostics_ = diagnostics
     corrected._check_state()
     return corrected

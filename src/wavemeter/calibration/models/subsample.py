@@ -1,45 +1,18 @@
 """A large sweep diagnosed on every k-th reading, its calibration fitted on all of them.
 
 The learned calibration needs every reading only through sums (the binned moments of
-:mod:`wavemeter.calibration.models.moments`: delay, map, cost, noise, covariance). Its checks and
-diagnostics (the design FSR against the sweep's own fringes, every port's fringe, the
-misfit report, the RMS error on the sweep) need the readings themselves, and pass over them
-again and again. On a sweep of more than ``DIAGNOSTIC_SAMPLES`` readings they see a
-sample: every k-th reading in sweep order (``k`` the smallest power of two that keeps at
-most ``DIAGNOSTIC_SAMPLES``), so that the sample covers the sweep as the sweep does, is the
-same on every run, and is the same whether the sweep is given whole or in chunks of any
-size (:class:`SweepSample` doubles ``k`` as readings arrive and keeps what it would have
-kept knowing the length beforehand). The fitted map is evaluated on the sample; nothing is
-refitted on it.
+:mod:`wavemeter.calibration.models.moments`); its checks and diagnostics need the readings
+themselves. On a sweep of more than ``DIAGNOSTIC_SAMPLES`` readings they see every k-th
+reading in sweep order (``k`` the smallest power of two that keeps at most
+``DIAGNOSTIC_SAMPLES``): the same sample on every run, whether the sweep comes whole or in
+chunks of any size (:class:`SweepSample` doubles ``k`` as readings arrive). The fitted map
+is evaluated on the sample; nothing is refitted on it. What the sample cannot give (the
+span, the extremes of the total power, the spread of the monitor, the largest reading,
+:meth:`SweepSample.median_step_hz`) is taken from every reading as it passes, and a sweep
+given in chunks is checked chunk by chunk (:class:`CheckedChunks`) as a whole one is.
 
-Why ``2^16`` to ``2^17`` readings suffice
------------------------------------------
-The sample holds ``n`` readings, ``DIAGNOSTIC_SAMPLES / 2 < n <= DIAGNOSTIC_SAMPLES``.
-The diagnostics compare what the model leaves with the noise of one reading, not with the
-calibration's own (much smaller) uncertainty: a model error of RMS ``e`` times the
-per-reading noise adds ``e^2`` to the variance of every reading's error, whatever the size
-of the sweep. The misfit tests (:mod:`wavemeter.calibration.checks.misfit`) find such an error when
-its energy in the tested directions, about ``n_ports n e^2`` on ``n`` readings, exceeds the
-``z = 4.75`` (p = 1e-6) point of a chi-square of ``K`` degrees of freedom by its excess,
-``4.75 sqrt(2 K)``: with ``K`` up to 576 (192 cosines on 3 ports), at ``n = 2^16`` that is
-``e`` of about 2.9 % (1.8 % for the coupled power and phase families, ``K <= 96``; 2.0 %
-and 1.3 % at ``2^17``), i.e. an error that changes a reading's error variance by ``1e-3`` or
-less goes unnamed. A sweep of ``N`` readings would find errors ``sqrt(N / n)`` smaller
-still, which no reading can see. A dead port is one whose fringe is below 5 standard
-errors of the sample, ``5 s sqrt(2 / n)``, under 3 % of its noise: a fringe that small adds
-nothing to a reading. The sweep's own FSR is estimated from at most ``2^16`` resampled
-points anyway (:mod:`wavemeter.calibration.checks.fsr_guard`) and is only compared with the
-design value to 25 %; the RMS error on the sweep is known to ``1 / sqrt(2 n)`` (0.3 %). The
-noise, the covariance of the map and the delay, and the delay's standard error describe
-the fit on every reading: they come from the moments, not from the sample. The sample
-costs what the diagnostics of a sweep of ``n`` readings cost (0.2 to 0.3 s, 100 to 150 MB
-here, mostly the misfit report's cosine tests), whatever ``N``: ``2^17`` keeps the whole fit
-of 1e6 readings under half a second (``benchmarks/scale.py``), ``2^18`` would not.
-
-What the sample cannot give is taken from every reading as it passes: the span, the
-extremes of the total power, the spread of the monitored power, the largest reading, and
-what :meth:`SweepSample.median_step_hz` needs. A sweep given in chunks is checked chunk by
-chunk (:class:`CheckedChunks`) as a sweep given whole is.
+Theory (why ``2^16`` to ``2^17`` readings suffice): the docs' large-sweeps page
+(``docs/theory/large-sweeps.rst``, "Diagnosing a large sweep on a sample").
 """
 
 from __future__ import annotations
@@ -274,7 +247,7 @@ class SweepSample:
 
 class CheckedChunks:
     """Chunks ``(frequency_hz, powers, power_monitor_w or None)`` of a sweep (as
-    :meth:`~wavemeter.calibration.methods.learned.Calibrator.fit_chunks` takes them), each checked as
+    :meth:`~wavemeter.calibration.Calibrator.fit_chunks` takes them), each checked as
     ``fit`` checks a sweep and dark-subtracted, empty ones left out; ``dark`` (the checked
     ``dark_w``) once the first chunk gave the port count."""
 

@@ -1,40 +1,18 @@
 """The thermal model of the port powers and its fit: one map, a bias phase and a delay that
 move with temperature.
 
-On a chip the bias phase of the interferometer and its delay change with temperature; the
-coupler and the photodiodes hardly do. With ``dT = T - T0`` (``T0`` the reference
-temperature, the mean of the calibration temperatures) the model of a reading at frequency
-``f`` and chip temperature ``T`` is
+With ``dT = T - T0`` (``T0`` the mean calibration temperature) a reading at frequency ``f``
+and chip temperature ``T`` is ``p = A u(t)``, ``t = 2 pi (f - f0) tau0 (1 + beta dT) +
+alpha dT``: one map ``A`` (n, 3), the delay ``tau0`` at ``T0``, the bias phase rate
+``alpha`` (rad/K) and the relative delay rate ``beta`` (1/K) (:func:`thermal_phase_rad`).
+:func:`fit_thermal_map` fits it by variable projection: a grid over ``(tau0, alpha)`` on at
+most ``GRID_READINGS`` readings, then Levenberg-Marquardt on all readings over all three.
+:func:`temperature_layout` finds what the temperatures can tell (clusters, the bias rates
+they resolve, the effective spread left after a line in frequency) and
+:func:`spread_error` says what is missing when it is too little (``MIN_SPREAD_STD``).
 
-    p = A u(t),  t = 2 pi (f - f0) tau0 (1 + beta dT) + alpha dT,
-
-one map ``A`` (n, 3) for every temperature, the delay ``tau0`` at ``T0``, the bias phase rate
-``alpha`` (rad/K, at the centre frequency ``f0``) and the relative delay rate ``beta`` (1/K).
-
-**The fit.** For given nonlinear parameters ``theta = (tau0, alpha, beta)`` the map is linear
-least squares (as in the paper); ``theta`` is found by variable projection:
-
-1. a grid over ``(tau0, alpha)`` with ``beta = 0``: the delays of the paper's bracket scan
-   and bias rates over the range the temperatures can resolve (below), the cost of every
-   pair from the normal equations of the map on at most ``GRID_READINGS`` readings;
-2. Levenberg-Marquardt on all readings from the best pair, over all three, with the
-   Jacobian of the projected residual (Kaufman's approximation).
-
-**What the temperatures can tell.** Readings at a few discrete temperatures ("clusters",
-separated by more than ``CLUSTER_GAP_STD`` sensor standard deviations and
-``CLUSTER_GAP_FRACTION`` of the temperature range) give the bias change
-between clusters only modulo ``2 pi``: ``alpha`` is resolved within ``+-pi / step``, ``step``
-the smallest temperature step between clusters. The fit searches that range (at most
-``RATE_SEARCH_FACTOR`` times the plausible one, ``PLAUSIBLE_FRINGE_SHIFT_HZ_PER_K``: silicon
-on insulator moves 7.5-11 GHz/K). A recording during which the temperature changes
-continuously has no such ambiguity.
-
-**When the rates cannot be told.** ``alpha dT`` is a phase the map absorbs when ``dT`` is
-constant, and a delay change when ``dT`` follows the frequency linearly (one sweep during a
-linear ramp). The temperatures' spread left after their least-squares fit by a line in
-frequency (the *effective spread*) must therefore exceed ``MIN_SPREAD_STD`` sensor standard
-deviations (:func:`temperature_layout`); :func:`spread_error` says what is needed, or names
-the collinearity.
+Theory (the model, the fit, what the temperatures can tell): the docs' thermal page
+(``docs/theory/thermal.rst``).
 """
 
 from __future__ import annotations

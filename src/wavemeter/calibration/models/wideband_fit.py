@@ -1,38 +1,17 @@
 """The wide-band model of the port powers and its fit: a phase polynomial and a smooth map.
 
-Over a band of many FSRs the fringe phase is not linear in frequency (dispersion of the
-delay imbalance) and the coupler and photodiodes change slowly with wavelength. With
-``y = (f - f0) / h`` (``f0`` the middle of the calibrated band, ``h`` its half width) the
-model of a reading at frequency ``f`` is
+With ``y = (f - f0) / h`` (``f0`` the middle of the band, ``h`` its half width) a reading
+is ``p = m A(y) u(t(y)) (+ d)``, ``t(y) = sum_{i=1..P} b_i y^i``, ``A(y) = sum_{j=0..J} A_j
+L_j(y)`` (Legendre polynomials; ``P = 1``, ``J = 0`` is the paper's model)
+(:class:`BandModel`). :func:`fit_band_region` fits it by variable projection (the map
+linear, the phase coefficients by Levenberg-Marquardt); :func:`fit_band` starts from the
+paper's delay search within one FSR of the middle and grows outwards, doubling the radius
+(``GROWTH``), so that sweeps with missing FSRs fit like dense ones.
+:func:`band_frequency_hz` reads a frequency with a coarse value within half an FSR
+(``PREDICT_ITERATIONS`` rounds of map, phase and Newton steps on the polynomial).
 
-    p = m A(y) u(t(y)) (+ d),   t(y) = sum_{i=1..P} b_i y^i,   A(y) = sum_{j=0..J} A_j L_j(y),
-
-``u(t) = [cos t, sin t, sqrt 2]``, ``m`` the relative monitored source power (or 1), ``L_j``
-the Legendre polynomials, ``d`` per-port offsets where they are fitted. ``P = 1`` and
-``J = 0`` is the paper's model: ``b_1 = 2 pi h tau``. The phase has no constant term: a
-constant phase is a rotation of every ``A_j`` about the cone axis.
-
-**The fit** is variable projection: for given phase coefficients ``b`` the map
-coefficients are linear least squares on the columns ``X_k = L(y_k) (x) m_k u(t_k)`` (one
-block of three per Legendre order, shared by the ports), and only the ``P`` coefficients
-``b`` are searched, by Levenberg-Marquardt with Kaufman's Jacobian of the projected
-residual (:func:`fit_band_region`). The start comes from the paper's delay search on the
-readings within one FSR of the middle of the band; the fit then grows outwards, doubling
-the frequency radius it covers (:func:`fit_band`): extrapolating a fit to twice its radius
-errs by far less than the half fringe that would miscount the fringes in between, so
-sweeps with gaps (whole FSRs missing) are fitted like dense ones. On a partial radius the
-polynomials are taken in that radius' own coordinate (well conditioned) and the map is held
-constant: a map that varies with frequency can rotate about the cone axis, which is a phase
-change, so with few FSRs in reach it would let the phase coefficients wander (the growth
-counts fringes; the orders of the map come after it).
-
-**Reading a frequency** (:func:`band_frequency_hz`) needs a coarse frequency within half an
-FSR: it picks the fringe order. The map is evaluated at the coarse frequency, the phase
-retrieved, the frequency of that phase nearest the coarse one solved for (Newton steps on
-the polynomial), and the map evaluated again there, ``PREDICT_ITERATIONS`` times in all.
-
-**The orders** (:func:`select_orders`) are chosen by cross-validation on held-out whole
-FSRs (module :mod:`wavemeter.calibration.methods.wideband`).
+Theory (the band model, the fit, reading a frequency): the docs' wide-band page
+(``docs/theory/wideband.rst``).
 """
 
 from __future__ import annotations
@@ -233,6 +212,9 @@ class BandFit:
         Model phase of every reading.
     residual_w : ndarray, shape (N, n)
         Readings minus the fitted model (W).
+    gauge : ndarray, shape (n, 3), or None
+        The rotation held out of the map's order-1 coefficient (:func:`fit_band_region`),
+        or None.
     """
 
     coefficients_rad: np.ndarray
@@ -240,6 +222,7 @@ class BandFit:
     cost: float
     phase_rad: np.ndarray
     residual_w: np.ndarray
+    gauge: np.ndarray | None = None
 
 
 def fit_band_region(
@@ -252,6 +235,7 @@ def fit_band_region(
     map_order: int,
     scale=None,
     affine: bool = False,
+    gauge=None,
 ) -> BandFit:
     """Variable-projection fit of the phase coefficients in ``z = (f - f0) / radius``.
 
@@ -271,6 +255,13 @@ def fit_band_region(
         Relative monitored source power per reading.
     affine : bool
         Fit per-port offsets too (a column of ones).
+    gauge : None or ndarray, shape (n, 3)
+        The rotation about the cone axis of a constant map ``A_0`` (``A_0 G``, ``G`` the
+        quarter turn's generator: ``[A_0[:, 1], -A_0[:, 0], 0]``), held out of the map's
+        order-1 coefficient ``A_1`` (``<A_1, A_0 G> = 0``): a map's slope that rotates the
+        fringe is the phase's slope to first order, and a sweep of one or two FSRs cannot
+        tell them apart; the phase then carries all of the fringe's rotation. None: no
+        constraint (``map_order`` >= 1 when given).
 
     Returns
     -------
@@ -278,6 +269,20 @@ def fit_band_region(
     """
     z = (frequency_hz - center_hz) / radius_hz
     order = len(start_rad)
+    constraint = None
+    if gauge is not None:
+        rows = 3 * (map_order + 1) + (1 if affine else 0)
+        constraint = np.zeros((rows, powers.shape[1]))
+        constraint[3:6] = np.asarray(gauge, dtype=float).T
+
+    def held(factor, right):
+        """Least squares ``(X'X)^-1 right`` under the constraint (one Lagrange multiplier
+        shared by the ports)."""
+        matrix = linalg.cho_solve(factor, right, check_finite=False)
+        if constraint is None:
+            return matrix
+        moved = linalg.cho_solve(factor, constraint, check_finite=False)
+        return matrix - moved * (np.vdot(constraint, matrix) / np.vdot(constraint, moved))
 
     solved: dict[bytes, tuple] = {}
 
@@ -288,7 +293,7 @@ def fit_band_region(
             phase = band_phase_rad(z, coefficients)
             objects = band_objects(z, phase, scale, map_order, affine)
             factor = normal_factor(objects)
-            matrix = linalg.cho_solve(factor, objects.T @ powers, check_finite=False)
+            matrix = held(factor, objects.T @ powers)
             solved.clear()
             solved[key] = (phase, objects, factor, matrix)
         return solved[key]
@@ -303,7 +308,7 @@ def fit_band_region(
         columns = []
         for derivative in moved:
             image = derivative @ matrix
-            inside = objects @ linalg.cho_solve(factor, objects.T @ image, check_finite=False)
+            inside = objects @ held(factor, objects.T @ image)
             columns.append(-(image - inside).ravel())
         return np.column_stack(columns)
 
@@ -319,6 +324,7 @@ def fit_band_region(
         cost=float(np.einsum("ij,ij->", error, error) / powers.shape[0]),
         phase_rad=phase,
         residual_w=error,
+        gauge=None if constraint is None else constraint[3:6].T.copy(),
     )
 
 

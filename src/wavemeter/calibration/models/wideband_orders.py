@@ -1,29 +1,17 @@
 """The orders of the wide-band model, chosen by cross-validation on held-out whole FSRs.
 
-The sweep's readings are grouped by FSR window (``floor((f - f_low) / FSR)``, whole FSRs
-whatever gaps the sweep has). The two outermost windows always train (a reading outside
-the calibrated band is flagged, never extrapolated to); the others are dealt round-robin
-into ``CV_FOLDS`` folds. A candidate ``(P, J)`` is scored by the frequency error of the
-readings of each fold read with the model whose map was fitted on the other folds, at the
-coarse frequency of the truth, with the pseudo-inverse retrieval. Its phase coefficients
-are fitted once on all readings: ``P`` numbers from thousands of readings carry no
-information worth holding out, while the ``3 n (J + 1)`` map coefficients are what a
-held-out FSR tests.
+:func:`select_orders` groups the sweep by FSR window (:func:`fsr_windows`), keeps the two
+outermost windows in training and deals the others into ``CV_FOLDS`` folds; from the
+paper's model ``(1, 0)`` it steps to the candidate one order higher in phase or in map
+that lowers the held-out error significantly (``CV_Z`` standard errors), and stops where
+more parameters no longer predict held-out FSRs better. Every candidate scored is kept in
+the :class:`OrderSelection` (the cross-validation curve). :func:`raise_orders` then raises
+the orders while the whole sweep rejects the smaller model by a nested F test at the
+diagnostics' level; a map order stays below the number of windows minus one
+(:func:`highest_map_order`).
 
-The search starts from the paper's model ``(1, 0)`` and moves to the candidate one order
-higher in phase or in map (two higher when neither one-step move helps) that lowers the
-held-out mean squared error the most, as long as the lowering is significant: the paired
-per-reading differences of squared error have a mean above ``CV_Z`` standard errors. The
-orders stop where more parameters no longer predict held-out FSRs better: the smallest
-model the data support. Every candidate scored is kept (the cross-validation curve).
-
-Cross-validation sees a subset of the readings; the fit diagnostics see them all and would
-warn of a misfit it cannot resolve. So the orders are then raised while the whole sweep
-rejects the smaller model (:func:`raise_orders`): a nested F test of the next phase order
-and of the next map order (the residual whitened by each port's noise), taken below
-``TEST_P_VALUE``, the diagnostics' own level. A map of order ``J`` can rotate each FSR
-window it has a coefficient for, which is a phase: ``J`` stays below the number of windows
-minus one, so that the windows still tell the phase.
+Theory (the folds, the search, why the orders are raised): the docs' wide-band page
+(``docs/theory/wideband.rst``, "Choosing the orders").
 """
 
 from __future__ import annotations
@@ -149,8 +137,8 @@ class OrderSelection:
 
 def highest_map_order(windows: int) -> int:
     """The highest map order a sweep over ``windows`` FSR windows can tell from the phase
-    (``windows - 2``, at least 0, at most ``MAX_MAP_ORDER``)."""
-    return int(min(MAX_MAP_ORDER, max(windows - 2, 0)))
+    (``windows - 2``, at least 1, at most ``MAX_MAP_ORDER``)."""
+    return int(min(MAX_MAP_ORDER, max(windows - 2, 1)))
 
 
 def _folds(windows: np.ndarray) -> np.ndarray:
@@ -350,9 +338,13 @@ def raise_orders(
     fit : BandFit
         The fit at those orders on every reading.
     """
-    highest_map = highest_map_order(window_count(frequency_hz, fsr_hz))
+    windows = window_count(frequency_hz, fsr_hz)
+    highest_map = highest_map_order(windows)
     ports = powers.shape[1]
     y = (frequency_hz - center_hz) / half_span_hz
+    # on one or two FSR windows a map's slope that rotates the fringe is the phase's slope:
+    # it is held out (the rotation of the constant map at the start's phase)
+    gauge = _rotation(powers, y, coefficients_rad, scale, affine) if windows <= 2 else None
 
     def fitted(orders, start):
         return fit_band_region(
@@ -364,6 +356,7 @@ def raise_orders(
             map_order=orders[1],
             scale=scale,
             affine=affine,
+            gauge=gauge if orders[1] >= 1 else None,
         )
 
     current = (selection.phase_order, selection.map_order)
@@ -439,6 +432,14 @@ def _nested_p_value(fit: BandFit, lowered, noise, ports, small, large, affine) -
     dof = fit.residual_w.size - parameter_count(ports, *large, affine)
     statistic = max(lowered, 0.0) / added / (max(energy, np.finfo(float).tiny) / dof)
     return float(stats.f.sf(statistic, added, dof))
+
+
+def _rotation(powers, y, coefficients_rad, scale, affine: bool) -> np.ndarray:
+    """``A_0 G`` (n, 3): the rotation about the cone axis of the constant map fitted at the
+    phase coefficients (rad, in ``y``)."""
+    objects = band_objects(y, band_phase_rad(y, coefficients_rad), scale, 0, affine)
+    constant = least_squares_map(objects, powers)[:3].T
+    return np.column_stack([constant[:, 1], -constant[:, 0], np.zeros(constant.shape[0])])
 
 
 def _map_order_fit(fit: BandFit, powers, y, scale, map_order: int, affine: bool) -> BandFit:

@@ -20,6 +20,7 @@ from ....exceptions import InputError
 from ....model.cone import wrap_phase_rad
 from ...contract.base import BaseCalibrator
 from ...contract.summary import FitValue
+from ...files import fields
 from ...files.document import state_float
 from ...fitting.steps import SweepFitMixin
 from ...models.delay_search import DEFAULT_FSR_TOLERANCE, EdgeMinimumError, search_delay
@@ -136,6 +137,13 @@ class LabelLockedCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibra
     ``phase_origin_rad_``.
     """
 
+    state_rules = fields.rule_table(
+        {
+            "direction": fields.FieldRule("the phase direction", "", choices=(1, -1)),
+            "phase_origin_rad": fields.FieldRule("the phase origin", "rad", -np.pi, np.pi),
+        }
+    )
+
     def _raw_phase(self, powers: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
@@ -165,7 +173,7 @@ class LabelLockedCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibra
     def _set_lock_state(self, state: dict) -> None:
         direction = state.get("direction")
         if isinstance(direction, bool) or direction not in (1, -1):
-            raise InputError(f"field 'direction' must be 1 or -1, got {direction!r:.40}")
+            raise InputError(f"field 'direction' must be 1 or -1, got {fields.shown(direction)}")
         self.direction_ = int(direction)
         self.phase_origin_rad_ = state_float(
             state, "phase_origin_rad", minimum=-np.pi, maximum=np.pi

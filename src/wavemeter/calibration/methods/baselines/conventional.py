@@ -12,6 +12,7 @@ import numpy as np
 
 from ....exceptions import InputError
 from ....model.couplers import equally_spaced_phases_rad, orthonormal_map
+from ...files import fields
 from ...files.document import state_array
 from ..figures import MapSamplesMixin
 from ._labels import LabelLockedCalibrator, phase_locking
@@ -39,9 +40,34 @@ class ConventionalCalibrator(MapSamplesMixin, LabelLockedCalibrator):
     phase_origin_rad_ : float
         Ideal-map phase at ``center_hz_`` (rad).
     fsr_hz_, center_hz_, span_hz_, calibration_rms_hz_ : see :class:`wavemeter.Calibrator`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import wavemeter as wm
+    >>> device = wm.Interferometer.table1(ports=3, seed=7)  # a 3x3 meter with Table 1's impairments
+    >>> f_hz = device.sweep_hz(200)  # 200 readings over one FSR near 193.4 THz
+    >>> powers = device.powers(f_hz, power_w=1e-3, noise_w=5e-7, rng=1)  # (200, 3) in W
+    >>> conventional = wm.ConventionalCalibrator(fsr_hz=50e9).fit(powers, f_hz)
+    >>> learned = wm.Calibrator(fsr_hz=50e9).fit(powers, f_hz)
+
+    On an impaired device the ideal map costs an order of magnitude and more against the
+    learned one (the paper's claim), which reads at the Cramer-Rao bound (14 MHz):
+
+    >>> test_hz = f_hz[5::20] + 1e8
+    >>> test = device.powers(test_hz, power_w=1e-3, noise_w=5e-7, rng=2)
+    >>> for cal in (conventional, learned):
+    ...     rms_hz = np.sqrt(np.mean((cal.predict(test) - test_hz) ** 2))
+    ...     print(f"{cal.method}: {rms_hz / 1e6:.0f} MHz")
+    conventional: 545 MHz
+    learned: 17 MHz
     """
 
     method = "conventional"
+    #: the ideal map's columns are unit vectors: no power scale
+    state_rules = fields.rule_table(
+        {"map": fields.FieldRule("an entry of the ideal map", "", high=1.0, magnitude=True)}
+    )
 
     def __init__(self, fsr_hz: float = 50e9, port_phases_rad=None):
         self.fsr_hz = fsr_hz

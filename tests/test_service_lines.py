@@ -1,0 +1,82 @@
+"""The service reads lines by the rules of `wavemeter stream`: a block of lines gives what
+the line-by-line reader gives, and the published numbers are those `stream` writes."""
+
+from __future__ import annotations
+
+import io
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import wavemeter as wm
+from wavemeter.io import ColumnRequest
+from wavemeter.jobs import LineReader, read_header, stream_lines
+
+pytest.importorskip("zmq", reason="the serve extra (pyzmq) is not installed")
+
+from wavemeter.service.channels import Channel  # noqa: E402
+from wavemeter.service.lines import LineParser  # noqa: E402
+from wavemeter.service.readout import CalibrationReader  # noqa: E402
+from wavemeter.service.simulated import NOISE_W, POWER_W, simulated_meter  # noqa: E402
+
+HEADER = "P1_mW,P2_mW,note,P3_mW"
+CELLS = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.sampled_from(["", " 0.5 ", "abc", '"0.25"', '"a,b"', "1_0", "-0.0", "nan", "\x00"]),
+)
+LINES = st.lists(CELLS, min_size=1, max_size=6).map(",".join)
+
+
+def _reader() -> LineReader:
+    header = read_header(iter([(1, HEADER)]), Path("<x>"), ColumnRequest(), False)
+    return LineReader(header)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(LINES, min_size=1, max_size=8))
+def test_a_block_of_lines_reads_as_each_line_does(lines):
+    reader = _reader()
+    data, reasons = reader.block(lines)
+    for row, line in enumerate(lines):
+        values, reason = reader.values(line)
+        assert reasons[row] == reason
+        for name in ("P1_mW", "P2_mW", "P3_mW"):
+            expected = np.nan if values is None else values[name]
+            np.testing.assert_equal(data[name][row], expected)
+
+
+def test_the_service_publishes_what_stream_writes():
+    device, calibration = simulated_meter(7)
+    rng = np.random.default_rng(11)
+    truth = device.center_hz + rng.uniform(-20e9, 20e9, 60)
+    powers_mw = device.powers(truth, power_w=POWER_W, noise_w=NOISE_W, rng=rng) * 1e3
+    lines = [",".join(repr(float(p)) for p in row) for row in powers_mw]
+    lines[5] = "0.1,abc,0.2"
+    lines[9] = "nan,0.2,0.3"
+    lines[13] = "0,0,0"
+    out = io.StringIO()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wm.CalibrationWarning)
+        stream_lines(calibration, ["P1_mW,P2_mW,P3_mW", *lines], out)
+    written = np.genfromtxt(io.StringIO(out.getvalue()), delimiter=",", names=True)
+    parser = LineParser("<lines>")
+    parser.start(["P1_mW,P2_mW,P3_mW"], calibration)
+    reader = CalibrationReader(calibration)
+    channel = Channel(0)
+    # in one block (readout) and a line at a time (calibration.stream)
+    for blocks in ([lines], [[line] for line in lines]):
+        channel.next_sequence = 0
+        batches = [channel.process(parser.rows(block, 0), reader, "run") for block in blocks]
+        columns = {
+            name: np.concatenate([b.columns[name] for b in batches])
+            for name in ("sequence", "frequency_hz", "frequency_std_hz", "flags")
+        }
+        assert (columns["sequence"] == np.arange(len(lines))).all()
+        assert (columns["flags"] == written["flags"]).all()
+        for name in ("frequency_hz", "frequency_std_hz"):
+            np.testing.assert_allclose(columns[name], written[name], rtol=1e-13, equal_nan=True)
+    assert (written["flags"][[5, 9, 13]].astype(int) & wm.ReadingFlag.INVALID).all()
