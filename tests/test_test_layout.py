@@ -189,6 +189,14 @@ def test_the_suite_has_no_cross_imports_and_no_private_names_of_other_modules():
     assert not problems, "\n".join(problems)
 
 
+def test_the_default_run_is_in_file_order_with_registered_marks_only(pytestconfig):
+    """No plug-in reorders or reseeds the default run, and a mistyped mark (``slwo``) fails
+    collection instead of putting a slow test in the fast tier."""
+    plugins = pytestconfig.pluginmanager
+    assert not plugins.has_plugin("randomly") and not plugins.has_plugin("random_order")
+    assert pytestconfig.getoption("strict_markers")
+
+
 # ---------------------------------------------------------------------------- the scan
 SCANNED = {
     "test_cli_trust.py": """
