@@ -57,6 +57,7 @@ def fitted() -> dict[str, tuple]:
         "extended": wm.ExtendedConventionalCalibrator(50e9).fit(*single),
         "nonlinear": wm.NonlinearFitCalibrator(50e9).fit(*single),
         "wideband": wm.WidebandCalibrator(50e9).fit(readings, frequency),
+        "reference_free": wm.ReferenceFreeCalibrator(50e9).fit(*single),
     }
     result = {name: (cal, *test) for name, cal in result.items()}
     warm = device.with_thermal("sin")

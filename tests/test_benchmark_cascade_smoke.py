@@ -141,9 +141,11 @@ def test_the_bound_is_taken_at_the_noise_of_the_readings(cascade, quick_out):
 
 
 def test_a_design_is_calibrated_for_ten_times_its_rate_and_not_refused(cascade, quick_out):
-    """The sweep of the design for 1e-3 predicts a hand-over rate above the default
-    max_order_error (1e-6), which refused it: it is fitted because its calibration allows
-    10x its requested rate."""
+    """Every design is calibrated with max_order_error 10x its requested rate, so that a
+    design whose sweep predicts a hand-over rate above the default (1e-6) is fitted, not
+    refused; the rate its sweep predicts stays within that allowance. (The 1e-3 design's
+    sweep predicted about 5e-4 while the coarsest stage was fitted without a map slope;
+    with it, the stage fits to the noise and its margins, hence its rate, are better.)"""
     rows = _design_rows(cascade, quick_out)
     fits = {row["cascade"]: row for row in _rows(quick_out, cascade.FIT_HEADERS)}
     for rate in cascade.DESIGN_RATES:
@@ -154,8 +156,6 @@ def test_a_design_is_calibrated_for_ten_times_its_rate_and_not_refused(cascade, 
         case = cascade.design_case(rate, float(row["design noise (W per port)"]))
         sweep_rates = [float(v) for v in fits[case]["predicted rate on the sweep"].split(", ")]
         assert max(sweep_rates) <= max_order_error
-        if rate in cascade.BISECTED_RATES:
-            assert max(sweep_rates) > 1e-6
 
 
 @pytest.mark.parametrize(

@@ -193,8 +193,6 @@ def test_a_design_fsr_off_the_sweep_names_the_fsr_option(files, tmp_path, capsys
 
 
 # ---------------------------------------------------------------------------- printable text
-
-
 def test_no_control_characters_reach_the_terminal(files, tmp_path, capsys):
     lines = files["sweep"].read_text().splitlines()
     evil_port = "p3\x1b]0;pwned\x07_w"

@@ -306,14 +306,14 @@ def test_cli_calibrates_resumes_and_reports(sweeps, tmp_path, capsys):
     out = tmp_path / "out"
     code, printed, err = run_cli(capsys, f"fleet calibrate {folder} -o {out} --workers 0")
     assert code == 0, err
-    assert f"calibrated 4 of 5 devices into {out} (0 resumed, 1 failed)" in printed
+    assert f"calibrated 4 of 5 devices into {out} (1 failed)" in printed
     assert f"{out / 'summary.csv'}" in printed and f"{out / 'fleet.html'}" in printed
     assert (
         err.startswith("warning: 1 of 5 devices failed (first: die_x03_y01: ")
         and err.count("\n") == 1
     )
     code, printed, err = run_cli(capsys, f"fleet calibrate '{folder}/*.csv' -o {out} --workers 0")
-    assert code == 0 and "(4 resumed, 1 failed)" in printed
+    assert code == 0 and "0 calibrated now, 4 kept from an earlier run, 1 failed" in printed
     code, printed, err = run_cli(
         capsys, f"fleet calibrate {folder} -o {out} --workers 0 --force --quiet"
     )

@@ -96,10 +96,17 @@ def atomic_path(path) -> Iterator[Path]:
     try:
         # exclusive creation, mode 0666 less the umask, as an ordinary new file
         os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    except OSError as exc:  # a read-only folder, a full disk: about the output, not our name
+        raise InputError(
+            f"cannot write {target}: folder {folder} takes no new file "
+            f"({exc.strerror.lower()}); choose a folder you can write to"
+        ) from None
+    try:
         yield temporary
         os.replace(temporary, target)
     except BaseException as exc:
-        if not (isinstance(exc, FileExistsError) and exc.filename == str(temporary)):
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(temporary)
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
+        if isinstance(exc, OSError) and str(temporary) in (exc.filename, exc.filename2):
+            raise OSError(exc.errno, exc.strerror, str(target)) from None
         raise

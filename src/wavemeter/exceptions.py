@@ -219,3 +219,33 @@ def recorded_calibration_warnings():
             warnings.showwarning(
                 entry.message, entry.category, entry.filename, entry.lineno, entry.file
             )
+
+
+def shown(value) -> str:
+    """A value as a message shows it: numbers as people write them (``0.0515``, never
+    ``np.float64(0.0515)``), a text in quotes (cut to 80 characters), a sequence item by
+    item, anything else by its kind.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from wavemeter.exceptions import shown
+    >>> shown(np.float64(0.0515011)), shown(np.int64(3)), shown("nm"), shown((1.0, np.nan))
+    ('0.0515011', '3', "'nm'", '(1, nan)')
+    """
+    if hasattr(value, "item") and getattr(value, "ndim", 1) == 0:
+        value = value.item()  # a numpy scalar
+    if isinstance(value, bool) or value is None:
+        return str(value).lower() if value is not None else "nothing"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return repr(value[:80])
+    if hasattr(value, "tolist"):
+        value = value.tolist()
+    if isinstance(value, (list, tuple)):
+        items = ", ".join(shown(item) for item in list(value)[:8])
+        return f"({items}{', ...' if len(value) > 8 else ''})"
+    return f"a {type(value).__name__}"

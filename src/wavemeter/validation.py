@@ -6,7 +6,7 @@ import numbers
 
 import numpy as np
 
-from .exceptions import InputError, NotFittedError
+from .exceptions import InputError, NotFittedError, shown
 
 __all__ = [
     "as_rng",
@@ -32,7 +32,7 @@ def as_rng(rng) -> np.random.Generator:
         return rng
     if rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, bool)):
         return np.random.default_rng(rng)
-    raise InputError(f"rng must be None, an int seed or a numpy Generator, got {rng!r}")
+    raise InputError(f"rng must be None, an int seed or a numpy Generator, got {shown(rng)}")
 
 
 def check_positive(name: str, value, *, upper: float | None = None) -> float:
@@ -201,7 +201,7 @@ def check_coarse_inside(
     if outside.any():
         first = int(np.flatnonzero(outside)[0])
         raise InputError(
-            f"coarse_hz {coarse_hz[first]!r} Hz (reading {first}, zero-based; "
+            f"coarse_hz {shown(coarse_hz[first])} Hz (reading {first}, zero-based; "
             f"{int(outside.sum())} in all) is {outside_text}; calibrate over a sweep that "
             "covers it",
             parameter=parameter,

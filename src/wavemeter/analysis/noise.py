@@ -23,7 +23,7 @@ import warnings
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from ..validation import check_positive
 from .allan import MIN_AVERAGES, allan_family
 from .noise_findings import findings
@@ -152,7 +152,7 @@ def frequency_noise(
     usable = np.isfinite(corrected)
     if usable.sum() < 4:
         raise InputError(
-            f"fsr_hz {fsr_hz!r} Hz leaves {int(usable.sum())} PSD bands below its delay "
+            f"fsr_hz {shown(fsr_hz)} Hz leaves {int(usable.sum())} PSD bands below its delay "
             f"correction limit ({DELAY_CORRECTION_MAX_FSR:g} FSR); the power-law fit needs "
             "4: check the FSR (Hz) and the rate",
             parameter="fsr_hz",
@@ -161,7 +161,7 @@ def frequency_noise(
         observation_time_s = 1.0 / spectrum.edges_hz[0]
     elif 1.0 / observation_time_s >= spectrum.edges_hz[np.flatnonzero(usable)[-1] + 1]:
         raise InputError(
-            f"observation_time_s {observation_time_s!r} s is too short: 1 / T_obs lies above "
+            f"observation_time_s {shown(observation_time_s)} s is too short: 1 / T_obs lies above "
             "the highest frequency analysed; give a longer observation time",
             parameter="observation_time_s",
         )

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from ..validation import check_non_negative, check_positive
 
 __all__ = [
@@ -135,12 +135,12 @@ def check_center(raw: np.ndarray) -> float:
     if center_hz <= 0:
         raise InputError(
             f"frequency_hz must be absolute frequencies (Hz), mean > 0, got mean "
-            f"{center_hz!r}: the fractional frequency is relative to it",
+            f"{shown(center_hz)}: the fractional frequency is relative to it",
             parameter="frequency_hz",
         )
     if np.ptp(finite) == 0:
         raise InputError(
-            f"frequency_hz is constant ({center_hz!r} Hz in every reading): there is no "
+            f"frequency_hz is constant ({shown(center_hz)} Hz in every reading): there is no "
             "noise to analyse; check that the readings are frequencies, not a fill value",
             parameter="frequency_hz",
         )

@@ -158,15 +158,25 @@ def _command_name(argv) -> str | None:
     return next((arg for arg in args if not arg.startswith("-")), None)
 
 
-def _option_hint(exc: Exception, message: str, command_name: str | None) -> str:
-    """`` (use --force)`` or `` (fsr_tolerance: --fsr-tolerance, fsr_hz: --fsr)``: the
-    options of the running command that set the parameters the error is about (those the
-    message does not name already)."""
+def _with_options(exc: Exception, message: str, command_name: str | None) -> str:
+    """The message in the running command's words: a parameter it names in parentheses,
+    ``name them (ports)``, becomes the option, ``(--ports)``; then `` (use --force)`` or
+    `` (fsr_tolerance: --fsr-tolerance, fsr_hz: --fsr)``: the options that set the other
+    parameters the error is about (those the message does not name already)."""
     if command_name not in COMMANDS:
-        return ""
+        return message
     command = cli.get_command(None, command_name)
     commands = [command, *getattr(command, "commands", {}).values()]  # a group's too
     flags = {flag for each in commands for param in each.params for flag in param.opts}
+    options = {**OPTION_OF_PARAMETER, **_OPTION_IN_COMMAND.get(command_name, {})}
+    for name, flag in options.items():
+        if flag in flags:
+            message = message.replace(f"({name})", f"({flag})")
+    return message + _option_hint(exc, message, flags, options)
+
+
+def _option_hint(exc: Exception, message: str, flags: set, options: dict) -> str:
+    """The hint `` (use --force)`` of :func:`_with_options`."""
     parameter = getattr(exc, "parameter", None)
     found = {
         name: match.start()
@@ -176,7 +186,6 @@ def _option_hint(exc: Exception, message: str, command_name: str | None) -> str:
     }
     named = sorted(found, key=found.get)
     wanted = list(dict.fromkeys([*([parameter] if parameter else []), *named]))
-    options = {**OPTION_OF_PARAMETER, **_OPTION_IN_COMMAND.get(command_name, {})}
     parts = [
         f"{name}: {options[name]}" if name in named else f"use {options[name]}"
         for name in wanted
@@ -339,7 +348,7 @@ def main(argv=None) -> int:
         from ._common import error_text
 
         message = error_text(exc)
-        click.echo(_error_line(message + _option_hint(exc, message, _command_name(argv))), err=True)
+        click.echo(_error_line(_with_options(exc, message, _command_name(argv))), err=True)
         return EXIT_INPUT_ERROR
     return code if isinstance(code, int) else 0
 

@@ -128,11 +128,19 @@ def calibrate(sweeps, out_dir, scheduler, workers, force, **options):
         check=check,
     )
     total = len(result.rows)
-    say(
-        quiet,
-        f"calibrated {result.calibrated} of {total} devices into {result.out_dir} "
-        f"({result.resumed} resumed, {result.failed} failed)",
-    )
+    failed = f"{result.failed} failed"
+    if result.resumed:
+        fresh = result.calibrated - result.resumed
+        say(
+            quiet,
+            f"{result.calibrated} of {total} devices have a calibration in {result.out_dir}: "
+            f"{fresh} calibrated now, {result.resumed} kept from an earlier run, {failed}",
+        )
+    else:
+        say(
+            quiet,
+            f"calibrated {result.calibrated} of {total} devices into {result.out_dir} ({failed})",
+        )
     causes = Counter(cause for row in result.rows for cause in row.warnings)
     if causes:
         listed = ", ".join(f"{cause} ({count})" for cause, count in causes.most_common())

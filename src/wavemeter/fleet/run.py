@@ -39,7 +39,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..atomic import check_output
-from ..exceptions import FileFormatError, InputError
+from ..exceptions import FileFormatError, InputError, shown
 from ..jobs.calibrate import ERROR, DeviceResult, calibrate_device, saved_result
 from ..jobs.calibrator import CalibrateOptions, build_calibrator, options_record
 from .page import write_page
@@ -183,7 +183,7 @@ def _check_workers(client, workers, scheduler) -> None:
         isinstance(workers, bool) or not isinstance(workers, int) or workers < 0
     ):
         raise InputError(
-            f"workers must be a whole number >= 0 (0: in this process), got {workers!r}",
+            f"workers must be a whole number >= 0 (0: in this process), got {shown(workers)}",
             parameter="workers",
         )
 

@@ -21,8 +21,8 @@ readings), ``checks`` (whole-column checks: plausible power units), ``table`` (t
 
 from ..units import SENTINEL_DBM
 from .columns import ColumnRequest, port_key, split_unit
-from .convert import MAX_DBM, SENTINEL_W
 from .formats import FORMATS, table_format, table_writer, write_table
+from .power_codes import MAX_DBM, SENTINEL_W
 from .reading import read_table
 from .source import MAX_BYTES
 from .streaming import ReadingStream, iter_readings

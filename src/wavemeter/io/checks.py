@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import InputError
-from .convert import SENTINEL_W, raw_power_problems
+from .power_codes import SENTINEL_W, raw_power_problems
 
 __all__ = ["ColumnChecks", "WATT_LIKE_MAX_DBM", "DBM_LIKE_BELOW"]
 

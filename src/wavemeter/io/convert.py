@@ -18,7 +18,6 @@ import numpy as np
 from ..exceptions import InputError
 from ..units import (
     FREQUENCY_UNITS,
-    SENTINEL_DBM,
     WAVELENGTH_UNITS,
     axis_to_hz,
     canonical_unit,
@@ -27,6 +26,7 @@ from ..units import (
 )
 from .columns import WAVELENGTH_WORD, Role
 from .plan import ColumnPlan
+from .power_codes import MAX_DBM, raw_power_problems
 from .table import InvalidRows, Table
 
 if TYPE_CHECKING:
@@ -35,16 +35,9 @@ if TYPE_CHECKING:
 __all__ = [
     "convert_rows",
     "PlainRowConverter",
-    "raw_power_problems",
-    "SENTINEL_W",
-    "MAX_DBM",
     "NO_LIGHT_REASON",
 ]
 
-#: raw readings above this (any linear unit) are instrument "no reading" codes (9.91e37)
-SENTINEL_W = 1e20
-#: dBm readings above this (1 kW) are not a detector's reading: flagged invalid
-MAX_DBM = 60.0
 #: the reason a row whose ports sum to zero or less is invalid (dark readings have it)
 NO_LIGHT_REASON = "port powers sum to <= 0: no light"
 
@@ -207,19 +200,6 @@ def _axis_hz(role: Role, values: np.ndarray, key: str) -> tuple[np.ndarray, str]
         + (" (x_unit)" if parameter else ""),
         parameter=parameter,
     )
-
-
-def raw_power_problems(raw: np.ndarray, unit: str | None) -> tuple[np.ndarray, ...]:
-    """Masks of the raw power readings that are no reading: NaN/inf, power-meter
-    sentinels, dBm above :data:`MAX_DBM`."""
-    nonfinite = ~np.isfinite(raw)
-    with np.errstate(invalid="ignore"):
-        sentinel = raw > SENTINEL_W
-        implausible = np.zeros_like(nonfinite)
-        if unit == "dBm":
-            sentinel |= raw <= SENTINEL_DBM
-            implausible = (raw > MAX_DBM) & ~sentinel
-    return nonfinite, sentinel, implausible
 
 
 def _no_light(powers_w: np.ndarray) -> np.ndarray:

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from .checks import ColumnChecks
 from .columns import ColumnRequest
 from .convert import convert_rows
@@ -128,7 +128,7 @@ def iter_readings(
     """
     if isinstance(chunk_rows, bool) or not isinstance(chunk_rows, (int, np.integer)):
         raise InputError(
-            f"chunk_rows must be a whole number, got {chunk_rows!r}", parameter="chunk_rows"
+            f"chunk_rows must be a whole number, got {shown(chunk_rows)}", parameter="chunk_rows"
         )
     if chunk_rows < 1:
         raise InputError(f"chunk_rows must be at least 1, got {chunk_rows}", parameter="chunk_rows")

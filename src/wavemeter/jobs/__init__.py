@@ -14,7 +14,8 @@ from .line_reader import LineReader
 from .measure import MEASURE_CHUNK_ROWS, MeasureSummary, ReadingsRefused, measure_file
 from .noise import NoiseSeries, measure_series
 from .readings import check_ports, check_reading_options, check_readings
-from .stream import StreamHeader, StreamSummary, follow_lines, read_header, stream_lines
+from .stream import StreamSummary, follow_lines, stream_lines
+from .stream_header import StreamHeader, read_header
 from .sweeps import SweepRead, SweepsRead
 
 __all__ = [

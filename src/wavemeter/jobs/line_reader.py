@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from .stream import StreamHeader
+    from .stream_header import StreamHeader
 
 __all__ = ["LineReader"]
 

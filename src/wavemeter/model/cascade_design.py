@@ -20,7 +20,7 @@ import numbers
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from ..validation import check_positive
 from .cascade_result import CascadeDesign
 from .cascade_search import DesignSetting
@@ -57,12 +57,12 @@ def _band(band_hz) -> tuple[tuple[float, float] | None, float]:
     except (TypeError, ValueError):
         raise InputError(
             "band_hz must be a (low, high) pair of frequencies in Hz, or the band's width "
-            f"(Hz), got {band_hz!r}",
+            f"(Hz), got {shown(band_hz)}",
             parameter="band_hz",
         ) from None
     if not (math.isfinite(low) and math.isfinite(high) and high > low):
         raise InputError(
-            f"band_hz must be finite with low < high (Hz), got ({low!r}, {high!r})",
+            f"band_hz must be finite with low < high (Hz), got ({shown(low)}, {shown(high)})",
             parameter="band_hz",
         )
     return (low, high), high - low
@@ -72,7 +72,8 @@ def _factor(noise_factor) -> float:
     value = _positive("noise_factor", noise_factor)
     if value < 1.0:
         raise InputError(
-            f"noise_factor must be >= 1 (no stage beats the ideal bound), got {noise_factor!r}",
+            "noise_factor must be >= 1 (no stage beats the ideal bound), "
+            f"got {shown(noise_factor)}",
             parameter="noise_factor",
         )
     return value
@@ -86,7 +87,7 @@ def _tolerance(fsr_tolerance) -> float:
 
 def _ports(ports) -> int:
     if isinstance(ports, bool) or not isinstance(ports, (int, np.integer)) or ports < 3:
-        raise InputError(f"ports must be an integer >= 3, got {ports!r}", parameter="ports")
+        raise InputError(f"ports must be an integer >= 3, got {shown(ports)}", parameter="ports")
     return int(ports)
 
 
@@ -100,7 +101,7 @@ def _stage_count(stages) -> int | None:
     ):
         raise InputError(
             f"stages must be None (the fewest that meet the rate) or an integer from 1 to "
-            f"{MAX_STAGES}, got {stages!r}",
+            f"{MAX_STAGES}, got {shown(stages)}",
             parameter="stages",
         )
     return int(stages)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 
 __all__ = [
     "fourier_matrix",
@@ -24,7 +24,7 @@ __all__ = [
 
 def _check_port_count(n: int, minimum: int) -> int:
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
-        raise InputError(f"ports must be an integer, got {type(n).__name__} {n!r}")
+        raise InputError(f"ports must be an integer, got {type(n).__name__} {shown(n)}")
     if n < minimum:
         raise InputError(f"ports must be >= {minimum}, got {n}")
     return int(n)

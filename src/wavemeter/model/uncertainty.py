@@ -23,7 +23,7 @@ import numbers
 import numpy as np
 from scipy import linalg
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from ..validation import check_positive
 from .cone import cone_vectors
 from .limits import check_noise_std, stacked_phase_and_power
@@ -480,5 +480,5 @@ def student_factor(dof) -> float:
         or not isinstance(dof, numbers.Real)
         or not (np.isfinite(dof) and dof > 2)
     ):
-        raise InputError(f"dof must be a finite number > 2, got {dof!r}", parameter="dof")
+        raise InputError(f"dof must be a finite number > 2, got {shown(dof)}", parameter="dof")
     return float(np.sqrt(dof / (dof - 2.0)))

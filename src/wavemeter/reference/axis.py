@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from .lines import ReferenceLines
 
 __all__ = ["AxisCorrection", "BUDGET_TERMS", "MAX_ORDER", "fit_axis_correction"]
@@ -197,7 +197,7 @@ def fit_axis_correction(
             parameter="pressure_pa",
         )
     if not (np.isfinite(pressure_std_pa) and pressure_std_pa >= 0):
-        raise InputError(f"pressure_std_pa must be >= 0, got {pressure_std_pa!r}")
+        raise InputError(f"pressure_std_pa must be >= 0, got {shown(pressure_std_pa)}")
     target = lines.centers_at(pressure_pa)
     reference = float(target.mean())
     center, half = 0.5 * (phase.max() + phase.min()), 0.5 * (phase.max() - phase.min())
@@ -221,7 +221,7 @@ def fit_axis_correction(
     highest = min(int(max_order), count - 1)
     orders = range(1, highest + 1) if order is None else [int(order)]
     if order is not None and not 1 <= order <= count - 1:
-        raise InputError(f"order must be 1 to {count - 1} for {count} lines, got {order!r}")
+        raise InputError(f"order must be 1 to {count - 1} for {count} lines, got {shown(order)}")
     scores, fits = {}, {}
     for k in orders:
         fits[k] = _gls(_basis(u, k), target - reference, weight)

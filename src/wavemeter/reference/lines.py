@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import atomic_path
-from ..exceptions import FileFormatError, InputError
+from ..exceptions import FileFormatError, InputError, shown
 from ..units import FREQUENCY_UNITS, OPTICAL_BAND_HZ, SPEED_OF_LIGHT_M_S
 
 __all__ = ["ReferenceLines", "LINE_TABLE_COLUMNS", "MAX_LINE_TABLE_BYTES"]
@@ -260,12 +260,12 @@ def _band(band_hz) -> tuple[float, float]:
         low, high = (float(value) for value in band_hz)
     except (TypeError, ValueError):
         raise InputError(
-            f"band_hz must be two frequencies (low, high) in Hz, got {band_hz!r}",
+            f"band_hz must be two frequencies (low, high) in Hz, got {shown(band_hz)}",
             parameter="band_hz",
         ) from None
     if not (math.isfinite(low) and math.isfinite(high) and 0 < low < high):
         raise InputError(
-            f"band_hz must be two finite frequencies 0 < low < high (Hz), got {band_hz!r}",
+            f"band_hz must be two finite frequencies 0 < low < high (Hz), got {shown(band_hz)}",
             parameter="band_hz",
         )
     return low, high
@@ -377,7 +377,7 @@ def _to_hz(number: float, unit: tuple[str, float], name: str, line: int, header)
     low, high = OPTICAL_BAND_HZ
     if not low < frequency < high:
         raise FileFormatError(
-            f"{name} line {line}, field 'center': {number!r} is not an optical line centre "
+            f"{name} line {line}, field 'center': {shown(number)} is not an optical line centre "
             f"({low / 1e12:g}-{high / 1e12:g} THz) in the header's unit"
         )
     return frequency

@@ -89,12 +89,22 @@ def _hz_text(value, std=None) -> str:
     return f"{with_error(value, std, scale)} {unit}"
 
 
-def _scientific_text(value, std, unit: str) -> str:
-    """``value ± std unit`` in exponent notation; ``n/a`` when not a number."""
-    value = _number(value)
+#: a noise level (a PSD coefficient, never negative) within this many standard deviations
+#: of zero is shown as an upper limit (the 97.7 % one-sided quantile, as the linewidth's)
+LEVEL_LIMIT_STD = 2.0
+
+
+def _level_text(value, std, unit: str) -> str:
+    """A noise level: ``value ± std unit`` in exponent notation when it is significant;
+    ``< value + 2 std`` (from zero when the fit came out negative) when it is not;
+    ``n/a`` when not a number."""
+    value, std = _number(value), _number(std)
     if value is None:
         return "n/a"
-    return f"{scientific_with_error(value, _number(std))} {unit}"
+    if std is not None and value < LEVEL_LIMIT_STD * std:
+        limit = max(value, 0.0) + LEVEL_LIMIT_STD * std
+        return f"< {scientific(limit)} {unit} (not significant)"
+    return f"{scientific_with_error(value, std)} {unit}"
 
 
 def _limit_text(value, std, *, upper: bool = False, lower: bool = False) -> str:
@@ -163,15 +173,15 @@ def summary_rows(result) -> list[list[str]]:
         ],
         [
             "white FM h₀",
-            _scientific_text(result.white_fm_hz2_per_hz, result.white_fm_std_hz2_per_hz, "Hz²/Hz"),
+            _level_text(result.white_fm_hz2_per_hz, result.white_fm_std_hz2_per_hz, "Hz²/Hz"),
         ],
         [
             "flicker FM h₋₁",
-            _scientific_text(result.flicker_fm_hz2, result.flicker_fm_std_hz2, "Hz²"),
+            _level_text(result.flicker_fm_hz2, result.flicker_fm_std_hz2, "Hz²"),
         ],
         [
             "random-walk FM h₋₂",
-            _scientific_text(
+            _level_text(
                 result.random_walk_fm_hz2_per_s, result.random_walk_fm_std_hz2_per_s, "Hz²/s"
             ),
         ],
@@ -195,7 +205,7 @@ def summary_rows(result) -> list[list[str]]:
         ],
         [
             "linear drift",
-            _scientific_text(result.drift_hz_per_s, result.drift_std_hz_per_s, "Hz/s"),
+            _level_text(result.drift_hz_per_s, result.drift_std_hz_per_s, "Hz/s"),
         ],
         [
             "delay correction up to",

@@ -237,7 +237,13 @@ def _key_title(key: str) -> str:
 def _value_text(value, key: str = "") -> str:
     """A diagnostics value in the unit of its key: powers and times in exponent notation,
     frequencies in GHz and other floats with three significant digits; containers item by
-    item."""
+    item; an absent value (a test not run, a temperature not recorded) and flags in words."""
+    if value is None:
+        return "not recorded" if key.startswith("temperature") else "not computed"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, str) and key.endswith(("method", "cause")):
+        return value.replace("_", " ")  # a name of the package's (second_difference)
     if isinstance(value, float):
         unit = _key_unit(key)
         if unit is None:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from ..validation import as_rng
 from .interferometer import DEFAULT_CENTER_HZ, Interferometer
 from .spectral_presets import SPECTRAL_PRESETS
@@ -138,7 +138,7 @@ class CascadeInterferometer:
         fsrs = np.atleast_1d(np.asarray(fsrs_hz, dtype=float))
         if fsrs.ndim != 1 or fsrs.size == 0 or not np.all(np.isfinite(fsrs) & (fsrs > 0)):
             raise InputError(
-                f"fsrs_hz must be one or more positive FSRs (Hz), got {fsrs_hz!r}",
+                f"fsrs_hz must be one or more positive FSRs (Hz), got {shown(fsrs_hz)}",
                 parameter="fsrs_hz",
             )
         if spectral is not None and spectral not in SPECTRAL_PRESETS:

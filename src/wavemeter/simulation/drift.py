@@ -13,7 +13,7 @@ import numbers
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from ..validation import as_rng, check_choice, check_finite, check_positive
 
 __all__ = ["slow_power_drift", "flicker_power_noise", "thermal_ramp_rad", "THERMAL_SHAPES"]
@@ -27,7 +27,7 @@ THERMAL_SHAPES = ("ramp", "cycle")
 def _check_samples(samples, minimum: int = 1) -> int:
     if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < minimum:
         raise InputError(
-            f"samples must be an integer >= {minimum}, got {samples!r}", parameter="samples"
+            f"samples must be an integer >= {minimum}, got {shown(samples)}", parameter="samples"
         )
     return int(samples)
 
@@ -129,7 +129,7 @@ def flicker_power_noise(samples: int, relative_std: float, rng=None) -> np.ndarr
     relative_std = check_finite("relative_std", relative_std)
     if relative_std < 0:
         raise InputError(
-            f"relative_std must be >= 0, got {relative_std!r}", parameter="relative_std"
+            f"relative_std must be >= 0, got {shown(relative_std)}", parameter="relative_std"
         )
     spectrum = np.fft.rfft(as_rng(rng).standard_normal(samples))
     frequency = np.fft.rfftfreq(samples)  # cycles per sample
@@ -139,7 +139,7 @@ def flicker_power_noise(samples: int, relative_std: float, rng=None) -> np.ndarr
     factor = 1.0 + relative_std * pink / pink.std()
     if np.any(factor <= 0):
         raise InputError(
-            f"relative_std {relative_std!r} takes the source power to <= 0 in this draw "
+            f"relative_std {shown(relative_std)} takes the source power to <= 0 in this draw "
             f"(min factor {factor.min():.3g}); use a smaller relative_std",
             parameter="relative_std",
         )

@@ -15,7 +15,7 @@ import numbers
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from ..units import OPTICAL_BAND_HZ, canonical_unit, frequency_text
 from .spectral_presets import SPECTRAL_PRESETS
 from .thermal_presets import THERMAL_PRESETS
@@ -185,7 +185,7 @@ def normalised(fields: dict) -> dict:
     values["repeat"] = _count("repeat", values["repeat"], 1)
     if not isinstance(values["monitor"], (bool, np.bool_)):
         raise InputError(
-            f"monitor must be True or False, got {values['monitor']!r}", parameter="monitor"
+            f"monitor must be True or False, got {shown(values['monitor'])}", parameter="monitor"
         )
     values["monitor"] = bool(values["monitor"])
     values["laser"] = _count("laser", values["laser"], 0)

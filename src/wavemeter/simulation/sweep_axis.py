@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, shown
 from ..units import SPEED_OF_LIGHT_M_S
 from ..validation import as_rng, check_choice
 
@@ -181,11 +181,11 @@ def laser_sweep(band_hz, samples: int, preset="tls-spec", *, rng=None) -> LaserS
     try:
         low, high = (float(value) for value in band_hz)
     except (TypeError, ValueError):
-        raise InputError(f"band_hz must be (low, high) in Hz, got {band_hz!r}") from None
+        raise InputError(f"band_hz must be (low, high) in Hz, got {shown(band_hz)}") from None
     if not (np.isfinite(low) and np.isfinite(high) and 0 < low < high):
-        raise InputError(f"band_hz must be finite with 0 < low < high (Hz), got {band_hz!r}")
+        raise InputError(f"band_hz must be finite with 0 < low < high (Hz), got {shown(band_hz)}")
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 2:
-        raise InputError(f"samples must be an integer >= 2, got {samples!r}")
+        raise InputError(f"samples must be an integer >= 2, got {shown(samples)}")
     generator = as_rng(rng)
     longest, shortest = SPEED_OF_LIGHT_M_S / low, SPEED_OF_LIGHT_M_S / high
     time = np.linspace(0.0, 1.0, int(samples))

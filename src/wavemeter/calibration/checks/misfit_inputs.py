@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
 
 __all__ = ["checked_vector", "checked_inputs", "checked_design", "checked_phase_derivatives"]
 
@@ -40,7 +40,7 @@ def checked_inputs(powers, frequency_hz, center_hz, delay_s, map_, scale, offset
         if not np.isfinite(value):
             raise InputError(f"{name} must be a finite number, got {value!r}", parameter=name)
     if not delay_s > 0:
-        raise InputError(f"delay_s must be > 0 (s), got {delay_s!r}", parameter="delay_s")
+        raise InputError(f"delay_s must be > 0 (s), got {shown(delay_s)}", parameter="delay_s")
     matrix = np.asarray(map_, dtype=float)
     if matrix.shape not in ((ports, 3), (samples, ports, 3)) or not np.all(np.isfinite(matrix)):
         raise InputError(

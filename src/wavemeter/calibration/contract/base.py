@@ -20,7 +20,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ...exceptions import InputError, WavemeterError
+from ...exceptions import InputError, WavemeterError, shown
 from ...validation import check_fitted, check_positive
 from ..files.document import save_calibration, state_array
 from ..files.fields import (
@@ -419,5 +419,6 @@ class BaseCalibrator(ParamsMixin, ReadingMixin, StreamMixin):
             np.isfinite(delay) and delay > 0 and abs(delay * self.fsr_hz_ - 1.0) < 1e-9
         ):
             raise InputError(
-                f"delay_s {delay!r} must be > 0 and equal 1 / fsr_hz ({1.0 / self.fsr_hz_!r} s)"
+                f"delay_s {shown(delay)} must be > 0 and equal 1 / fsr_hz "
+                f"({shown(1.0 / self.fsr_hz_)} s)"
             )

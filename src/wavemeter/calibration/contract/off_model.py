@@ -22,7 +22,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
+from ..files import fields
 from .flags import OFF_MODEL_P_VALUE, off_model_threshold
 
 __all__ = [
@@ -186,12 +187,12 @@ def basis_from_state(state: dict, ports: int, noise_dof: float) -> OffModelBasis
             finite = False
         if not finite:
             raise InputError(
-                f"field '{STATE_KEY}.{key}' must be a finite number, got {value!r:.80}"
+                f"field '{STATE_KEY}.{key}' must be a finite number, got {shown(value)}"
             )
         if value < minimum or (integer and value != int(value)):
             kind = "an integer" if integer else "a number"
             raise InputError(
-                f"field '{STATE_KEY}.{key}' must be {kind} >= {minimum:g}, got {value!r}"
+                f"field '{STATE_KEY}.{key}' must be {kind} >= {minimum:g}, got {shown(value)}"
             )
         return value
 
@@ -206,10 +207,35 @@ def basis_from_state(state: dict, ports: int, noise_dof: float) -> OffModelBasis
     return OffModelBasis(readings, median, chi2_median(ports - 2, noise_dof), above, scale, beyond)
 
 
+#: the largest weighted squared cone distance a file may hold: a reading a million noise
+#: standard deviations off the cone is no reading of a meter
+MAX_DISTANCE = 1e12
+
+
+def _count_rule(what: str) -> tuple:
+    """A count of the sweep's readings: a whole number, at most the readings fitted."""
+    return (
+        fields.FieldRule(what, "", 0.0, integer=True),
+        fields.FieldRule(what, "", high=1.0, scale="readings"),
+    )
+
+
 class OffModelMixin:
     """``OFF_MODEL``'s threshold, state and summary line for a calibrator with a cone map
     (module docstring). The class sets ``off_model_basis_`` when it fits
     (:meth:`_judge_distances`) and loads (:meth:`_set_off_model_state`)."""
+
+    state_rules = fields.rule_table(
+        {
+            f"{STATE_KEY}.readings": _count_rule("the sweep readings the test saw"),
+            f"{STATE_KEY}.above": _count_rule("the sweep readings above the noise's median"),
+            f"{STATE_KEY}.beyond": _count_rule("the sweep readings beyond the threshold"),
+            f"{STATE_KEY}.median": fields.FieldRule(
+                "the sweep's median cone distance", "", 0.0, MAX_DISTANCE
+            ),
+            f"{STATE_KEY}.scale": fields.FieldRule("the threshold's scale", "", 1.0, MAX_DISTANCE),
+        }
+    )
 
     def _off_model_threshold(self) -> float:
         """The weighted squared distance beyond which a reading is ``OFF_MODEL``."""

@@ -12,11 +12,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ...units import SPEED_OF_LIGHT_M_S, frequency_text
+from .summary_lines import (
+    LABEL_WIDTH,
+    diagnostics_lines,
+    line,
+    samples_text,
+    settings_text,
+)
 
 __all__ = ["Check", "FitReport", "FitValue", "LABEL_WIDTH", "Table", "value_text"]
-
-#: width of the label column of the text report
-LABEL_WIDTH = 17
 
 
 @dataclass(frozen=True)
@@ -190,196 +194,11 @@ def value_text(value: FitValue) -> str:
     return f"{text} {unit}".rstrip()
 
 
-def _line(label: str, text: str) -> str:
-    return f"{label:<{LABEL_WIDTH - 1}} {text}"
-
-
-def _samples_text(samples: int, diagnostics: dict) -> str:
-    """The calibration readings, and how many the checks saw when fewer (a long sweep's
-    checks run on every k-th reading)."""
-    diagnosed = diagnostics.get("diagnostic_samples")
-    if isinstance(diagnosed, int) and diagnosed < samples:
-        return f"{samples} (checks and diagnostics on {diagnosed}, every k-th reading)"
-    return str(samples)
-
-
 def _frequency_with_error(value: FitValue) -> str:
     text = f"{value.value / 1e9:.6f} GHz"
     if value.stderr is not None:
         text += f" +- {frequency_text(value.stderr, 3)}"
     return text
-
-
-#: how the misfit report's noise estimates read (``diagnostics_["fit"]["noise_method"]``)
-_NOISE_SOURCES = {
-    "second_difference": "the readings' second differences (model-free)",
-    "residual": "the calibration residual",
-}
-
-
-def _setting_text(name: str, value) -> str:
-    """One setting as people read it: a frequency in its unit, ``default`` for None, lists
-    and nested settings (a set's window) in words, never a Python repr."""
-    if value is None:
-        return "default"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, dict):
-        method = value.get("method")
-        inner = value.get("params") if isinstance(value.get("params"), dict) else {}
-        listed = ", ".join(f"{key} {_setting_text(key, item)}" for key, item in inner.items())
-        return f"{method} ({listed})" if method else listed
-    if isinstance(value, (list, tuple)):
-        return ", ".join(
-            f"({_setting_text(name, item)})"
-            if isinstance(item, (list, tuple))
-            else _setting_text(name, item)
-            for item in value
-        )
-    if isinstance(value, (int, float)) and name.endswith("_hz"):
-        return frequency_text(float(value))
-    if isinstance(value, float):
-        return f"{value:.6g}"
-    return str(value)
-
-
-def _settings_text(settings: dict) -> str:
-    """``fsr_hz 50 GHz; fsr_tolerance 0.2; retrieval pinv``: library names, values in words."""
-    return "; ".join(f"{name} {_setting_text(name, value)}" for name, value in settings.items())
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-def _number(value) -> str:
-    return f"{value:.3g}" if _is_number(value) else "?"
-
-
-def _per_port(fit: dict, key: str, count: int) -> list:
-    values = fit.get(key)
-    if isinstance(values, list) and len(values) == count:
-        return values
-    return [None] * count
-
-
-def _fit_lines(fit, ports) -> list[str]:
-    """Lines for the fit diagnostics (:mod:`wavemeter.calibration.checks.misfit`): each port's
-    residual against its model-free noise, the map's conditioning, fitted offsets."""
-    if not isinstance(fit, dict) or not fit:
-        return []
-    names = [port.get("name") if isinstance(port, dict) else "?" for port in ports or []]
-    count = len(names)
-    residual = _per_port(fit, "residual_rms_w", count)
-    ratio = _per_port(fit, "noise_ratio", count)
-    lag = _per_port(fit, "lag1_autocorrelation", count)
-    lines = [
-        _line(
-            f"fit {name}",
-            f"residual {_number(rms)} W, {_number(factor)}x the noise, lag-1 autocorrelation "
-            f"{_number(correlation)}",
-        )
-        for name, rms, factor, correlation in zip(names, residual, ratio, lag, strict=True)
-    ]
-    method, dof = fit.get("noise_method"), fit.get("noise_dof")
-    if isinstance(method, str):
-        source = _NOISE_SOURCES.get(method, method.replace("_", " "))
-        lines.append(_line("noise from", f"{source} ({_number(dof)} degrees of freedom)"))
-    if _is_number(fit.get("condition_number")):
-        ratio_text = fit.get("pinv_variance_ratio")
-        extra = (
-            f" (pseudo-inverse phase variance {ratio_text:.3g}x the Cramer-Rao bound's)"
-            if _is_number(ratio_text)
-            else ""
-        )
-        lines.append(_line("map", f"condition number {fit['condition_number']:.3g}{extra}"))
-    offsets = fit.get("offset_w")
-    if isinstance(offsets, list) and offsets:
-        text = ", ".join(f"{_number(value)} W" for value in offsets)
-        lines.append(_line("offsets", f"{text} (fitted, subtracted)"))
-    return lines
-
-
-#: the verdicts of a re-anchoring's reference check, the least worrying first
-_CHECK_ORDER = ("untested", "ok", "warned", "refused")
-
-
-def _check_text(check: dict) -> str:
-    """A reference check in words: its verdict and the reported line's scatter."""
-    verdict = check.get("verdict") if check.get("verdict") in _CHECK_ORDER else "?"
-    lines = [line for line in check.get("lines") or [] if isinstance(line, dict)]
-    tested = [line for line in lines if _is_number(line.get("p_value"))]
-    if verdict == "untested" or not tested:
-        return f"{verdict}: no line with two readings"
-    line = min(tested, key=lambda item: item["p_value"])
-    return (
-        f"{verdict}: scatter {_number(line.get('scatter_ratio'))} times the calibration's "
-        f"noise ({_number(line.get('observed_scatter_rad'))} rad, expected "
-        f"{_number(line.get('expected_scatter_rad'))} rad), p = {_number(check.get('p_value'))} "
-        f"over {len(tested)} line(s)"
-    )
-
-
-def _reanchor_lines(record) -> list[str]:
-    """Lines for a re-anchoring record: the shift, and how the reference readings scattered
-    (the worst window's for a set); tolerant of records read from files."""
-    if not isinstance(record, dict):
-        return []
-    windows = record.get("windows")
-    records = [item for item in windows if isinstance(item, dict)] if windows else [record]
-    lines_hz = record.get("lines_hz")
-    count = len(lines_hz) if isinstance(lines_hz, list) else "?"
-    readings = record.get("readings")
-    on = f"{count} line(s), {readings if isinstance(readings, int) else '?'} readings"
-    if windows:
-        text = f"{len(records)} windows on {on}"
-    else:
-        text = (
-            f"phase shift {_number(record.get('phase_shift_rad'))} rad (std "
-            f"{_number(record.get('phase_shift_std_rad'))} rad) on {on}"
-        )
-    lines = [_line("re-anchored", text)]
-    checks = [item.get("reference_check") for item in records]
-    checks = [check for check in checks if isinstance(check, dict)]
-    if checks:
-        worst = max(
-            checks,
-            key=lambda check: (
-                _CHECK_ORDER.index(check.get("verdict"))
-                if check.get("verdict") in _CHECK_ORDER
-                else 0
-            ),
-        )
-        lines.append(_line("reference check", _check_text(worst)))
-    return lines
-
-
-def _diagnostics_lines(diagnostics: dict) -> list[str]:
-    """Lines for a diagnostics record; tolerant of records read from older or foreign files."""
-    lines = []
-    estimate = diagnostics.get("fsr_estimate_hz")
-    if _is_number(estimate):
-        lines.append(_line("sweep FSR", f"{frequency_text(estimate)} (the fringes' own period)"))
-    ports = diagnostics.get("ports")
-    for port in ports if isinstance(ports, list) else []:
-        if not isinstance(port, dict):
-            continue
-        z = port.get("fringe_z")
-        z_text = f"{_number(z)} standard errors" if _is_number(z) else "noiseless"
-        lines.append(
-            _line(
-                f"port {port.get('name')}",
-                f"{port.get('status')}: fringe {_number(port.get('fringe_amplitude_w'))} W "
-                f"({z_text}), noise {_number(port.get('noise_std_w'))} W",
-            )
-        )
-    lines += _fit_lines(diagnostics.get("fit"), ports)
-    lines += _reanchor_lines(diagnostics.get("reanchor"))
-    notes = diagnostics.get("warnings")
-    for note in notes if isinstance(notes, list) else []:
-        if isinstance(note, dict):
-            lines.append(_line("warning", f"{note.get('cause')}: {note.get('message')}"))
-    return lines
 
 
 @dataclass(frozen=True)
@@ -481,33 +300,31 @@ class FitReport:
         rms = values.pop("calibration_rms_hz").value
         low, high = self.span_hz
         lines = [
-            _line("method", self.method_label),
-            _line("settings", _settings_text(self.settings)),
-            _line("FSR", f"{_frequency_with_error(fsr)} (design {design.value / 1e9:g} GHz)"),
-            _line(
-                "centre", f"{center / 1e12:.6f} THz ({SPEED_OF_LIGHT_M_S / center * 1e9:.4f} nm)"
-            ),
-            _line(
+            line("method", self.method_label),
+            line("settings", settings_text(self.settings)),
+            line("FSR", f"{_frequency_with_error(fsr)} (design {design.value / 1e9:g} GHz)"),
+            line("centre", f"{center / 1e12:.6f} THz ({SPEED_OF_LIGHT_M_S / center * 1e9:.4f} nm)"),
+            line(
                 "span",
                 f"{low / 1e12:.6f} to {high / 1e12:.6f} THz ({(high - low) / 1e9:.4f} GHz, "
                 f"{(high - low) / fsr.value:.3g} FSR)",
             ),
-            _line("ports", f"{len(self.ports)}: {', '.join(self.ports)}"),
-            _line("samples", _samples_text(self.samples, self.diagnostics or {})),
-            _line("calibration RMS", f"{rms / 1e6:.4f} MHz"),
+            line("ports", f"{len(self.ports)}: {', '.join(self.ports)}"),
+            line("samples", samples_text(self.samples, self.diagnostics or {})),
+            line("calibration RMS", f"{rms / 1e6:.4f} MHz"),
         ]
         noise = values.pop("noise_std_w", None)
         if noise is not None:
-            lines.append(_line("noise estimate", f"{noise.value:.4g} W (calibration residual)"))
+            lines.append(line("noise estimate", f"{noise.value:.4g} W (calibration residual)"))
         delay = values.pop("delay_s", None)
         if delay is not None:
             error = "" if delay.stderr is None else f" +- {delay.stderr * 1e12:.3g} ps"
-            lines.append(_line("delay", f"{delay.value * 1e12:.6f} ps{error}"))
+            lines.append(line("delay", f"{delay.value * 1e12:.6f} ps{error}"))
         for name, value in values.items():
-            lines.append(_line(value.label or name.replace("_", " "), value_text(value)))
-        lines += [_line("", note) for note in self.notes]
+            lines.append(line(value.label or name.replace("_", " "), value_text(value)))
+        lines += [line("", note) for note in self.notes]
         if self.windows:
-            lines.append(_line(self.windows_are, "centre THz      FSR GHz   samples   RMS MHz"))
+            lines.append(line(self.windows_are, "centre THz      FSR GHz   samples   RMS MHz"))
             first = 1 if self.windows_are == "stages" else 0
             for index, window in enumerate(self.windows, start=first):
                 lines.append(
@@ -517,11 +334,11 @@ class FitReport:
                 )
         for table in self.tables:
             lines += table.text_lines()
-        lines += _diagnostics_lines(self.diagnostics)
+        lines += diagnostics_lines(self.diagnostics)
         if not self.diagnostics:
-            lines.append(_line("diagnostics", "none recorded (a file of wavemeter 0.1)"))
+            lines.append(line("diagnostics", "none recorded (a file of wavemeter 0.1)"))
         elif not self.diagnostics.get("warnings"):
-            lines.append(_line("warnings", "none"))
+            lines.append(line("warnings", "none"))
         return "\n".join(lines)
 
     def __str__(self) -> str:

@@ -264,17 +264,19 @@ def _frequencies(document: dict, path) -> tuple[float, float, tuple[float, float
         raise _fail(
             path,
             f"field 'center_hz' must be an optical frequency ({lowest:g} to {highest:g} Hz), "
-            f"got {center!r}",
+            f"got {shown(center)}",
         )
     if not low <= center <= high:
-        raise _fail(path, f"field 'center_hz' {center!r} must lie in span_hz [{low!r}, {high!r}]")
+        raise _fail(
+            path, f"field 'center_hz' {shown(center)} must lie in span_hz [{low!r}, {high!r}]"
+        )
     if not 0 < low or not high <= 2 * highest:
         raise _fail(path, f"field 'span_hz' must hold optical frequencies, got {shown(span)}")
     if not MIN_FSR_HZ <= fsr < center:
         raise _fail(
             path,
             f"field 'fsr_hz' must be >= {MIN_FSR_HZ:g} Hz (a delay of at most 1 ms) and below "
-            f"the centre frequency, got {fsr!r}",
+            f"the centre frequency, got {shown(fsr)}",
         )
     return fsr, center, (low, high)
 
@@ -354,8 +356,8 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
     if abs(calibrator.fsr_hz_ / fsr - 1.0) > DELAY_RTOL:
         raise _fail(
             path,
-            f"field 'fsr_hz' {fsr!r} disagrees with the state, whose delay gives an FSR of "
-            f"{calibrator.fsr_hz_!r} Hz",
+            f"field 'fsr_hz' {shown(fsr)} disagrees with the state, whose delay gives an FSR of "
+            f"{shown(calibrator.fsr_hz_)} Hz",
         )
     return calibrator
 

@@ -430,7 +430,7 @@ class Calibrator(
         return {
             "delay_s": FitValue(self.delay_s_, self.delay_std_s_, "s"),
             "noise_std_w": FitValue(self.noise_std_w_, None, "W"),
-            "cost_w2": FitValue(self.cost_, None, "W^2"),
+            "cost_w2": FitValue(self.cost_, None, "W^2", "cost J"),
         }
 
     def _state(self) -> dict:

@@ -19,6 +19,7 @@ import numpy as np
 
 from ...exceptions import CalibrationWarning, InputError
 from ...validation import MIN_SAMPLES, check_dark, check_monitor, check_positive, check_powers
+from ..files import fields
 from ..files.document import state_array
 from ..fitting.sweep import checked_port_names
 from ..models.cone_fit import OFFSET_MODES, ConeFit, cone_phase_rad, fit_cone
@@ -79,6 +80,19 @@ class ReferenceFreeCalibrator(LabelLockedCalibrator):
     """
 
     method = "reference_free"
+    state_rules = fields.rule_table(
+        {
+            "cone.vertex_w": fields.OFFSET_RULE,
+            "cone.basis": fields.FieldRule("the cone's basis", "", high=1.0, magnitude=True),
+            "cone.frame": fields.FieldRule("the cone's frame", "1/W"),
+            "cone.power_spread": fields.FieldRule(
+                "the source power's relative spread", "", 0.0, 1.0
+            ),
+            "cone.frame_std_rad": fields.FieldRule(
+                "the frame's phase distortion", "rad", 0.0, np.pi
+            ),
+        }
+    )
 
     def __init__(self, fsr_hz: float = 50e9, anchor_hz=None, offsets: str = "none"):
         self.fsr_hz = fsr_hz

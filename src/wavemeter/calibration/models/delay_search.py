@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from ...exceptions import EdgeMinimumError, InputError
+from ...exceptions import EdgeMinimumError, InputError, shown
 from ...units import frequency_text
 from ...validation import check_choice, check_positive
 
@@ -126,12 +126,13 @@ def check_fringes_explained(
     if not unfitted_cost > 0:
         raise InputError(
             "unfitted_cost must be > 0 (the readings vary about their mean), got "
-            f"{unfitted_cost!r}",
+            f"{shown(unfitted_cost)}",
             parameter="unfitted_cost",
         )
     if noise_cost is not None and not (np.isfinite(noise_cost) and noise_cost > 0):
         raise InputError(
-            f"noise_cost must be a finite number > 0, got {noise_cost!r}", parameter="noise_cost"
+            f"noise_cost must be a finite number > 0, got {shown(noise_cost)}",
+            parameter="noise_cost",
         )
     explained = 1.0 - cost / unfitted_cost
     if explained >= MIN_EXPLAINED_FRACTION:

@@ -17,7 +17,7 @@ import numbers
 
 import numpy as np
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
 from ...validation import check_frequency, check_monitor, check_positive, reading_array
 from .delay_search import EDGE_POINTS, MIN_GRID_POINTS
 from .moment_equations import MomentEquationsMixin
@@ -130,7 +130,7 @@ class FringeMoments(MomentEquationsMixin):
         self.max_delay_s = check_positive("max_delay_s", max_delay_s)
         if not (isinstance(center_hz, numbers.Real) and np.isfinite(center_hz)):
             raise InputError(
-                f"center_hz must be a finite number (Hz), got {center_hz!r}",
+                f"center_hz must be a finite number (Hz), got {shown(center_hz)}",
                 parameter="center_hz",
             )
         self.center_hz = float(center_hz)
@@ -342,12 +342,12 @@ class FringeMoments(MomentEquationsMixin):
             raise InputError("no readings accumulated: add some first", parameter="moments")
         if offset_powers not in (0, 1, 2):
             raise InputError(
-                f"offset_powers must be 0, 1 or 2, got {offset_powers!r}",
+                f"offset_powers must be 0, 1 or 2, got {shown(offset_powers)}",
                 parameter="offset_powers",
             )
         if not abs(delay_s) <= self.max_delay_s:
             raise InputError(
-                f"delay {delay_s!r} s is beyond the {self.max_delay_s:g} s these moments "
+                f"delay {shown(delay_s)} s is beyond the {self.max_delay_s:g} s these moments "
                 "were built for (their Taylor order would not reach rounding precision)",
                 parameter="delay_s",
             )

@@ -23,7 +23,7 @@ import numpy as np
 from scipy import linalg
 from scipy.spatial.transform import Rotation
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
 from ...model.cone import delay_phase_rad, wrap_phase_rad
 from ...validation import check_per_reading, check_powers
 from .reference_check import ReferenceCheck, check_reference_scatter, reference_warning
@@ -183,7 +183,7 @@ def line_phases(
         few = counts < LINE_SPREAD_MIN_READINGS
         if few.any():
             raise InputError(
-                f"line {lines[few][0]!r} Hz has {counts[few][0]} readings: give at least "
+                f"line {shown(lines[few][0])} Hz has {counts[few][0]} readings: give at least "
                 f"{LINE_SPREAD_MIN_READINGS} per line, whose spread gives its uncertainty",
                 parameter="powers",
             )

@@ -301,9 +301,9 @@ class NonlinearFitCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibr
     def _summary_values(self) -> dict:
         return {
             "delay_s": FitValue(self.delay_s_, None, "s"),
-            "converged": FitValue(float(self.converged_)),
-            "nfev": FitValue(float(self.nfev_)),
-            "cost_w2": FitValue(self.cost_, None, "W^2"),
+            "converged": FitValue(float(self.converged_), None, "", "converged (1 yes, 0 no)"),
+            "nfev": FitValue(float(self.nfev_), None, "", "cost evaluations"),
+            "cost_w2": FitValue(self.cost_, None, "W^2", "cost"),
         }
 
     def _state(self) -> dict:
