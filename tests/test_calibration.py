@@ -125,6 +125,7 @@ def test_power_monitor_makes_calibration_immune_to_fluctuations(rng):
     assert errors["none"] > 1e3 * errors["monitor"]  # off the cone: the map is biased
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(scale=st.floats(1e-3, 1e3), index=st.integers(0, 499))
 def test_phase_is_invariant_to_source_power(noisy_fit, scale, index):

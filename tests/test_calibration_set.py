@@ -67,6 +67,7 @@ def rms(values):
     return float(np.sqrt(np.mean(np.square(values))))
 
 
+@pytest.mark.slow
 def test_windows_are_one_fitted_fsr_wide_centred_on_the_sweep(device, sweep, calibration_set):
     frequency, _ = sweep
     edges = calibration_set.window_edges_hz_

@@ -69,6 +69,7 @@ def test_noiseless_orders_are_exact_across_the_band():
     assert not np.any(found.flags & wm.ReadingFlag.ORDER_AMBIGUOUS)
 
 
+@pytest.mark.slow
 def test_each_stage_hands_the_next_the_order_its_predict_would_pick():
     """The class agrees with its stages read one after another, the coarse value of each
     the frequency of the one before (the band's middle for the first)."""
@@ -352,6 +353,7 @@ def jittered(cascade, frequency_hz: np.ndarray, seed: int) -> np.ndarray:
     return readings
 
 
+@pytest.mark.slow
 def test_a_clean_cascade_with_spectral_slopes_warns_nothing():
     """Over less than one of its FSRs the coarsest stage follows its couplers' and
     detectors' slopes with a map slope (issue 29: it used to warn ``other_misfit`` on clean
@@ -367,6 +369,7 @@ def test_a_clean_cascade_with_spectral_slopes_warns_nothing():
     assert np.all(cal.model_error_hz_ == 0)
 
 
+@pytest.mark.slow
 def test_a_misfit_of_the_coarsest_stage_says_what_it_means_in_a_cascade():
     """A misfit the coarsest stage cannot fit (its readings jittered in frequency): the
     warning says that it costs hand-over margin, which the fit reports."""

@@ -97,6 +97,7 @@ def test_claim1_power_fluctuations_in_training_with_monitor_and_in_test():
     assert 0.98 < _rms_over_crlb(noisy, device, test_hz, test_power, rng) < 1.08
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("bias_rad", [-np.pi + 1e-9, -2.0, -np.pi / 2, 0.0, 1.0, np.pi / 2, np.pi])
 def test_claim1_bias_phase_makes_no_difference(bias_rad):
     import dataclasses

@@ -103,6 +103,7 @@ def files(tmp_path_factory) -> dict:
 
 
 # ---------------------------------------------------------------------------- simulate
+@pytest.mark.slow
 def test_simulate_writes_the_cascade_the_python_api_draws(files):
     """The files hold the readings of CascadeInterferometer.table1 with the seed, centred in
     the band: the sweep evenly over the band, ends included, then the test readings at
@@ -166,6 +167,7 @@ def test_simulate_refuses_what_a_cascade_is_not(tmp_path, capsys, options, named
 
 
 # ---------------------------------------------------------------------------- calibrate
+@pytest.mark.slow
 def test_calibrate_defaults_to_the_issue_cascade_and_prints_stages_and_margins(
     files, tmp_path, capsys
 ):
@@ -393,6 +395,7 @@ def test_report_has_the_cascade_section(files, tmp_path, capsys):
 
 
 # ---------------------------------------------------------------------------- evaluate
+@pytest.mark.slow
 def test_evaluate_reads_absolute_frequency_and_counts_wrong_orders(files, capsys):
     report = json.loads(ok(capsys, f"evaluate {files['cal']} {files['test']} --json")[0])
     assert report["coarse_from"] is None

@@ -93,6 +93,7 @@ def test_bad_quantities(tmp_path, capsys, options, expected):
     assert expected in err and not out.exists()
 
 
+@pytest.mark.slow
 def test_coarse_frequency_takes_a_frequency_or_a_wavelength(tmp_path, capsys):
     sweep, cal = tmp_path / "wide.csv", tmp_path / "set.wmcal.json"
     run(capsys, f"simulate -o {sweep} --span-fsr 3 --samples 1500 --test 300 --quiet")
@@ -292,6 +293,7 @@ def test_an_aliasing_design_fsr_is_refused_fast_with_the_sweeps_own(files, tmp_p
     assert suggested == pytest.approx(true_fsr_hz, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_python_dash_m_wavemeter_is_the_command_with_its_exit_code(tmp_path):
     missing = tmp_path / "missing.wmcal.json"
     done = subprocess.run(

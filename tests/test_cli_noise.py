@@ -134,6 +134,7 @@ def test_json_alone_writes_nothing_and_the_summary_is_printed_without_it(
     )
 
 
+@pytest.mark.slow
 def test_the_rate_from_the_time_column(meter, laser, capsys):
     command = f"noise {meter['cal']} {laser['path']} --json --time-column time_s"
     numbers = json.loads(ok(capsys, command))
@@ -215,6 +216,7 @@ def test_nothing_to_write_or_a_page_to_stdout(meter, laser, capsys):
     assert "not written to stdout" in one_error(code, err) and printed == ""
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("change", "expected"),
     [

@@ -138,6 +138,7 @@ def test_lines_by_wavelength_column(files, shifted, tmp_path, capsys):
     assert np.sqrt(np.mean(error**2)) <= MAX_RMS_IN_CRLB * crlb_rms_hz(shifted, test_frequency)
 
 
+@pytest.mark.slow
 def test_a_calibration_set_reports_every_window(shifted, tmp_path, capsys):
     sweep, cal = tmp_path / "wide.csv", tmp_path / "set.wmcal.json"
     assert run_cli(capsys, f"simulate -o {sweep} --span-fsr 3 --samples 900 --quiet")[0] == 0

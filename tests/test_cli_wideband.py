@@ -115,6 +115,7 @@ def files(tmp_path_factory, device) -> dict:
 
 
 # ---------------------------------------------------------------------------- calibrate
+@pytest.mark.slow
 def test_the_band_gets_the_dispersion_the_device_has(files, device):
     calibration = files["calibration"]
     assert calibration.method == "wideband"

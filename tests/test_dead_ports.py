@@ -81,6 +81,7 @@ def test_a_saturated_port_is_named(ports):
             wm.Calibrator(50e9).fit(clipped, frequency)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "make",
     [wm.Calibrator, wm.ConventionalCalibrator, wm.PlaneEllipseCalibrator, wm.CalibrationSet],

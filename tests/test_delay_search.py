@@ -113,6 +113,7 @@ def textbook_golden_section(cost, low: float, high: float, xtol: float = 1e-12) 
     return 0.5 * (a + b)
 
 
+@pytest.mark.slow
 def test_plain_golden_search_lands_on_a_side_minimum_where_the_scan_does_not():
     """The teeth of the test above: without the scan, some of its sweeps are misfitted.
 

@@ -127,6 +127,7 @@ def test_calibrate_device_turns_bad_input_into_an_error_row(sweeps, tmp_path):
 
 
 # ---------------------------------------------------------------------------- the fleet
+@pytest.mark.slow
 def test_broken_device_is_recorded_and_the_others_are_calibrated(serial, sweeps):
     assert [row.device for row in serial.rows] == list(DEVICES)
     assert (serial.calibrated, serial.failed, serial.resumed) == (4, 1, 0)
@@ -320,6 +321,7 @@ def test_cli_calibrates_resumes_and_reports(sweeps, tmp_path, capsys):
     assert code == 0 and printed == "" and err.startswith("warning: 1 of 5")
 
 
+@pytest.mark.slow
 def test_cli_exit_codes(sweeps, tmp_path, capsys, monkeypatch):
     broken = sweeps[DEVICES.index(BROKEN)]
     out = tmp_path / "out"
@@ -347,6 +349,7 @@ def test_cli_exit_codes(sweeps, tmp_path, capsys, monkeypatch):
 
 
 # ---------------------------------------------------------------------------- one pipeline
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "options",
     [

@@ -113,6 +113,7 @@ def test_partial_span_sweeps_are_not_refused(seed):
     assert cal.diagnostics_["fsr_estimate_hz"] == pytest.approx(cal.fsr_hz_, abs=5 * sigma)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("span_fsr", [0.3, 1.0, 20.0])
 def test_the_estimate_finds_the_fringe_period(span_fsr):
     device = wm.Interferometer.table1(4, seed=3)

@@ -36,6 +36,7 @@ def chip() -> dict:
     return {"powers": powers, "time_s": np.arange(ROWS) * 0.25}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("block_bytes", [1, 2, 3, 7, 1 << 20])
 def test_rows_are_counted_across_block_edges(tmp_path, monkeypatch, block_bytes):
     """Line ends counted a block at a time, also where a block ends between the two bytes

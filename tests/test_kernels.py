@@ -385,6 +385,7 @@ def steps_one_by_one(cal, readings, offset_w) -> np.ndarray:
     return retrieve_phase_rad(light, cal.map_pinv_)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("retrieval", RETRIEVALS)
 @pytest.mark.parametrize("ports", [3, 4])
 @pytest.mark.parametrize("no_numba", ["0", "1"], ids=["auto", "numpy"])

@@ -78,6 +78,7 @@ def test_per_port_noise_reduces_to_one_noise():
     np.testing.assert_array_equal(scalar, 50e9 / (2.0 * np.pi * np.sqrt(information)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ports", [3, 4])
 def test_monte_carlo_of_ideal_retrieval_meets_the_bound(ports):
     """RMS error of calibrate-then-retrieve on an ideal device equals the bound within 2 %.

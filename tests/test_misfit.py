@@ -405,6 +405,7 @@ def test_frequency_jitter_is_phase_drift():
     assert report.p_values["phase_scatter"] < TEST_P_VALUE
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("samples", [4, 5, 6])
 def test_fewest_readings_do_not_warn(samples):
     # the harmonic and smooth columns can fill the whole residual space: no test then

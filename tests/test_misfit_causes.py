@@ -66,6 +66,7 @@ def only_cause(notes) -> wm.CalibrationWarning:
 
 
 # ---------------------------------------------------------------------- wide sweeps
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("fields", "phase_too"),
     [({"spectral": "sin", "dispersion_s2": 1e-26}, True), ({"spectral": "sin"}, False)],
@@ -87,6 +88,7 @@ def test_a_plain_calibration_over_a_wavelength_dependent_device_warns_dispersion
     assert warning_text(note).endswith("(options: --method wideband (or --per-fsr))")
 
 
+@pytest.mark.slow
 def test_dispersion_alone_over_a_wide_sweep_is_named_by_its_even_phase():
     _, notes = scenario_fit(wm.Calibrator(), dispersion_s2=1e-26, **WIDE)
     note = only_cause(notes)
@@ -117,6 +119,7 @@ def test_a_power_drift_over_a_wide_sweep_stays_power_drift_and_names_the_look_al
     assert "responsivity changes with the wavelength" in str(note)
 
 
+@pytest.mark.slow
 def test_a_wide_band_fit_of_too_low_a_map_order_is_told_to_raise_it():
     sweep, _ = Scenario(seed=2, spectral="sin", dispersion_s2=1e-26, **WIDE).tables()
     _, notes = fitted(
@@ -154,6 +157,7 @@ def test_a_grid_finer_than_the_sweep_step_is_found_too():
     assert note.cause == "quantised_axis" and "grid of 0.0001 nm" in str(note)
 
 
+@pytest.mark.slow
 def test_a_frequency_rounded_to_100_mhz_is_a_quantised_axis():
     (_, notes), _ = rounded_fit("THz", 4)
     note = only_cause(notes)
@@ -172,6 +176,7 @@ def test_a_stepped_laser_with_repeated_readings_at_exact_set_points_warns_nothin
 
 
 # ---------------------------------------------------------------------- clean sweeps
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_clean_plain_and_thermal_sweeps_warn_nothing(seed):
     assert scenario_fit(wm.Calibrator(), seed=seed)[1] == []
@@ -179,6 +184,7 @@ def test_clean_plain_and_thermal_sweeps_warn_nothing(seed):
     assert scenario_fit(wm.ThermalCalibrator(), seed=seed, **thermal)[1] == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_the_wide_band_pages_sweep_calibrated_wide_band_warns_nothing(seed):
     cal, notes = scenario_fit(
@@ -187,6 +193,7 @@ def test_the_wide_band_pages_sweep_calibrated_wide_band_warns_nothing(seed):
     assert notes == [], [str(note) for note in notes]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_a_clean_cascade_warns_nothing(seed):
     """The cascade page's device (SiN slopes on every stage): its coarsest stage, swept over

@@ -148,6 +148,7 @@ def test_in_model_noise_is_the_detector_noise(in_model_reports):
 
 
 # ---------------------------------------------------------------------- out of the model
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("ports", "seed"),
     [
@@ -180,6 +181,7 @@ def test_unmodelled_even_phase_is_dispersion(ports, seed):
     assert report.p_values["dispersion"] < TEST_P_VALUE
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("ports", "seed"), [(3, 65), (4, 66)])
 def test_unmodelled_map_variation_warns(ports, seed):
     # the true map is quadratic in y, the fit linear: a residual P_2(y) A_2 u(t) of 3e-6 to
@@ -193,6 +195,7 @@ def test_unmodelled_map_variation_warns(ports, seed):
     assert "each in its own way" in str(report.warnings[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("ports", "seed"), [(3, 67), (4, 68)])
 def test_unmodelled_power_drift_is_power_drift(ports, seed):
     # 0.5 % peak with five cycles over the sweep: not a polynomial of degree 2 in y, so the
@@ -224,6 +227,7 @@ def test_projector_drops_a_coupled_direction_the_others_absorb():
     assert np.all(left < 1e-12 * np.linalg.norm(coupled, axis=(0, 1)))
 
 
+@pytest.mark.slow
 def test_projected_directions_give_the_statistics_of_the_formed_ones(monkeypatch):
     """Directions applied through their structure (ProjectedCosineColumns) and cosine
     columns formed and factored by Householder QR are the same algebra in another order.

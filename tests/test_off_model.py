@@ -275,6 +275,7 @@ def test_the_stream_flags_what_flags_gives_about_the_scaled_threshold(simulated)
     assert [bool(bit) for bit in flags[:7] & OFF_MODEL] == [False] * 4 + [True] * 3
 
 
+@pytest.mark.slow
 def test_a_wideband_calibration_with_a_model_error_reads_its_readings_unflagged(bench):
     device = wm.Interferometer.table1(ports=3, seed=2)
     rng = np.random.default_rng(4)

@@ -134,6 +134,7 @@ def test_fit_lines_are_drawn_over_sparse_translucent_markers(single_content):
     assert min(line.get_zorder() for line in fits) > max(line.get_zorder() for line in markers)
 
 
+@pytest.mark.slow
 def test_references_are_drawn_above_the_data(content):
     figures, _ = content
     data_top = max(line.get_zorder() for line in _marker_lines(figures["residual"].axes[1]))

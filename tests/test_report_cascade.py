@@ -64,6 +64,7 @@ def wrong_orders(calibration, test) -> np.ndarray:
     return np.abs(error) >= 0.5 * calibration.fsr_hz_at(test.frequency_hz)
 
 
+@pytest.mark.slow
 def test_a_cascade_is_retrieved_absolute_so_wrong_orders_show(fitted):
     calibration, _, test = fitted
     retrieved = retrieved_frequency_hz(calibration, test.powers_w, test.frequency_hz)

@@ -99,6 +99,7 @@ def test_port_labels_drop_the_file_unit_only(name, label):
     assert port_label(name) == label
 
 
+@pytest.mark.slow
 def test_page_is_self_contained_with_valid_pngs_beside_it(written):
     paths, page = written
     html_path, *pngs = paths

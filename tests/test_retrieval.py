@@ -102,6 +102,7 @@ def _dense_grid_optimum(readings, matrix, noise, phases=20000):
     return wrap_phase_rad(optimum), maxima
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("device", "noise_pattern"),
     [

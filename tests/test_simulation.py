@@ -60,6 +60,7 @@ def test_symmetry_classes_group_equal_entries():
             np.testing.assert_allclose(values, values[0], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_table1_draws_are_seeded_and_realistic():
     a = wm.Interferometer.table1(3, seed=5)
     b = wm.Interferometer.table1(3, seed=5)

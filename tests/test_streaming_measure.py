@@ -136,6 +136,7 @@ def assert_same_output(found: dict, expected: dict) -> None:
 
 
 # ---------------------------------------------------------------------------- same output
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "name",
     ["r.csv", "r.tsv", "r.parquet", "r.h5", "r.npz", "r_matrix.h5", "r_matrix_t.h5",
@@ -233,6 +234,7 @@ def test_a_kept_column_of_numbers_that_turns_to_text_is_refused(chip, tmp_path):
 
 
 # ---------------------------------------------------------------------------- text chunks
+@pytest.mark.slow
 @pytest.mark.parametrize("parser", ["arrow", "lines"])
 def test_invalid_rows_across_chunks_keep_their_file_lines(chip, tmp_path, monkeypatch, parser):
     text, line_of_row = text_with_comments_and_blank_lines(chip)

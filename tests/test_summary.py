@@ -101,6 +101,7 @@ def test_the_standard_error_matches_a_monte_carlo_over_noise_seeds():
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tag", sorted(registered()))
 def test_every_calibrator_has_a_summary(sweep, tag, tmp_path):
     device, frequency, readings = sweep

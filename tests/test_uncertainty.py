@@ -141,6 +141,7 @@ def test_bad_shapes_are_named():
 
 
 # ------------------------------------------------------------ z-scores of reading noise
+@pytest.mark.slow
 @pytest.mark.parametrize("unequal", [False, True], ids=["equal-noise", "noise-1:3:1"])
 @pytest.mark.parametrize("kind", sorted(DEVICES))
 @pytest.mark.parametrize("ports", [3, 4, 5])

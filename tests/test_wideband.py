@@ -135,6 +135,7 @@ def test_held_out_fsrs_of_a_sweep_with_gaps_are_read_at_the_bound(retrieval):
     assert abs(np.std(error / stated) - 1.0) < band
 
 
+@pytest.mark.slow
 def test_coarse_frequency_picks_the_order_and_flags_a_far_one():
     device = dispersive()
     frequency = band_hz(device)
@@ -153,6 +154,7 @@ def test_coarse_frequency_picks_the_order_and_flags_a_far_one():
     assert ORDER_MARGIN_FSR == 0.25
 
 
+@pytest.mark.slow
 def test_coarse_missing_or_outside_the_band_is_refused_and_flagged():
     device = dispersive()
     frequency = band_hz(device)
@@ -225,6 +227,7 @@ def test_settings_are_checked_by_name(setting, value):
         wm.WidebandCalibrator(**{setting: value}).fit(readings, frequency)
 
 
+@pytest.mark.slow
 def test_monitored_power_with_offsets_is_fitted_affine():
     device = dataclasses.replace(dispersive(), dark_offset_w=np.array([2e-6, -1e-6, 3e-6]))
     frequency = band_hz(device, fsr_count=8, per_fsr=400)
