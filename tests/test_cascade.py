@@ -99,6 +99,7 @@ def test_each_stage_hands_the_next_the_order_its_predict_would_pick():
     np.testing.assert_array_equal(cal.flags(readings), found.flags)
 
 
+@pytest.mark.slow
 def test_uncertainty_is_honest_and_noise_limited():
     cal, _, _ = calibrated()
     truth = band_hz(device(), 20_000, np.random.default_rng(8))

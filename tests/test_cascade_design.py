@@ -117,6 +117,7 @@ def _brute_force_rate(design, coarsest_fsr_hz: float) -> float:
     return float(any_error_probability([edge, *handovers]))
 
 
+@pytest.mark.slow
 def test_the_coarsest_fsr_minimises_the_rate():
     design = ideal_design(BAND_HZ, FINEST_FSR_HZ, noise_w=PUSHED_NOISE_W, wrong_order_rate=0.05)
     width = design.band_width_hz

@@ -75,6 +75,7 @@ def test_claim1_calibration_and_test_power_may_differ(test_power_w):
     assert other == pytest.approx(same, rel=0.06)
 
 
+@pytest.mark.slow
 def test_claim1_power_fluctuations_in_training_with_monitor_and_in_test():
     rng = np.random.default_rng(9)
     for seed in range(5):

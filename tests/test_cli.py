@@ -153,6 +153,7 @@ def test_power_monitor_column_is_used(tmp_path, capsys):
     assert document["calibration_rms_hz"] < 15e6  # 5 % power noise is divided out
 
 
+@pytest.mark.slow
 def test_per_fsr_set_needs_a_coarse_frequency_and_reproduces_fig9(tmp_path, capsys):
     sweep, cal, out = tmp_path / "wide.csv", tmp_path / "set.json", tmp_path / "f.csv"
     test = tmp_path / "wide-test.csv"
@@ -423,6 +424,7 @@ def test_uncertainty_and_ml_need_the_learned_method(files, tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_uncertainty_of_a_calibration_set_has_unit_z_spread(tmp_path, capsys):
     """measure --uncertainty works for a per-FSR set (issue 15): errors over the stated
     standard deviation spread as N(0, 1), within the statistics of 2000 readings."""

@@ -145,6 +145,7 @@ def test_the_rate_from_the_time_column(meter, laser, capsys):
     assert "disagrees with the time column 'time_s'" in err and "(use --rate)" in err
 
 
+@pytest.mark.slow
 def test_a_drift_over_more_than_one_fsr_is_unwrapped(meter, tmp_path, capsys):
     device, calibration = meter["device"], meter["calibration"]
     drift_hz_per_s = 1.5 * device.true_fsr_hz * RATE_HZ / ROWS  # 1.5 FSR over the record

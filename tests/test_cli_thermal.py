@@ -121,6 +121,7 @@ def read_output(path: Path) -> dict[str, np.ndarray]:
 
 
 # ---------------------------------------------------------------------------- calibrate, info
+@pytest.mark.slow
 def test_simulated_sweeps_carry_their_temperature(files):
     for path, temperature in zip(files["sweeps"], SWEEP_TEMPERATURES_K, strict=True):
         columns = read_output(path)

@@ -165,6 +165,7 @@ def test_given_orders_are_kept_and_info_says_so(files, tmp_path, capsys):
     assert "held-out RMS" not in printed  # nothing was cross-validated
 
 
+@pytest.mark.slow
 def test_a_linear_phase_on_a_dispersive_band_warns_and_strict_refuses(files, tmp_path, capsys):
     """Forced to the paper's model, the fit leaves the dispersion in its residual: a
     warning line, and with --strict exit code 3 and no file."""

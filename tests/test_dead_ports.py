@@ -106,6 +106,7 @@ def test_table1_devices_raise_no_warning(ports):
             assert min(port["fringe_z"] for port in cal.diagnostics_["ports"]) > 1e3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("span_fsr", [pytest.param(0.3, marks=pytest.mark.slow), 1.0])
 def test_significance_of_a_port_without_fringe_is_chi_square_2(span_fsr):
     """Mean z^2 over 400 dark ports is 2 (chi-square, 2 dof): standard error 0.1, allow 5."""

@@ -165,6 +165,7 @@ def printed_rounding(value: float, digits: int = 6) -> float:
     return 0.5 * 10.0 ** (np.floor(np.log10(abs(value))) - digits + 1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("relative_delay", [0.82, 1.27])
 @pytest.mark.parametrize("span_fsr", [1, 20])
 def test_true_fsr_just_outside_the_bracket_is_an_edge_minimum(relative_delay, span_fsr):
@@ -192,6 +193,7 @@ def near_edge_fsr_hz(edge: str, inside: float) -> float:
     return DESIGN_FSR_HZ * (1 + TOLERANCE) / (1 + inside)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("inside", [0.005, 0.001])
 @pytest.mark.parametrize("edge", ["lowest", "highest"])
 @pytest.mark.parametrize(
@@ -379,6 +381,7 @@ def fringeless_sweep(seed: int):
     return frequency, readings, learned_cost(frequency, readings), unfitted
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(3))
 def test_readings_without_fringes_are_not_blamed_on_the_fsr(seed):
     """Unfitted cost ~ noise cost (chi^2 scatter 1.3 %, the threshold is a factor 2)."""

@@ -15,6 +15,7 @@ import wavemeter as wm
 from wavemeter.cli import main
 
 
+@pytest.mark.slow
 def test_demo_writes_its_files_and_beats_conventional(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out)]) == 0

@@ -182,6 +182,7 @@ def calibration_set(device) -> wm.CalibrationSet:
     return wm.CalibrationSet(50e9).fit(powers, frequency)
 
 
+@pytest.mark.slow
 def test_a_set_reads_absolute_frequency_and_counts_wrong_coarse_values(
     device, calibration_set, five_fsr_test
 ):

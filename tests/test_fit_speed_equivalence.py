@@ -380,6 +380,7 @@ def test_cone_vectors_are_todays_bit_for_bit(frozen):
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("samples", "orders"),
     [(7, 2), (130, 97), (4099, 193), (65536, 2), (65536, 385), (100003, 97), (100003, 385)],

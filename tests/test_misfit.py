@@ -174,6 +174,7 @@ def first_cause(report: MisfitReport) -> str:
     return report.warnings[0].cause
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("span", [1.0, 3.0])
 def test_slow_power_drift_is_power_drift(span):
     device = wm.Interferometer.table1(3, seed=6)

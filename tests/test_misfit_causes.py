@@ -148,6 +148,7 @@ def test_a_wavelength_rounded_by_a_spreadsheet_is_a_quantised_axis():
     assert warning_text(note) == f"[quantised_axis] {note}"  # no option remedies it
 
 
+@pytest.mark.slow
 def test_a_grid_finer_than_the_sweep_step_is_found_too():
     """Rounded to 0.0001 nm (12.5 MHz) where the sweep steps 25 MHz: no value repeats, but
     every one lies on the grid and the residual follows it."""
@@ -164,6 +165,7 @@ def test_a_frequency_rounded_to_100_mhz_is_a_quantised_axis():
     assert note.cause == "quantised_axis" and "grid of 100 MHz in frequency" in str(note)
 
 
+@pytest.mark.slow
 def test_a_stepped_laser_with_repeated_readings_at_exact_set_points_warns_nothing():
     """The control: five readings per set point, the set points on a 100 MHz grid and the
     recorded values exact: the axis repeats and lies on a grid, but the residual does not

@@ -86,6 +86,7 @@ def test_todays_defaults_passed_explicitly_give_todays_report(kind):
     assert_same_report(explicit, default, rel=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["plain", "offsets", "phase"])
 def test_a_stack_of_identical_maps_is_the_single_map(kind):
     arguments, options, _, _ = narrow_band_case(kind)
@@ -170,6 +171,7 @@ def test_unmodelled_cubic_phase_is_phase_drift(ports, seed):
     assert first_cause(refitted) in MISFIT_CAUSES
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("ports", "seed"), [(3, 63), (4, 64)])
 def test_unmodelled_even_phase_is_dispersion(ports, seed):
     # b_4 = 0.02 rad (fit P = 2): its remainder after 1 and y^2 is (8/35) b_4 P_4(y), 1.5e-3

@@ -80,6 +80,7 @@ def test_measured_fibre_coupler_flags_almost_none_of_its_own_readings(measured, 
     assert "OFF_MODEL beyond cone distance" in note and "a model error" in note
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ports", [3, 4])
 def test_fresh_readings_of_a_device_with_a_model_error_are_not_flagged(simulated, ports):
     """Readings of the compressing device, like its sweep's, stay under the threshold; the
@@ -182,6 +183,7 @@ def outlying_sweeps(device, model_error: bool, bench):
     return sweep_hz, sweep, spoilt, largest
 
 
+@pytest.mark.slow
 def test_a_few_outliers_in_the_sweep_do_not_move_the_threshold(bench):
     """With a model error, the threshold (as the step along a fixed direction that takes a
     reading off the model) moves by less than 10 % with 1 % of the sweep outlying."""

@@ -254,6 +254,7 @@ class _NoiseOnly(wm.Calibrator):
         return super().frequency_std_hz(powers, include_calibration=False, **inputs)
 
 
+@pytest.mark.slow
 def test_set_frequency_std_gives_unit_z_scores():
     rng = np.random.default_rng(11)
     device = wm.Interferometer.table1(3, seed=11)
