@@ -2,7 +2,7 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: demo test lint docs bench trust offmodel thermal wideband cascade scale noise absolute peers fuzz serve-bench lock-bench clean
+.PHONY: demo test test-fast tiers lint docs bench trust offmodel thermal wideband cascade scale noise absolute peers fuzz serve-bench lock-bench clean
 
 $(BIN)/wavemeter: pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -15,6 +15,14 @@ demo: $(BIN)/wavemeter
 
 test: $(BIN)/wavemeter
 	$(BIN)/python -m pytest -q
+
+# the fast tier: every test not marked slow (under a minute on 2 cores; covers every module)
+test-fast: $(BIN)/wavemeter
+	$(BIN)/python -m pytest -q -m "not slow"
+
+# the fast tier against the full suite, timed side by side, and the fast tier's coverage
+tiers: $(BIN)/wavemeter
+	$(BIN)/python benchmarks/test_tiers.py
 
 lint: $(BIN)/wavemeter
 	$(BIN)/ruff check src tests benchmarks examples

@@ -17,7 +17,7 @@ import wavemeter as wm
 from wavemeter.cli import main
 from wavemeter.io import write_table
 
-from .conftest import NOISE_W, POWER_W, thermal_sweep
+from .helpers import NOISE_W, POWER_W, thermal_sweep
 
 #: text that betrays a Python internal in a message meant for a user
 INTERNALS = (

@@ -89,6 +89,7 @@ def test_random_power_without_a_monitor_leaves_the_stated_frame_error():
     assert 0.45 < np.mean(np.square(ratios)) < 1.8
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "ports", [3, pytest.param(4, marks=pytest.mark.slow), pytest.param(5, marks=pytest.mark.slow)]
 )

@@ -24,6 +24,7 @@ def setup(seed: int, first: int, last: int, samples: int, ports: int = 3):
     return cell, band, sweep, device, powers, transmission
 
 
+@pytest.mark.slow
 def test_windowed_phase_is_smooth_in_frequency_across_a_wide_band():
     """Over 4.8 THz of a dispersive device with coupler slopes, the reference-free phase
     is the true phase up to a smooth function (removed by a Legendre series of order 12 in

@@ -304,6 +304,7 @@ def test_nonlinear_fit_rejects_bad_settings(kwargs, fit_kwargs, message):
         wm.NonlinearFitCalibrator(**kwargs).fit(device.powers(f), f, **fit_kwargs)
 
 
+@pytest.mark.slow
 def test_convergence_share_single_and_multi_fsr_sweeps():
     """Delay minima lie ``1 / K`` apart for a sweep of ``K`` FSRs: a one-FSR sweep has one
     basin, so every start within +-20 % converges; over 10 FSRs many starts fall into

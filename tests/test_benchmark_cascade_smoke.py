@@ -14,7 +14,6 @@ import importlib
 import re
 from contextlib import redirect_stdout
 from io import StringIO
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -23,7 +22,10 @@ from scipy import stats
 
 import wavemeter as wm
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+from .helpers import BENCHMARKS
+
+pytestmark = pytest.mark.slow
+
 POWER_W = 1e-3
 NOISE_W = 5e-7
 STATUSES = ("PASS", "FAIL", "n/a")

@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from .test_benchmarks_smoke import BENCHMARKS, _rows
+from .helpers import BENCHMARKS, table_rows
+
+pytestmark = pytest.mark.slow
 
 #: readings of a short record (3.3 ms at 10 MHz)
 SAMPLES = 2**15
@@ -37,7 +39,7 @@ def _table(text: str, headers) -> list[list[str]]:
     """The markdown table of ``text`` with the header row ``headers``."""
     for block in text.split("\n\n"):
         if block.startswith("| "):
-            rows = _rows(block)
+            rows = table_rows(block)
             if rows[0] == list(headers):
                 return rows
     raise AssertionError(f"no table with the headers {headers}")

@@ -7,7 +7,9 @@ import importlib
 import numpy as np
 import pytest
 
-from .test_benchmarks_smoke import BENCHMARKS, _rows
+from .helpers import BENCHMARKS, table_rows
+
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +52,7 @@ def test_predict_row_times_every_path_against_arctan2(scale):
 def test_measure_table_has_both_formats_and_the_memory_target(scale):
     pytest.importorskip("pyarrow")
     text = scale.measure_table((2_000, 4_000))
-    tables = [_rows(part) for part in text.split("\n\n")]
+    tables = [table_rows(part) for part in text.split("\n\n")]
     assert [row[0] for row in tables[0][2:]] == ["CSV", "CSV", "Parquet", "Parquet"]
     assert [row[0] for row in tables[1][2:]] == ["CSV", "Parquet"]
     assert all(row[-1] in ("PASS", "FAIL") for row in tables[1][2:])

@@ -10,7 +10,7 @@ import re
 
 import pytest
 
-from .test_benchmarks_smoke import BENCHMARKS
+from .helpers import BENCHMARKS
 
 pytest.importorskip("zmq", reason="the serve extra (pyzmq) is not installed")
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import importlib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +11,10 @@ from PIL import Image
 import wavemeter as wm
 from wavemeter.simulation import THERMAL_PRESETS
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+from .helpers import BENCHMARKS, table_rows
+
+pytestmark = pytest.mark.slow
+
 TEST_SAMPLES = 300
 GRID_SAMPLES = 60
 #: the RMS of M test errors has a relative standard error of about 1 / sqrt(2 M) (4 % at
@@ -34,27 +36,23 @@ def result(thermal):
     )
 
 
-def _rows(table: str) -> list[list[str]]:
-    return [[cell.strip() for cell in line.strip("|").split("|")] for line in table.splitlines()]
-
-
 def test_tables_have_their_headers_and_a_row_per_port_count(thermal, result):
     for scenario in thermal.SCENARIOS:
-        rows = _rows(thermal.scenario_table(scenario, [result]))
+        rows = table_rows(thermal.scenario_table(scenario, [result]))
         assert rows[0][: len(thermal.SCENARIO_HEADERS)] == list(thermal.SCENARIO_HEADERS)
         assert all(len(row) == len(rows[0]) for row in rows)
         assert [row[0] for row in rows[2:]] == ["3"]
-    summary = _rows(thermal.summary_table([result]))
+    summary = table_rows(thermal.summary_table([result]))
     assert summary[0][1:] == [scenario.title for scenario in thermal.SCENARIOS]
     assert all(len(row) == len(summary[0]) for row in summary)
     assert summary[-1][1:] == [
         "PASS" if result.outcomes[s.key].over_bound() <= thermal.TARGET_OVER_BOUND else "FAIL"
         for s in thermal.SCENARIOS
     ]
-    grid = _rows(thermal.grid_table([result]))
+    grid = table_rows(thermal.grid_table([result]))
     assert grid[0] == list(thermal.GRID_HEADERS)
     assert [float(row[0]) for row in grid[2:]] == list(thermal.GRID_TEMPERATURES_K)
-    anchored = _rows(thermal.reanchor_table([result]))
+    anchored = table_rows(thermal.reanchor_table([result]))
     assert [row[0] for row in anchored[2:]] == [label for label, _, _ in thermal.REANCHOR_BINS]
     verdict = thermal.verdict([result])
     assert len(verdict) == len(thermal.SCENARIOS) + 2

@@ -12,7 +12,6 @@ import importlib
 import re
 from contextlib import redirect_stdout
 from io import StringIO
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,7 +19,10 @@ from PIL import Image
 
 import wavemeter as wm
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+from .helpers import BENCHMARKS
+
+pytestmark = pytest.mark.slow
+
 POWER_W = 1e-3
 NOISE_W = 5e-7
 

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import importlib
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+from .helpers import BENCHMARKS, table_rows
+
+pytestmark = pytest.mark.slow
+
 DEVICES = 2
 
 
@@ -43,14 +45,10 @@ def all_results(peers):
         }
 
 
-def _rows(table: str) -> list[list[str]]:
-    return [[cell.strip() for cell in line.strip("|").split("|")] for line in table.splitlines()]
-
-
 def test_regime_tables_have_a_row_per_method_and_port_count(peers, all_results):
     methods = [method.name for method in peers.library_methods()]
     for by_ports in all_results.values():
-        rows = _rows(peers.regime_table(by_ports))
+        rows = table_rows(peers.regime_table(by_ports))
         assert rows[0][:3] == ["method", "ports", "RMS (MHz)"]
         assert all(len(row) == len(rows[0]) for row in rows)
         body = rows[2:]
@@ -69,9 +67,9 @@ def test_learned_is_near_the_bound_on_table1(peers, all_results):
 
 
 def test_summary_and_targets_tables(peers, all_results):
-    summary = _rows(peers.summary_table(all_results, 3))
+    summary = table_rows(peers.summary_table(all_results, 3))
     assert summary[0][1:] == [regime.key for regime in peers.REGIMES]
-    targets = _rows(peers.targets_table(all_results, None))
+    targets = table_rows(peers.targets_table(all_results, None))
     assert targets[0] == ["target", "measured", "status"]
     assert {row[2] for row in targets[2:]} <= {"met", "missed", "n/a"}
     assert len(targets) - 2 == 2 * len(peers.REGIMES) + 4  # two learned variants
@@ -135,7 +133,7 @@ def test_trust_causes_table_names_a_rounded_axis_and_leaves_a_stepped_laser_alon
         trust.main(["--quick", "--faults", "partial_span", "--cause-rows", "rounded_pm,stepped"])
     text = capsys.readouterr().out
     causes = text[text.index("## Causes") :]
-    table = _rows("\n".join(line for line in causes.splitlines() if line.startswith("| ")))
+    table = table_rows("\n".join(line for line in causes.splitlines() if line.startswith("| ")))
     headers, rounded, stepped = table
     assert headers == list(importlib.import_module("trust_causes").HEADERS)
     assert rounded[2:5] == ["1/1: quantised_axis 1", "quantised_axis", "1/1"]
@@ -152,7 +150,7 @@ def test_trust_catalogue_quick_prints_its_rows_and_the_verdict(capsys):
         trust = importlib.import_module("trust")
         trust.main(["--quick", "--seed", "1", "--faults", "thermal_ramp"])
     lines = capsys.readouterr().out.splitlines()
-    table = _rows("\n".join(line for line in lines if line.startswith("| ")))
+    table = table_rows("\n".join(line for line in lines if line.startswith("| ")))
     assert table[0] == list(trust.HEADERS)
     body = {(row[0], row[1]): row for row in table[1:]}
     assert len(table) - 1 == len(body) == 3 + 3

@@ -30,8 +30,7 @@ from wavemeter.jobs import calibrate as calibrate_job
 from wavemeter.model.uncertainty import fit_parameter_covariance
 from wavemeter.simulation.drift import slow_power_drift
 
-from .conftest import NOISE_W, POWER_W, run_cli
-from .test_dead_ports import darken
+from .helpers import NOISE_W, POWER_W, darken, run_cli
 
 FSR_HZ = 50e9
 SAMPLES = 20_000
@@ -453,13 +452,14 @@ def _saved(calibration, folder):
 def scale():
     import importlib
 
-    from .test_benchmarks_smoke import BENCHMARKS
+    from .helpers import BENCHMARKS
 
     with pytest.MonkeyPatch.context() as patch:
         patch.syspath_prepend(str(BENCHMARKS))
         yield importlib.import_module("scale")
 
 
+@pytest.mark.slow
 def test_benchmark_times_the_whole_fit_both_ways(scale, monkeypatch):
     monkeypatch.setattr(wm.Calibrator, "diagnostic_samples", LIMIT)
     row = scale.whole_fit_row(5_000, runs=1)
@@ -468,12 +468,13 @@ def test_benchmark_times_the_whole_fit_both_ways(scale, monkeypatch):
     assert row[3] == str(-(-5_000 // 4))  # every 4th reading diagnosed
 
 
+@pytest.mark.slow
 def test_benchmark_calibrates_files_of_both_formats(scale):
     pytest.importorskip("pyarrow")
-    from .test_benchmarks_smoke import _rows
+    from .helpers import table_rows
 
     text = scale.calibrate_table((2_000, 4_000))
-    tables = [_rows(part) for part in text.split("\n\n")]
+    tables = [table_rows(part) for part in text.split("\n\n")]
     assert [row[0] for row in tables[0][2:]] == ["CSV", "CSV", "Parquet", "Parquet"]
     assert all(float(row[5]) > 0 for row in tables[0][2:])  # peak RSS (MiB)
     assert [row[-1] in ("PASS", "FAIL") for row in tables[1][2:]] == [True, True]

@@ -11,7 +11,7 @@ import wavemeter as wm
 from wavemeter.calibration.models.learned_fit import predict_frequency_hz
 from wavemeter.calibration.models.linear_map import fit_map, map_cost, object_vectors
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 
 def _rotation(angle):
@@ -125,6 +125,7 @@ def test_power_monitor_makes_calibration_immune_to_fluctuations(rng):
     assert errors["none"] > 1e3 * errors["monitor"]  # off the cone: the map is biased
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(scale=st.floats(1e-3, 1e3), index=st.integers(0, 499))
 def test_phase_is_invariant_to_source_power(noisy_fit, scale, index):

@@ -238,6 +238,7 @@ def bad_files(folder: Path, name: str, path):
 IDS = [f"{name}-{field_name(path)}" for name, path in CASES]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "path"), CASES, ids=IDS)
 def test_a_bad_number_is_refused_naming_the_field_or_reads(folder, name, path):
     refused = [bad for bad, _, got in bad_files(folder, name, path) if isinstance(got, Exception)]

@@ -16,10 +16,9 @@ import pytest
 
 import wavemeter as wm
 from wavemeter.calibration.files.document import MAX_DEPTH, MAX_INTEGER_DIGITS, SCHEMA_VERSION
-from wavemeter.cli._common import printable
 
-from .conftest import NOISE_W, POWER_W
-from .conftest import run_cli as run
+from .helpers import NOISE_W, POWER_W
+from .helpers import run_cli as run
 
 #: a hang guard for reading a device or a crafted document (each takes well under a second)
 HANG_GUARD_S = 5.0
@@ -186,11 +185,6 @@ def test_nan_in_the_ml_retrieval_cannot_come_from_a_valid_file(documents, sweep,
 
 
 # ---------------------------------------------------------------------------- wavemeter info
-
-
-def test_printable_replaces_control_characters():
-    assert printable("p1\x1b[31m\x07red\u202e\x00") == "p1?[31m?red??"
-    assert printable("two\nlines\tand tab") == "two\nlines\tand tab"
 
 
 def test_info_strips_escape_sequences_from_the_file(sweep, tmp_path, capsys):

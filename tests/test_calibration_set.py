@@ -16,8 +16,7 @@ from wavemeter.calibration.methods.set import WINDOW_FSR_TOLERANCE
 from wavemeter.calibration.methods.set_checks import adjacent_evaluation
 from wavemeter.model.cone import delay_phase_rad
 
-from .conftest import NOISE_W, POWER_W
-from .test_delay_search import fsr_crlb_std_hz
+from .helpers import NOISE_W, POWER_W, fsr_crlb_std_hz
 
 SPAN_HZ = 950e9
 SAMPLES_PER_FSR = 400
@@ -68,6 +67,7 @@ def rms(values):
     return float(np.sqrt(np.mean(np.square(values))))
 
 
+@pytest.mark.slow
 def test_windows_are_one_fitted_fsr_wide_centred_on_the_sweep(device, sweep, calibration_set):
     frequency, _ = sweep
     edges = calibration_set.window_edges_hz_
@@ -279,6 +279,7 @@ def test_true_fsr_far_outside_the_bracket_is_not_fitted_to_a_side_minimum():
         wm.CalibrationSet(50e9).fit(readings, frequency)
 
 
+@pytest.mark.slow
 def test_conventional_windows_and_power_monitor(device, sweep):
     frequency, _ = sweep
     rng = np.random.default_rng(6)
@@ -297,6 +298,7 @@ def test_conventional_windows_and_power_monitor(device, sweep):
     assert conventional.calibration_rms_hz_ > 10 * monitored.calibration_rms_hz_
 
 
+@pytest.mark.slow
 def test_windows_follow_a_local_fsr_that_drifts_across_the_band(device):
     """Dispersion: phase ``2 pi tau (d + beta d^2)``, ``d = f - f0``, local FSR off by +-0.3 %.
 

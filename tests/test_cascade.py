@@ -16,13 +16,14 @@ import pytest
 from scipy import stats
 
 import wavemeter as wm
+from wavemeter.calibration.methods import cascade as cascade_module
 from wavemeter.calibration.methods.cascade_chain import DISAGREEMENT_STD
 from wavemeter.calibration.methods.cascade_handover import HANDOVER_CAUSE
 from wavemeter.calibration.methods.cascade_reading import noise_scale
 from wavemeter.model import handover_error_probability, wrap_error_probability
 
 from ._fringe import true_fringe_coefficients_s
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 FSRS_HZ = (1e12, 100e9, 10e9)
 BAND_HZ = 0.8e12
@@ -56,6 +57,7 @@ def calibrated(noise_w: float = NOISE_W, spectral: str | None = "sin"):
     return cal, sweep, sweep_hz
 
 
+@pytest.mark.slow
 def test_noiseless_orders_are_exact_across_the_band():
     cal, _, _ = calibrated(0.0, None)
     cascade = device(None)
@@ -68,6 +70,7 @@ def test_noiseless_orders_are_exact_across_the_band():
     assert not np.any(found.flags & wm.ReadingFlag.ORDER_AMBIGUOUS)
 
 
+@pytest.mark.slow
 def test_each_stage_hands_the_next_the_order_its_predict_would_pick():
     """The class agrees with its stages read one after another, the coarse value of each
     the frequency of the one before (the band's middle for the first)."""
@@ -97,6 +100,7 @@ def test_each_stage_hands_the_next_the_order_its_predict_would_pick():
     np.testing.assert_array_equal(cal.flags(readings), found.flags)
 
 
+@pytest.mark.slow
 def test_uncertainty_is_honest_and_noise_limited():
     cal, _, _ = calibrated()
     truth = band_hz(device(), 20_000, np.random.default_rng(8))
@@ -112,6 +116,7 @@ def test_uncertainty_is_honest_and_noise_limited():
     assert np.max(np.abs(z)) < 6.0
 
 
+@pytest.mark.slow
 def test_wrong_orders_seen_match_those_predicted_at_high_noise():
     """At 30x the calibration's noise the hand-overs and the coarsest stage's ends pick
     wrong orders for several % of the readings: the count seen agrees with the sum of the
@@ -221,6 +226,7 @@ def test_save_and_load_keep_every_reading_output(tmp_path):
     assert loaded.edge_margin_std_ == cal.edge_margin_std_
 
 
+@pytest.mark.slow
 def test_stage_ports_pick_the_columns_of_each_stage():
     cal, sweep, sweep_hz = calibrated()
     order = [6, 7, 8, 0, 1, 2, 3, 4, 5]  # stage 2's columns first, then 3's, then 1's
@@ -278,6 +284,7 @@ def test_bad_design_fsrs_are_named(fsr_hz, match):
     assert caught.value.parameter == "fsr_hz"
 
 
+@pytest.mark.slow
 def test_a_ratio_too_large_for_the_noise_is_refused_with_the_largest_usable_one():
     """Two stages 100x apart at 20x the noise: the coarse stage's noise is comparable to
     the fine stage's half FSR, so the fit refuses and says which stages, why, and the
@@ -302,6 +309,7 @@ def test_a_ratio_too_large_for_the_noise_is_refused_with_the_largest_usable_one(
     assert "add a stage between them" in message
 
 
+@pytest.mark.slow
 def test_a_coarsest_stage_narrower_than_the_band_is_refused():
     fsrs = (0.5e12, 50e9)
     cascade = wm.CascadeInterferometer.table1(fsrs, ports=3, seed=SEED)
@@ -312,6 +320,7 @@ def test_a_coarsest_stage_narrower_than_the_band_is_refused():
     assert caught.value.parameter == "fsr_hz"
 
 
+@pytest.mark.slow
 def test_stage_warnings_are_named_and_a_bad_handover_on_the_sweep_warns():
     cascade = device()
     sweep_hz = band_hz(cascade, SWEEP_READINGS)
@@ -348,6 +357,7 @@ def jittered(cascade, frequency_hz: np.ndarray, seed: int) -> np.ndarray:
     return readings
 
 
+@pytest.mark.slow
 def test_a_clean_cascade_with_spectral_slopes_warns_nothing():
     """Over less than one of its FSRs the coarsest stage follows its couplers' and
     detectors' slopes with a map slope (issue 29: it used to warn ``other_misfit`` on clean
@@ -363,6 +373,7 @@ def test_a_clean_cascade_with_spectral_slopes_warns_nothing():
     assert np.all(cal.model_error_hz_ == 0)
 
 
+@pytest.mark.slow
 def test_a_misfit_of_the_coarsest_stage_says_what_it_means_in_a_cascade():
     """A misfit the coarsest stage cannot fit (its readings jittered in frequency): the
     warning says that it costs hand-over margin, which the fit reports."""
@@ -378,6 +389,7 @@ def test_a_misfit_of_the_coarsest_stage_says_what_it_means_in_a_cascade():
         assert "costs hand-over margin" in str(note) and margin in note.remedy
 
 
+@pytest.mark.slow
 def test_a_stage_whose_model_misses_the_chip_widens_its_uncertainty_by_what_the_sweep_showed():
     """The coarsest stage's readings jittered in frequency: its sweep errors exceed its std,
     the excess is kept, and the z-scores of new readings of that stage are of unit spread; the
@@ -414,6 +426,6 @@ def test_stages_of_unequal_sizes_are_settings_a_file_keeps():
     calibrator = wm.CascadeCalibrator(stage_ports=ports)
     written = calibrator.get_params_for_file()
     assert written["stage_ports"] == [[0, 1, 2, 3], [4, 5, 6], [7, 8, 9]]
-    read = wm.CascadeCalibrator._params_from_file(written)
+    read = cascade_module.CascadeCalibrator._params_from_file(written)  # what a load calls
     assert read["stage_ports"] == ports
     assert wm.CascadeCalibrator(**read).get_params() == calibrator.get_params()

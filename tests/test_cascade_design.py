@@ -2,8 +2,8 @@
 
 The derivation is checked against a simulation of ideal Gaussian stage errors decoded as a
 cascade does (the coarsest stage wrapped into its range, each finer stage's order picked
-from the stage before), and the closed-form wrap rate against a numerical integral of
-``edge_error_probability``; the choice of stages and FSRs against its limits.
+from the stage before); the choice of stages and FSRs against its limits. The search's
+closed-form rates are checked in ``test_cascade_search.py``.
 """
 
 from __future__ import annotations
@@ -14,21 +14,15 @@ import math
 
 import numpy as np
 import pytest
-from scipy import integrate
 
 import wavemeter as wm
 from wavemeter.model.cascade_design import MAX_STAGES
-from wavemeter.model.cascade_search import (
-    _SERIES_MARGIN,
-    _log_edge_rate,
-    _log_handover_rate,
-    _log_tail_integral,
-)
 from wavemeter.model.orders import (
     any_error_probability,
-    edge_error_probability,
     handover_error_rate,
 )
+
+from .helpers import band_average_edge_rate
 
 #: the issue's example: the C band, 50 GHz finest FSR, 0.5 uW noise, 1 mW, 3 ports
 BAND_HZ = (191.0e12, 195.4e12)
@@ -43,21 +37,6 @@ ALLOWED_STANDARD_ERRORS = 5.0
 ideal_design = functools.partial(wm.design_cascade, noise_factor=1.0, fsr_tolerance=0.0)
 
 
-def _band_average_edge_rate(coarsest_fsr_hz, std_hz, width_hz):
-    """Wrap rate of both ends, averaged over the band, by quadrature of Q(d / s)."""
-    near = (coarsest_fsr_hz - width_hz) / 2.0
-    one_end, _ = integrate.quad(
-        lambda distance: float(edge_error_probability(distance, std_hz)),
-        near,
-        near + width_hz,
-        points=[near + k * std_hz for k in (1, 3, 10) if k * std_hz < width_hz],
-        limit=500,
-        epsabs=0.0,
-        epsrel=1e-10,
-    )
-    return 2.0 * one_end / width_hz
-
-
 def _binomial_close(count: int, trials: int, predicted: float) -> None:
     standard_error = math.sqrt(predicted * (1.0 - predicted) / trials)
     assert abs(count / trials - predicted) < ALLOWED_STANDARD_ERRORS * standard_error, (
@@ -67,44 +46,6 @@ def _binomial_close(count: int, trials: int, predicted: float) -> None:
 
 
 # ---------------------------------------------------------------------------- the derivation
-@pytest.mark.parametrize(
-    ("coarsest_fsr_hz", "std_hz", "width_hz"),
-    [
-        (4.6e12, 0.08e12, 4.4e12),  # margin 1.25: the usual case
-        (4.6e12, 0.03e12, 4.4e12),  # margin 3.3
-        (6.0e12, 2.0e12, 4.4e12),  # s_0 comparable with the band: both limits matter
-        (5.0e12, 0.5e9, 4.4e12),  # margin 600: far in the tail
-        (1e12, 1e11, 1e3),  # a band narrow against s_0
-    ],
-)
-def test_closed_form_wrap_rate_is_the_band_average_of_q(coarsest_fsr_hz, std_hz, width_hz):
-    closed = math.exp(_log_edge_rate(coarsest_fsr_hz, std_hz, width_hz))
-    numeric = _band_average_edge_rate(coarsest_fsr_hz, std_hz, width_hz)
-    if numeric > 1e-300:
-        assert closed == pytest.approx(numeric, rel=1e-6)
-    else:  # beyond doubles: the log form still orders designs
-        assert _log_edge_rate(coarsest_fsr_hz, std_hz, width_hz) < math.log(1e-300)
-
-
-def test_tail_integral_series_continues_the_direct_form():
-    # g(z) = phi(z) - z Q(z); the series takes over at _SERIES_MARGIN. log g falls with
-    # slope about -z (2e-10 apart: 2e-8 lower); a wrong series term shows (15 z^-4 = 1.5e-7)
-    below = _log_tail_integral(_SERIES_MARGIN * (1 - 1e-12))
-    above = _log_tail_integral(_SERIES_MARGIN * (1 + 1e-12))
-    assert above == pytest.approx(below - _SERIES_MARGIN**2 * 2e-12, abs=1e-10)
-    direct = math.log(
-        math.exp(-0.5 * 30.0**2) / math.sqrt(2 * math.pi) - 30.0 * edge_error_probability(30, 1)
-    )
-    assert _log_tail_integral(30.0) == pytest.approx(direct, abs=1e-6)
-
-
-def test_log_handover_rate_is_the_log_of_orders_rate():
-    margins = np.array([0.1, 1.0, 3.0, 8.0, 20.0])
-    fsr_hz = 50e9
-    rates = handover_error_rate(fsr_hz, fsr_hz / (2.0 * margins))
-    np.testing.assert_allclose(np.exp(_log_handover_rate(margins)), rates, rtol=1e-12)
-    deep = _log_handover_rate(np.array([100.0, 1000.0]))  # the rates underflow
-    assert np.all(np.isfinite(deep)) and deep[1] < deep[0] < math.log(1e-300)
 
 
 def _decode(design, trials: int, rng):
@@ -172,10 +113,11 @@ def _brute_force_rate(design, coarsest_fsr_hz: float) -> float:
         ]
     )
     handovers = handover_error_rate(fsrs[1:], np.hypot(stds[:-1], stds[1:]))
-    edge = _band_average_edge_rate(fsrs[0], stds[0], design.band_width_hz)
+    edge = band_average_edge_rate(fsrs[0], stds[0], design.band_width_hz)
     return float(any_error_probability([edge, *handovers]))
 
 
+@pytest.mark.slow
 def test_the_coarsest_fsr_minimises_the_rate():
     design = ideal_design(BAND_HZ, FINEST_FSR_HZ, noise_w=PUSHED_NOISE_W, wrong_order_rate=0.05)
     width = design.band_width_hz
@@ -233,6 +175,7 @@ def test_a_finest_fsr_wider_than_the_band_is_one_stage():
     assert design.wrong_order_rate == design.edge_rate <= 1e-9
 
 
+@pytest.mark.slow
 def test_more_noise_never_needs_fewer_stages():
     counts = []
     for noise_w in np.geomspace(1e-7, 1e-4, 16):

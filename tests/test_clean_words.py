@@ -24,7 +24,7 @@ import pytest
 import wavemeter as wm
 from wavemeter.exceptions import shown
 
-from .conftest import one_error, run_cli, simulated_files
+from .helpers import one_error, run_cli, simulated_files
 
 #: what no output may hold: Python reprs, tracebacks, temporary files, doubled hints, raw
 #: keys of the calibration file and the diagnostics

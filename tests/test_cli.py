@@ -25,7 +25,7 @@ from wavemeter.io import ColumnRequest, read_table
 from wavemeter.model.cone import delay_phase_rad
 from wavemeter.progress import chunked
 
-from .conftest import run_cli as run
+from .helpers import run_cli as run
 
 SCRIPT = Path(sys.executable).with_name("wavemeter")
 MINIPTI_CSV = Path(__file__).parents[2] / "shared/data/minipti-fiber-3x3/Decimation_Comercial.csv"
@@ -153,6 +153,7 @@ def test_power_monitor_column_is_used(tmp_path, capsys):
     assert document["calibration_rms_hz"] < 15e6  # 5 % power noise is divided out
 
 
+@pytest.mark.slow
 def test_per_fsr_set_needs_a_coarse_frequency_and_reproduces_fig9(tmp_path, capsys):
     sweep, cal, out = tmp_path / "wide.csv", tmp_path / "set.json", tmp_path / "f.csv"
     test = tmp_path / "wide-test.csv"
@@ -172,6 +173,7 @@ def test_per_fsr_set_needs_a_coarse_frequency_and_reproduces_fig9(tmp_path, caps
     assert adjacent["conventional_adjacent"]["rms_hz"] > 10 * adjacent["adjacent"]["rms_hz"]
 
 
+@pytest.mark.slow
 def test_report_writes_html_and_figures(files, tmp_path, capsys):
     out = tmp_path / "report.html"
     ok(capsys, f"report {files['cal']} {files['sweep']} {files['test']} -o {out}")
@@ -194,6 +196,7 @@ def test_drop_invalid_writes_nan_rows_in_place(files, tmp_path, capsys):
     assert result[:, 4].tolist() == [0, wm.ReadingFlag.INVALID, 0, wm.ReadingFlag.INVALID, 0]
 
 
+@pytest.mark.slow
 def test_installed_script_round_trip_and_error(tmp_path):
     env = {**os.environ, "COLUMNS": "120"}
 
@@ -421,6 +424,7 @@ def test_uncertainty_and_ml_need_the_learned_method(files, tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_uncertainty_of_a_calibration_set_has_unit_z_spread(tmp_path, capsys):
     """measure --uncertainty works for a per-FSR set (issue 15): errors over the stated
     standard deviation spread as N(0, 1), within the statistics of 2000 readings."""

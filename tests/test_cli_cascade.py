@@ -27,7 +27,7 @@ from wavemeter.cli import main
 from wavemeter.io import write_table
 from wavemeter.report.html import report_paths
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli
+from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
 FSRS_HZ = (5e12, 500e9, 50e9)
 BAND_HZ = (191.0e12, 195.4e12)
@@ -103,6 +103,7 @@ def files(tmp_path_factory) -> dict:
 
 
 # ---------------------------------------------------------------------------- simulate
+@pytest.mark.slow
 def test_simulate_writes_the_cascade_the_python_api_draws(files):
     """The files hold the readings of CascadeInterferometer.table1 with the seed, centred in
     the band: the sweep evenly over the band, ends included, then the test readings at
@@ -166,6 +167,7 @@ def test_simulate_refuses_what_a_cascade_is_not(tmp_path, capsys, options, named
 
 
 # ---------------------------------------------------------------------------- calibrate
+@pytest.mark.slow
 def test_calibrate_defaults_to_the_issue_cascade_and_prints_stages_and_margins(
     files, tmp_path, capsys
 ):
@@ -186,6 +188,7 @@ def test_calibrate_defaults_to_the_issue_cascade_and_prints_stages_and_margins(
         assert list(row[1:4]) == wanted
 
 
+@pytest.mark.slow
 def test_stage_ports_give_each_stage_its_columns_by_position(files, tmp_path, capsys):
     """Read with the stages' columns in reverse order and --stage-ports pointing at them,
     every stage is fitted on the same data as by default: the same calibration."""
@@ -240,6 +243,7 @@ def test_bad_cascade_options_are_refused_with_one_line(files, tmp_path, capsys, 
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_a_hand_over_the_noise_does_not_allow_is_refused_at_fit_time(tmp_path, capsys):
     """At 20x the Table-1 noise the 5 THz stage's spread is a third of the 500 GHz stage's
     half FSR: refused, naming both stages and the largest usable ratio. Where detector noise
@@ -369,6 +373,7 @@ def test_info_shows_stages_hand_overs_and_the_edge_margin(files, capsys):
 
 
 # ---------------------------------------------------------------------------- report
+@pytest.mark.slow
 def test_report_has_the_cascade_section(files, tmp_path, capsys):
     page = tmp_path / "report.html"
     ok(capsys, f"report {files['cal']} {files['sweep']} {files['test']} -o {page} --quiet")
@@ -390,6 +395,7 @@ def test_report_has_the_cascade_section(files, tmp_path, capsys):
 
 
 # ---------------------------------------------------------------------------- evaluate
+@pytest.mark.slow
 def test_evaluate_reads_absolute_frequency_and_counts_wrong_orders(files, capsys):
     report = json.loads(ok(capsys, f"evaluate {files['cal']} {files['test']} --json")[0])
     assert report["coarse_from"] is None

@@ -21,13 +21,11 @@ import pytest
 
 import wavemeter as wm
 from wavemeter.cli import main
-from wavemeter.cli._common import error_text, printable
-from wavemeter.cli.app import _with_options
 from wavemeter.exceptions import InputError
 from wavemeter.progress import busy, chunked, progress_bar, progress_line
 
-from .conftest import one_error, simulated_files
-from .conftest import run_cli as run
+from .helpers import one_error, simulated_files
+from .helpers import run_cli as run
 
 
 @pytest.fixture(scope="module")
@@ -95,6 +93,7 @@ def test_bad_quantities(tmp_path, capsys, options, expected):
     assert expected in err and not out.exists()
 
 
+@pytest.mark.slow
 def test_coarse_frequency_takes_a_frequency_or_a_wavelength(tmp_path, capsys):
     sweep, cal = tmp_path / "wide.csv", tmp_path / "set.wmcal.json"
     run(capsys, f"simulate -o {sweep} --span-fsr 3 --samples 1500 --test 300 --quiet")
@@ -182,12 +181,6 @@ def test_hints_follow_the_running_command(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(Scenario, "tables", _raising(InputError("bad", parameter="x_unit")))
     err = one_error(*run(capsys, f"simulate -o {tmp_path / 's.csv'} --samples 10")[::2])
     assert err.rstrip().endswith("bad (use --write-axis-unit)")
-    exists = InputError("x.csv exists", parameter="force")
-    assert _with_options(exists, str(exists), "measure") == "x.csv exists (use --force)"
-    assert _with_options(exists, str(exists), "info") == "x.csv exists"  # info has no --force
-    assert _with_options(exists, str(exists), None) == "x.csv exists"  # no command ran
-    few = InputError("found 2 port columns; name them (ports)", parameter="ports")
-    assert _with_options(few, str(few), "measure") == "found 2 port columns; name them (--ports)"
 
 
 @pytest.mark.parametrize(
@@ -201,12 +194,6 @@ def test_a_design_fsr_off_the_sweep_names_the_fsr_option(files, tmp_path, capsys
 
 
 # ---------------------------------------------------------------------------- printable text
-def test_printable_marks_control_characters_but_keeps_tab_and_newline():
-    assert printable("a\x1b[31mb\x07\tc\nd\x9b2Je\x7f\x00") == "a?[31mb?\tc\nd?2Je??"
-    assert printable("file\u202egnp.exe\u200b") == "file?gnp.exe?"  # bidi override, zero width
-    assert printable("Wavelength (µm), P1 [dBm]") == "Wavelength (µm), P1 [dBm]"
-
-
 def test_no_control_characters_reach_the_terminal(files, tmp_path, capsys):
     lines = files["sweep"].read_text().splitlines()
     evil_port = "p3\x1b]0;pwned\x07_w"
@@ -225,14 +212,6 @@ def test_no_control_characters_reach_the_terminal(files, tmp_path, capsys):
     code = main(["measure", str(files["cal"]), str(missing), "-o", str(tmp_path / "f.csv")])
     err = one_error(code, capsys.readouterr().err)
     assert "\x1b" not in err and "gone?[2J.csv" in err
-
-
-def test_os_errors_without_python_internals():
-    assert error_text(FileNotFoundError(2, "No such file or directory", "x.csv")) == (
-        "x.csv: No such file or directory"
-    )
-    renamed = OSError(16, "Device or resource busy", "/d/.x.tmp", None, "/d/x")
-    assert error_text(renamed) == "/d/x: Device or resource busy"
 
 
 # ---------------------------------------------------------------------------- progress
@@ -314,6 +293,7 @@ def test_an_aliasing_design_fsr_is_refused_fast_with_the_sweeps_own(files, tmp_p
     assert suggested == pytest.approx(true_fsr_hz, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_python_dash_m_wavemeter_is_the_command_with_its_exit_code(tmp_path):
     missing = tmp_path / "missing.wmcal.json"
     done = subprocess.run(

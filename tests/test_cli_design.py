@@ -8,8 +8,8 @@ import pytest
 
 import wavemeter as wm
 
-from .conftest import one_error
-from .conftest import run_cli as run
+from .helpers import one_error
+from .helpers import run_cli as run
 
 EXAMPLE = "design --band 191THz:195.4THz --finest-fsr 50GHz --noise 0.5uW"
 

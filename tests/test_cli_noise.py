@@ -23,8 +23,8 @@ from wavemeter.cli import main
 from wavemeter.exceptions import recorded_calibration_warnings
 from wavemeter.simulation import laser_frequency_hz
 
-from .conftest import NOISE_W, POWER_W, one_error
-from .conftest import run_cli as run
+from .helpers import NOISE_W, POWER_W, one_error
+from .helpers import run_cli as run
 
 RATE_HZ = 10e6
 ROWS = 1 << 14
@@ -85,6 +85,7 @@ def library_analysis(calibration, powers):
         return frequency_noise(series, RATE_HZ, meter_std_hz=meter_std, fsr_hz=calibration.fsr_hz_)
 
 
+@pytest.mark.slow
 def test_report_and_json_hold_the_librarys_numbers(meter, laser, tmp_path, capsys):
     out = tmp_path / "noise.html"
     printed = ok(capsys, f"noise {meter['cal']} {laser['path']} --rate 10MHz -o {out} --json")
@@ -116,6 +117,7 @@ def test_report_and_json_hold_the_librarys_numbers(meter, laser, tmp_path, capsy
     assert html.escape(numbers["warnings"][0]) in page
 
 
+@pytest.mark.slow
 def test_json_alone_writes_nothing_and_the_summary_is_printed_without_it(
     meter, laser, tmp_path, capsys
 ):
@@ -132,6 +134,7 @@ def test_json_alone_writes_nothing_and_the_summary_is_printed_without_it(
     )
 
 
+@pytest.mark.slow
 def test_the_rate_from_the_time_column(meter, laser, capsys):
     command = f"noise {meter['cal']} {laser['path']} --json --time-column time_s"
     numbers = json.loads(ok(capsys, command))
@@ -142,6 +145,7 @@ def test_the_rate_from_the_time_column(meter, laser, capsys):
     assert "disagrees with the time column 'time_s'" in err and "(use --rate)" in err
 
 
+@pytest.mark.slow
 def test_a_drift_over_more_than_one_fsr_is_unwrapped(meter, tmp_path, capsys):
     device, calibration = meter["device"], meter["calibration"]
     drift_hz_per_s = 1.5 * device.true_fsr_hz * RATE_HZ / ROWS  # 1.5 FSR over the record
@@ -213,6 +217,7 @@ def test_nothing_to_write_or_a_page_to_stdout(meter, laser, capsys):
     assert "not written to stdout" in one_error(code, err) and printed == ""
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("change", "expected"),
     [

@@ -23,7 +23,7 @@ from wavemeter.io import write_table
 from wavemeter.model.cone import wrap_to_period
 from wavemeter.units import SPEED_OF_LIGHT_M_S
 
-from .conftest import NOISE_W, POWER_W, one_error, random_test_frequencies, run_cli, simulated_files
+from .helpers import NOISE_W, POWER_W, one_error, random_test_frequencies, run_cli, simulated_files
 
 BIAS_SHIFT_RAD = 0.5
 LINE_READINGS = 50
@@ -138,6 +138,7 @@ def test_lines_by_wavelength_column(files, shifted, tmp_path, capsys):
     assert np.sqrt(np.mean(error**2)) <= MAX_RMS_IN_CRLB * crlb_rms_hz(shifted, test_frequency)
 
 
+@pytest.mark.slow
 def test_a_calibration_set_reports_every_window(shifted, tmp_path, capsys):
     sweep, cal = tmp_path / "wide.csv", tmp_path / "set.wmcal.json"
     assert run_cli(capsys, f"simulate -o {sweep} --span-fsr 3 --samples 900 --quiet")[0] == 0

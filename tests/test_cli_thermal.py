@@ -27,7 +27,7 @@ from wavemeter.calibration.files.document import read_calibration_file
 from wavemeter.cli import main
 from wavemeter.io import write_table
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli
+from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
 SEED = 1
 SWEEP_TEMPERATURES_K = (292.0, 293.5, 295.0)
@@ -121,6 +121,7 @@ def read_output(path: Path) -> dict[str, np.ndarray]:
 
 
 # ---------------------------------------------------------------------------- calibrate, info
+@pytest.mark.slow
 def test_simulated_sweeps_carry_their_temperature(files):
     for path, temperature in zip(files["sweeps"], SWEEP_TEMPERATURES_K, strict=True):
         columns = read_output(path)
@@ -290,6 +291,7 @@ def test_evaluate_without_a_temperature_column_is_one_error(files, tmp_path, cap
 
 
 # ---------------------------------------------------------------------------- report
+@pytest.mark.slow
 def test_the_report_shows_the_rates_and_the_error_against_temperature(files, tmp_path, capsys):
     """On the three sweeps in one file: the plain learned comparison, blind to the
     temperature, drifts in phase; the page says so and the command prints no warning."""
@@ -307,6 +309,7 @@ def test_the_report_shows_the_rates_and_the_error_against_temperature(files, tmp
     assert "[phase_drift]" in text
 
 
+@pytest.mark.slow
 def test_the_report_shows_a_thermal_calibration_alone_when_plain_cannot_fit(tmp_path, capsys):
     """Sweeps 10 K apart move the fringes by 26 GHz: the plain learned comparison finds no
     delay and is refused; the report shows the thermal calibration and says why."""

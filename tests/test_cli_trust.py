@@ -5,8 +5,8 @@ Calibration warnings print as ``warning: [cause] message`` lines, also with ``--
 (``--dark FILE`` averaged per port, ``--dark-w``) are subtracted in fit and predict: a
 calibration with dark ``d`` gives bit for bit what a calibration of ``sweep - d`` gives on
 ``readings - d``. ``measure`` writes the calibration's own ``flags`` and
-``frequency_std_hz`` for every row (rows skipped as invalid get the INVALID bit), also when
-it works in chunks.
+``frequency_std_hz`` for every row (rows skipped as invalid get the INVALID bit); in chunks,
+in ``test_cli_readings.py``.
 """
 
 from __future__ import annotations
@@ -18,14 +18,12 @@ import numpy as np
 import pytest
 
 import wavemeter as wm
-from wavemeter.calibration.contract.flags import ReadingFlag
 from wavemeter.calibration.files.document import read_calibration_file
-from wavemeter.cli import _readings as readings_module
 from wavemeter.cli import main
 from wavemeter.io import ColumnRequest, read_table, write_table
 
-from .conftest import NOISE_W, POWER_W, one_error
-from .conftest import run_cli as run
+from .helpers import NOISE_W, POWER_W, one_error
+from .helpers import run_cli as run
 
 SAMPLES = 400
 TEST_ROWS = 300
@@ -286,36 +284,6 @@ def test_conventional_calibration_writes_flags_without_uncertainty(clean, tmp_pa
     assert run(capsys, command)[0] == 0
     assert run(capsys, f"measure {cal} {clean['test']} -o {out} --quiet")[0] == 0
     assert read_csv(out)[0] == ["frequency_hz", "wavelength_nm", "phase_rad", "flags"]
-
-
-def test_flags_follow_their_rows_through_chunks_and_dropped_rows(
-    clean, tmp_path, capsys, monkeypatch
-):
-    """A NaN row skipped with --drop-invalid gets INVALID and nothing else; readings at 3
-    and 1/3 of the source power get POWER_RANGE (outside the calibrated total power by
-    more than a factor 2); every other row has the calibration's own flags, measured in
-    chunks of 7 rows."""
-    monkeypatch.setattr(readings_module, "CHUNK_ROWS", 7)  # the chunks measure reads
-    readings = read_table(clean["test"], ColumnRequest(), need_x=False).powers_w[:40]
-    readings[[5, 6]] *= 3.0
-    readings[20] /= 3.0
-    readings[11, 2] = np.nan
-    data, out = write_readings(tmp_path / "d.csv", readings), tmp_path / "f.csv"
-    code, printed, err = run(capsys, f"measure {clean['cal']} {data} -o {out} --drop-invalid")
-    assert code == 0, err
-    header, result = read_csv(out)
-    flags = result[:, header.index("flags")].astype(int)
-    assert flags[11] == ReadingFlag.INVALID
-    assert np.isnan(result[11, : header.index("flags")]).all()
-    assert all(flags[row] & ReadingFlag.POWER_RANGE for row in (5, 6, 20))
-    valid = np.delete(np.arange(40), 11)
-    expected = wm.load_calibration(clean["cal"]).flags(readings[valid])
-    np.testing.assert_array_equal(flags[valid], expected)
-    counts = {bit.name: int(np.count_nonzero(flags & bit)) for bit in ReadingFlag}
-    assert counts["INVALID"] == 1 and counts["POWER_RANGE"] >= 3
-    assert f"flagged {np.count_nonzero(flags)} of 40 readings: " in printed
-    for name, count in counts.items():
-        assert (f"{name} {count}" in printed) == (count > 0), printed
 
 
 # ---------------------------------------------------------------------------- info

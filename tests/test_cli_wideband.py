@@ -28,7 +28,7 @@ from wavemeter.cli import main
 from wavemeter.io import write_table
 from wavemeter.report.html import report_paths
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli
+from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
 FSR_COUNT = 12
 PER_FSR = 300
@@ -115,6 +115,7 @@ def files(tmp_path_factory, device) -> dict:
 
 
 # ---------------------------------------------------------------------------- calibrate
+@pytest.mark.slow
 def test_the_band_gets_the_dispersion_the_device_has(files, device):
     calibration = files["calibration"]
     assert calibration.method == "wideband"
@@ -164,6 +165,7 @@ def test_given_orders_are_kept_and_info_says_so(files, tmp_path, capsys):
     assert "held-out RMS" not in printed  # nothing was cross-validated
 
 
+@pytest.mark.slow
 def test_a_linear_phase_on_a_dispersive_band_warns_and_strict_refuses(files, tmp_path, capsys):
     """Forced to the paper's model, the fit leaves the dispersion in its residual: a
     warning line, and with --strict exit code 3 and no file."""
@@ -292,6 +294,7 @@ def test_evaluate_adjacent_needs_a_set(files, capsys):
 
 
 # ---------------------------------------------------------------------------- report
+@pytest.mark.slow
 def test_report_has_the_wide_band_section_and_figures(files, tmp_path, capsys):
     page = tmp_path / "report.html"
     ok(capsys, f"report {files['cal']} {files['sweep']} {files['test']} -o {page}")
@@ -305,6 +308,7 @@ def test_report_has_the_wide_band_section_and_figures(files, tmp_path, capsys):
     assert all(path.exists() for path in report_paths(page, files["calibration"]))
 
 
+@pytest.mark.slow
 def test_report_lists_the_comparisons_warnings_on_the_page_only(tmp_path, capsys):
     """On a sweep of 15.6 FSRs the per-FSR set's outer windows cover part of an FSR and
     warn: that is about the comparison, not the user's calibration, so it goes to the page,

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import functools
 import math
+from copy import deepcopy
 
 import numpy as np
 import pytest
@@ -34,7 +35,7 @@ import wavemeter as wm
 from wavemeter.calibration.contract.base import BaseCalibrator
 from wavemeter.calibration.files.registry import registered
 
-from .conftest import thermal_sweep
+from .helpers import thermal_sweep
 
 POWER_W = 1e-3
 NOISE_W = 5e-7  # Table 1: 5e-4 mW at 1 mW
@@ -46,6 +47,10 @@ NOISELESS_HZ = 1.0
 RMS_STATISTICS = 4.0 / math.sqrt(2 * TEST_SAMPLES)
 #: fitted values per port-count bound the calibration excess: sqrt(1 + k / N), k <= 3 n + 1
 CALIBRATION_EXCESS = math.sqrt(1.0 + 13 / SWEEP_SAMPLES)
+
+
+#: fitted calibrators by (contract, device kind, noise), for :meth:`CalibratorContract.fitted`
+FITTED = {}
 
 
 def make_device(kind: str, ports: int, thermal: bool = False) -> wm.Interferometer:
@@ -137,8 +142,14 @@ class CalibratorContract:
         return simulated(kind, self.ports, noise_w, thermal)
 
     def fitted(self, kind: str, noise_w: float):
-        device, sweep, sweep_hz, test, test_hz, inputs = self.data(kind, noise_w)
-        return self.make().fit(sweep, sweep_hz, **inputs), device, test, test_hz
+        """The calibrator fitted on :meth:`data`, with the device and the test readings: one
+        fit per contract, device and noise, each check given its own copy."""
+        key = (type(self), kind, noise_w)
+        if key not in FITTED:
+            device, sweep, sweep_hz, test, test_hz, inputs = self.data(kind, noise_w)
+            FITTED[key] = self.make().fit(sweep, sweep_hz, **inputs), device, test, test_hz
+        cal, device, test, test_hz = FITTED[key]
+        return deepcopy(cal), device, test, test_hz
 
     def error_hz(self, predicted_hz, truth_hz, fsr_hz):
         """Frequency error (Hz): modulo the FSR for a method that reads within one FSR,

@@ -17,24 +17,13 @@ import pytest
 import wavemeter as wm
 from wavemeter.calibration.checks.port_health import MIN_FRINGE_Z, port_health
 
-from .conftest import NOISE_W, POWER_W
-
-DARK_W = 1e-6  # a dark port's offset (W), so that no row sums to zero
+from .helpers import NOISE_W, POWER_W, darken
 
 
 def sweep(ports: int, seed: int, samples: int = 2001, span_fsr: float = 1.0):
     device = wm.Interferometer.table1(ports, seed=seed)
     frequency = device.sweep_hz(samples, span_fsr=span_fsr)
     return device, frequency, device.powers(frequency, POWER_W, NOISE_W, rng=seed)
-
-
-def darken(readings: np.ndarray, ports, seed: int = 0) -> np.ndarray:
-    """Replace ports by dark noise: an offset and the detector noise, no fringe."""
-    rng = np.random.default_rng(seed)
-    dark = readings.copy()
-    for port in ports:
-        dark[:, port] = DARK_W + NOISE_W * rng.standard_normal(dark.shape[0])
-    return dark
 
 
 def test_one_dead_port_of_four_warns_naming_it_and_still_fits(tmp_path):
@@ -92,6 +81,7 @@ def test_a_saturated_port_is_named(ports):
             wm.Calibrator(50e9).fit(clipped, frequency)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "make",
     [wm.Calibrator, wm.ConventionalCalibrator, wm.PlaneEllipseCalibrator, wm.CalibrationSet],
@@ -105,6 +95,7 @@ def test_every_calibrator_checks_its_ports(make):
     assert cal.diagnostics_["warnings"][0]["cause"] == "dead_port"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ports", [3, 4])
 def test_table1_devices_raise_no_warning(ports):
     with warnings.catch_warnings():
@@ -115,7 +106,8 @@ def test_table1_devices_raise_no_warning(ports):
             assert min(port["fringe_z"] for port in cal.diagnostics_["ports"]) > 1e3
 
 
-@pytest.mark.parametrize("span_fsr", [0.3, 1.0])
+@pytest.mark.slow
+@pytest.mark.parametrize("span_fsr", [pytest.param(0.3, marks=pytest.mark.slow), 1.0])
 def test_significance_of_a_port_without_fringe_is_chi_square_2(span_fsr):
     """Mean z^2 over 400 dark ports is 2 (chi-square, 2 dof): standard error 0.1, allow 5."""
     device, frequency, _ = sweep(3, seed=6, samples=500, span_fsr=span_fsr)

@@ -17,7 +17,6 @@ import re
 
 import numpy as np
 import pytest
-from scipy import linalg
 
 import wavemeter as wm
 from wavemeter.calibration.checks.fsr_guard import estimate_fsr
@@ -28,9 +27,9 @@ from wavemeter.calibration.models.delay_search import (
     search_delay,
 )
 from wavemeter.calibration.models.linear_map import map_cost, object_vectors
-from wavemeter.model.cone import cone_vectors, delay_phase_rad
+from wavemeter.model.cone import delay_phase_rad
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W, fsr_crlb_std_hz
 
 DESIGN_FSR_HZ = 50e9
 TOLERANCE = 0.2
@@ -55,25 +54,6 @@ def device_with_delay(seed: int, relative_delay: float) -> wm.Interferometer:
 def many_fsr_sweep(device: wm.Interferometer, seed: int) -> tuple[np.ndarray, np.ndarray]:
     frequency = device.sweep_hz(SWEEP_SAMPLES, span_fsr=SPAN_FSR)
     return frequency, device.powers(frequency, POWER_W, NOISE_W, rng=1000 + seed)
-
-
-def fsr_crlb_std_hz(device: wm.Interferometer, frequency_hz: np.ndarray) -> float:
-    """Cramer-Rao standard deviation (Hz) of the FSR fitted on a sweep, map unknown.
-
-    Model ``p_k = A x(t_k)`` with ``t_k = 2 pi (f_k - f0) tau``; for each port the
-    derivative by ``tau`` is projected off the span of the object vectors (the derivatives
-    by that port's map row), ``var(tau) = sigma^2 / sum ||residual||^2``, and
-    ``sigma_FSR = FSR^2 sigma_tau``.
-    """
-    offset = frequency_hz - device.center_hz
-    phase = delay_phase_rad(frequency_hz, device.center_hz, device.delay_s)
-    objects = cone_vectors(phase, POWER_W)
-    tangent = np.stack([-np.sin(phase), np.cos(phase), np.zeros_like(phase)], axis=-1)
-    derivative = (POWER_W * tangent @ device.true_map().T) * (2 * np.pi * offset)[:, None]
-    q, _ = linalg.qr(objects, mode="economic")
-    residual = derivative - q @ (q.T @ derivative)
-    delay_std = NOISE_W / np.sqrt(np.sum(residual**2))
-    return device.true_fsr_hz**2 * delay_std
 
 
 def crlb_rms_hz(device: wm.Interferometer, frequency_hz: np.ndarray) -> float:
@@ -103,6 +83,7 @@ def calibration_problems(seed: int, relative_delay: float) -> list[str]:
     return problems
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "delays",
     [
@@ -132,6 +113,7 @@ def textbook_golden_section(cost, low: float, high: float, xtol: float = 1e-12) 
     return 0.5 * (a + b)
 
 
+@pytest.mark.slow
 def test_plain_golden_search_lands_on_a_side_minimum_where_the_scan_does_not():
     """The teeth of the test above: without the scan, some of its sweeps are misfitted.
 
@@ -183,6 +165,7 @@ def printed_rounding(value: float, digits: int = 6) -> float:
     return 0.5 * 10.0 ** (np.floor(np.log10(abs(value))) - digits + 1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("relative_delay", [0.82, 1.27])
 @pytest.mark.parametrize("span_fsr", [1, 20])
 def test_true_fsr_just_outside_the_bracket_is_an_edge_minimum(relative_delay, span_fsr):
@@ -210,9 +193,12 @@ def near_edge_fsr_hz(edge: str, inside: float) -> float:
     return DESIGN_FSR_HZ * (1 + TOLERANCE) / (1 + inside)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("inside", [0.005, 0.001])
 @pytest.mark.parametrize("edge", ["lowest", "highest"])
-@pytest.mark.parametrize("span_fsr", [1, 3, 20])
+@pytest.mark.parametrize(
+    "span_fsr", [1, *(pytest.param(span, marks=pytest.mark.slow) for span in (3, 20))]
+)
 def test_true_fsr_near_an_edge_is_fitted_not_refused(span_fsr, edge, inside):
     """0.5 % and 0.1 % inside an edge, with Table 1 noise: fitted to the Cramer-Rao bound.
 
@@ -395,6 +381,7 @@ def fringeless_sweep(seed: int):
     return frequency, readings, learned_cost(frequency, readings), unfitted
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(3))
 def test_readings_without_fringes_are_not_blamed_on_the_fsr(seed):
     """Unfitted cost ~ noise cost (chi^2 scatter 1.3 %, the threshold is a factor 2)."""

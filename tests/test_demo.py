@@ -9,11 +9,13 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import wavemeter as wm
 from wavemeter.cli import main
 
 
+@pytest.mark.slow
 def test_demo_writes_its_files_and_beats_conventional(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out)]) == 0
@@ -34,6 +36,7 @@ def test_demo_writes_its_files_and_beats_conventional(tmp_path, capsys):
     assert np.sqrt(np.mean(error**2)) == np.float64(cal.calibration_rms_hz_)
 
 
+@pytest.mark.slow
 def test_installed_script_runs_and_reports_user_errors(tmp_path):
     script = Path(sys.executable).with_name("wavemeter")
     env = {**os.environ, "COLUMNS": "120"}
@@ -62,6 +65,7 @@ def test_unknown_command_is_a_usage_error(capsys):
     assert len(err) == 1 and err[0].startswith("error:") and "frobnicate" in err[0]
 
 
+@pytest.mark.slow
 def test_quickstart_example_runs_and_retrieves_frequencies():
     example = Path(__file__).resolve().parents[1] / "examples" / "quickstart.py"
     done = subprocess.run(

@@ -15,7 +15,11 @@ import re
 import shlex
 from pathlib import Path
 
+import pytest
+
 from wavemeter.cli import main
+
+pytestmark = pytest.mark.slow
 
 GUIDE = Path(__file__).parent.parent / "docs" / "user-guide"
 

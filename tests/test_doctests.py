@@ -87,6 +87,7 @@ def test_public_name_has_examples(name):
     assert re.search(r"^>>> ", section, flags=re.MULTILINE), f"{name}'s Examples has no >>>"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(PUBLIC))
 def test_examples_run(name, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # an example that writes a file writes it here

@@ -182,6 +182,7 @@ def calibration_set(device) -> wm.CalibrationSet:
     return wm.CalibrationSet(50e9).fit(powers, frequency)
 
 
+@pytest.mark.slow
 def test_a_set_reads_absolute_frequency_and_counts_wrong_coarse_values(
     device, calibration_set, five_fsr_test
 ):
@@ -278,6 +279,7 @@ def cli_files(tmp_path_factory) -> dict:
     return files
 
 
+@pytest.mark.slow
 def test_cli_shows_the_absolute_error_first_and_warns_of_readings_outside_the_span(
     device, cli_files, capsys
 ):
@@ -355,6 +357,7 @@ def test_cli_says_why_a_conventional_fit_reads_the_ends_of_its_span_one_fsr_off(
     assert noted.rstrip().endswith("readings near the ends of the span come back one FSR off")
 
 
+@pytest.mark.slow
 def test_cli_set_says_where_the_coarse_frequency_came_from(cli_files, tmp_path, capsys):
     test = np.loadtxt(cli_files["test"], delimiter=",", skiprows=1)
     fsr = wm.load_calibration(cli_files["set"]).fsr_hz_
@@ -386,6 +389,7 @@ def test_cli_set_says_where_the_coarse_frequency_came_from(cli_files, tmp_path, 
     assert "coarse frequency, which must lie within half an FSR of the truth" in noted
 
 
+@pytest.mark.slow
 def test_cli_adjacent_prints_a_table_in_plain_words(cli_files, capsys):
     command = f"evaluate {cli_files['set']} {cli_files['test']} --adjacent"
     adjacent = json.loads(run(capsys, command + " --json")[0])["adjacent"]

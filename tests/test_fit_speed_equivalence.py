@@ -46,8 +46,7 @@ from wavemeter.model import cone
 from wavemeter.simulation.drift import flicker_power_noise, slow_power_drift
 from wavemeter.stats import blocks, cosine_transform, nested_tests
 
-from .test_dead_ports import darken
-from .test_misfit_wideband import narrow_band_case, wideband_report, wideband_sweep
+from .helpers import darken, narrow_band_case, wideband_report, wideband_sweep
 
 #: the commit whose misfit.py, residual_tests.py and cone.py are the reference
 FROZEN_COMMIT = "3fe49e563989582a87f5ee23cd420213ee3abe75"
@@ -381,6 +380,7 @@ def test_cone_vectors_are_todays_bit_for_bit(frozen):
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("samples", "orders"),
     [(7, 2), (130, 97), (4099, 193), (65536, 2), (65536, 385), (100003, 97), (100003, 385)],
@@ -421,6 +421,7 @@ def test_orthonormal_columns_span_what_orth_spans(rank, monkeypatch):
     np.testing.assert_allclose(basis @ basis.T, expected @ expected.T, atol=1e-14)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_misfit_report_is_todays(name, frozen, path):
     case = CASES[name]()
@@ -428,6 +429,7 @@ def test_misfit_report_is_todays(name, frozen, path):
     assert_same_report(_report(misfit.misfit_report, case), reference, spread, RENAMED.get(name))
 
 
+@pytest.mark.slow
 def test_the_cases_cover_every_cause(frozen):
     """The cases are not vacuous: between them the reference names every cause it knows
     (the causes added since are tested in test_misfit_causes.py)."""
@@ -437,6 +439,7 @@ def test_the_cases_cover_every_cause(frozen):
     assert causes == set(misfit_causes.CAUSES) - set(ADDED_CAUSES)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("taylor", [False, True])
 @pytest.mark.parametrize("degree", [1, 2])
 def test_wideband_report_is_todays(degree, taylor, frozen, monkeypatch):
@@ -488,6 +491,7 @@ FIT_CASES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(FIT_CASES))
 @pytest.mark.parametrize("retrieval", ["pinv", "ml"])
 def test_calibrator_fit_is_todays(name, retrieval, frozen, monkeypatch):

@@ -27,7 +27,7 @@ from wavemeter.io import read_table, write_table
 from wavemeter.jobs import calibrate_device, calibrate_file
 from wavemeter.jobs.calibrate import DIFFERING_FIELDS
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli
+from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
 SAMPLES = 300
 PORTS = 3
@@ -127,6 +127,7 @@ def test_calibrate_device_turns_bad_input_into_an_error_row(sweeps, tmp_path):
 
 
 # ---------------------------------------------------------------------------- the fleet
+@pytest.mark.slow
 def test_broken_device_is_recorded_and_the_others_are_calibrated(serial, sweeps):
     assert [row.device for row in serial.rows] == list(DEVICES)
     assert (serial.calibrated, serial.failed, serial.resumed) == (4, 1, 0)
@@ -175,6 +176,7 @@ def test_page_has_the_histograms_the_wafer_map_and_the_failure(serial):
     assert "Failed devices (1)" in page and BROKEN in page
 
 
+@pytest.mark.slow
 def test_dask_and_serial_give_identical_results(serial, sweeps, client, tmp_path):
     result = calibrate_fleet(sweeps, tmp_path / "out", client=client)
     assert result.summary_csv.read_bytes() == serial.summary_csv.read_bytes()
@@ -186,6 +188,7 @@ def test_dask_and_serial_give_identical_results(serial, sweeps, client, tmp_path
             )
 
 
+@pytest.mark.slow
 def test_second_run_resumes_and_force_recalibrates(serial, sweeps, tmp_path):
     out = tmp_path / "out"
     shutil.copytree(serial.out_dir, out)
@@ -218,6 +221,7 @@ def test_saved_calibrations_of_other_options_are_left_alone(serial, sweeps, tmp_
     assert first.read_text() == text
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("runner", ["serial", "dask"])
 def test_interrupt_leaves_only_complete_files(runner, sweeps, tmp_path, monkeypatch, request):
     """The third calibration is interrupted half-way through its write: it is not there,
@@ -297,6 +301,7 @@ def test_a_scheduler_that_is_not_there_is_an_input_error(sweeps, tmp_path):
 
 
 # ---------------------------------------------------------------------------- command line
+@pytest.mark.slow
 def test_cli_calibrates_resumes_and_reports(sweeps, tmp_path, capsys):
     folder = sweeps[0].parent
     out = tmp_path / "out"
@@ -316,6 +321,7 @@ def test_cli_calibrates_resumes_and_reports(sweeps, tmp_path, capsys):
     assert code == 0 and printed == "" and err.startswith("warning: 1 of 5")
 
 
+@pytest.mark.slow
 def test_cli_exit_codes(sweeps, tmp_path, capsys, monkeypatch):
     broken = sweeps[DEVICES.index(BROKEN)]
     out = tmp_path / "out"
@@ -343,6 +349,7 @@ def test_cli_exit_codes(sweeps, tmp_path, capsys, monkeypatch):
 
 
 # ---------------------------------------------------------------------------- one pipeline
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "options",
     [

@@ -21,7 +21,7 @@ from wavemeter.calibration.checks.fsr_guard import estimate_fsr
 from wavemeter.calibration.models.delay_search import MAX_GRID_POINTS, search_delay
 from wavemeter.calibration.models.subsample import median_step_hz
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 #: a hang guard: the refusal takes ~10 ms; the bad inputs used to allocate 24.6 GiB or run
 #: for minutes
@@ -99,7 +99,9 @@ def test_the_right_design_fits_exactly_as_before(sweep):
     assert estimate == pytest.approx(cal.fsr_hz_, abs=cal.summary()["fsr_hz"].stderr)
 
 
-@pytest.mark.parametrize("seed", range(20))
+@pytest.mark.parametrize(
+    "seed", [*range(3), *(pytest.param(seed, marks=pytest.mark.slow) for seed in range(3, 20))]
+)
 def test_partial_span_sweeps_are_not_refused(seed):
     """0.3 FSR: the periodogram cannot resolve the period, the cost J still does."""
     device = wm.Interferometer.table1(3, seed=seed)
@@ -111,6 +113,7 @@ def test_partial_span_sweeps_are_not_refused(seed):
     assert cal.diagnostics_["fsr_estimate_hz"] == pytest.approx(cal.fsr_hz_, abs=5 * sigma)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("span_fsr", [0.3, 1.0, 20.0])
 def test_the_estimate_finds_the_fringe_period(span_fsr):
     device = wm.Interferometer.table1(4, seed=3)

@@ -25,6 +25,8 @@ from wavemeter.calibration import registered
 
 from .saved_calibrations import INTERNALS, check_commands, documents, usable, write_test_files
 
+pytestmark = pytest.mark.slow
+
 EXAMPLES = int(os.environ.get("WAVEMETER_FUZZ_EXAMPLES", "200"))
 JSON_VALUES = st.recursive(
     st.none()

@@ -33,6 +33,8 @@ from wavemeter.exceptions import WavemeterError
 from wavemeter.io import read_table
 from wavemeter.units import OPTICAL_BAND_HZ
 
+pytestmark = pytest.mark.slow
+
 FUZZ_EXAMPLES = int(os.environ.get("WAVEMETER_FUZZ_EXAMPLES", "0"))
 SECONDS_PER_EXAMPLE = 20
 #: text that betrays a Python internal in a message meant for a user

@@ -1,6 +1,6 @@
 """`make test` gives the same result on every run: its property tests draw the same examples
-every run, keep no database of failures between runs and time nothing (the profile of
-conftest); `make fuzz` draws new ones from a printed seed (the "fuzz" profile)."""
+every run, keep no database of failures between runs and time nothing (the profile
+conftest.py loads); `make fuzz` draws new ones from a printed seed (the "fuzz" profile)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 import tests
 
-from .conftest import DEFAULT_PROFILE, FUZZ_PROFILE
+from .helpers import DEFAULT_PROFILE, FUZZ_PROFILE
 
 
 @pytest.fixture

@@ -18,8 +18,8 @@ from wavemeter.io import ColumnRequest, iter_readings, read_table, write_table
 from wavemeter.io.checks import DBM_LIKE_BELOW, WATT_LIKE_MAX_DBM
 from wavemeter.units import power_to_w
 
-from .conftest import one_error
-from .conftest import run_cli as run
+from .helpers import one_error
+from .helpers import run_cli as run
 
 ROWS = 400
 

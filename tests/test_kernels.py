@@ -17,7 +17,7 @@ from wavemeter.model.cone import cone_vectors, phase_to_frequency_hz, wrap_phase
 from wavemeter.model.retrieval import cone_ml_phase_rad
 from wavemeter.validation import check_powers
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 #: phase agreement of two roundings of the same retrieval (rad): the products round at
 #: ~1e-16 of the quadratures, times the map's condition number (< 10 for Table 1 devices);
@@ -304,6 +304,7 @@ def test_numba_takes_large_batches_only(monkeypatch, retrieval):
     assert calls == [(retrieval == "ml", least)]
 
 
+@pytest.mark.slow
 def test_importing_wavemeter_and_small_batches_leave_numba_unimported():
     code = (
         "import sys, numpy as np, wavemeter as wm\n"
@@ -315,6 +316,7 @@ def test_importing_wavemeter_and_small_batches_leave_numba_unimported():
     assert run.stdout.strip() == "False"
 
 
+@pytest.mark.slow
 def test_the_disk_cache_keeps_a_kernel_per_setting(tmp_path):
     """numba's cache keys a kernel by its code and free variables only: a kernel built with
     another setting (here the most Newton steps) must be compiled anew, not loaded."""
@@ -340,6 +342,7 @@ def test_the_disk_cache_keeps_a_kernel_per_setting(tmp_path):
     assert phases(numba_kernel.MAX_STEPS) == converged
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "register_at_fork"), reason="no fork on this platform")
 def test_a_process_forked_after_a_kernel_ran_runs_the_kernels_too():
     """A child forked after its parent shared a call among threads (threads a child does
@@ -382,6 +385,7 @@ def steps_one_by_one(cal, readings, offset_w) -> np.ndarray:
     return retrieve_phase_rad(light, cal.map_pinv_)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("retrieval", RETRIEVALS)
 @pytest.mark.parametrize("ports", [3, 4])
 @pytest.mark.parametrize("no_numba", ["0", "1"], ids=["auto", "numpy"])

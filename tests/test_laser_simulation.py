@@ -45,6 +45,7 @@ def test_welch_expectation_is_the_power_law_between_leakage_and_the_sample_avera
         np.testing.assert_allclose(expected[index, bins], analytic, rtol=2e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("noise", LEVELS)
 def test_welch_psd_of_each_noise_matches_its_level_within_the_chi_square_interval(noise):
     """The Welch PSD of the simulated series, in 8 log bands from the 4th bin up, lies within
@@ -97,6 +98,7 @@ def test_allan_deviation_of_white_and_random_walk_matches_the_analytic_value(noi
     assert np.all((ratio >= low) & (ratio <= high)), ratio
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("noise", ["flicker", "random_walk"])
 def test_regression_slope_variance_matches_the_simulated_spread(noise):
     """The variance of the least-squares slope of 400 simulated records agrees with

@@ -8,7 +8,7 @@ import pytest
 import wavemeter as wm
 from wavemeter.exceptions import InputError
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 
 @pytest.mark.parametrize(("ports", "expected_mhz"), [(3, 9.75), (4, 11.25)])
@@ -78,6 +78,7 @@ def test_per_port_noise_reduces_to_one_noise():
     np.testing.assert_array_equal(scalar, 50e9 / (2.0 * np.pi * np.sqrt(information)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ports", [3, 4])
 def test_monte_carlo_of_ideal_retrieval_meets_the_bound(ports):
     """RMS error of calibrate-then-retrieve on an ideal device equals the bound within 2 %.

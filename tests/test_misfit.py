@@ -89,6 +89,7 @@ def clean_reports() -> list[MisfitReport]:
     return reports
 
 
+@pytest.mark.slow
 def test_clean_sweeps_do_not_warn(clean_reports):
     # 50 in-model sweeps, 3-5 ports, 8-2001 readings, 1 and 3 FSR, Table 1 and ideal:
     # with a false-alarm rate of 10 % all would pass with probability 0.005 (the rate
@@ -99,6 +100,7 @@ def test_clean_sweeps_do_not_warn(clean_reports):
     assert warned == []
 
 
+@pytest.mark.slow
 def test_clean_p_values_are_not_too_small(clean_reports):
     """The null distributions behind the 1e-6 thresholds, checked at the 5 % level.
 
@@ -119,6 +121,7 @@ def test_clean_p_values_are_not_too_small(clean_reports):
     assert p_values.min() > TEST_P_VALUE
 
 
+@pytest.mark.slow
 def test_model_free_noise_within_its_standard_error(clean_reports):
     errors = []
     for report in clean_reports:
@@ -138,6 +141,7 @@ def test_model_free_noise_within_its_standard_error(clean_reports):
     assert bounds[0] < spread < bounds[1] * 1.05
 
 
+@pytest.mark.slow
 def test_short_or_coarse_sweeps_use_the_residual_and_say_so(clean_reports):
     methods = {
         (samples, span): report.noise_method
@@ -170,6 +174,7 @@ def first_cause(report: MisfitReport) -> str:
     return report.warnings[0].cause
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("span", [1.0, 3.0])
 def test_slow_power_drift_is_power_drift(span):
     device = wm.Interferometer.table1(3, seed=6)
@@ -401,6 +406,7 @@ def test_frequency_jitter_is_phase_drift():
     assert report.p_values["phase_scatter"] < TEST_P_VALUE
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("samples", [4, 5, 6])
 def test_fewest_readings_do_not_warn(samples):
     # the harmonic and smooth columns can fill the whole residual space: no test then

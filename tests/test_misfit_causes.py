@@ -22,7 +22,7 @@ from wavemeter.cli.app import warning_text
 from wavemeter.simulation import Scenario
 from wavemeter.units import FREQUENCY_UNITS, SPEED_OF_LIGHT_M_S
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 WIDE = {"span_fsr": 24.0, "samples": 4800}
 RESIDUAL_CAUSES = {"power_drift", "phase_drift", "dispersion", "other_misfit", "quantised_axis"}
@@ -66,6 +66,7 @@ def only_cause(notes) -> wm.CalibrationWarning:
 
 
 # ---------------------------------------------------------------------- wide sweeps
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("fields", "phase_too"),
     [({"spectral": "sin", "dispersion_s2": 1e-26}, True), ({"spectral": "sin"}, False)],
@@ -87,6 +88,7 @@ def test_a_plain_calibration_over_a_wavelength_dependent_device_warns_dispersion
     assert warning_text(note).endswith("(options: --method wideband (or --per-fsr))")
 
 
+@pytest.mark.slow
 def test_dispersion_alone_over_a_wide_sweep_is_named_by_its_even_phase():
     _, notes = scenario_fit(wm.Calibrator(), dispersion_s2=1e-26, **WIDE)
     note = only_cause(notes)
@@ -117,6 +119,7 @@ def test_a_power_drift_over_a_wide_sweep_stays_power_drift_and_names_the_look_al
     assert "responsivity changes with the wavelength" in str(note)
 
 
+@pytest.mark.slow
 def test_a_wide_band_fit_of_too_low_a_map_order_is_told_to_raise_it():
     sweep, _ = Scenario(seed=2, spectral="sin", dispersion_s2=1e-26, **WIDE).tables()
     _, notes = fitted(
@@ -145,6 +148,7 @@ def test_a_wavelength_rounded_by_a_spreadsheet_is_a_quantised_axis():
     assert warning_text(note) == f"[quantised_axis] {note}"  # no option remedies it
 
 
+@pytest.mark.slow
 def test_a_grid_finer_than_the_sweep_step_is_found_too():
     """Rounded to 0.0001 nm (12.5 MHz) where the sweep steps 25 MHz: no value repeats, but
     every one lies on the grid and the residual follows it."""
@@ -154,12 +158,14 @@ def test_a_grid_finer_than_the_sweep_step_is_found_too():
     assert note.cause == "quantised_axis" and "grid of 0.0001 nm" in str(note)
 
 
+@pytest.mark.slow
 def test_a_frequency_rounded_to_100_mhz_is_a_quantised_axis():
     (_, notes), _ = rounded_fit("THz", 4)
     note = only_cause(notes)
     assert note.cause == "quantised_axis" and "grid of 100 MHz in frequency" in str(note)
 
 
+@pytest.mark.slow
 def test_a_stepped_laser_with_repeated_readings_at_exact_set_points_warns_nothing():
     """The control: five readings per set point, the set points on a 100 MHz grid and the
     recorded values exact: the axis repeats and lies on a grid, but the residual does not
@@ -172,6 +178,7 @@ def test_a_stepped_laser_with_repeated_readings_at_exact_set_points_warns_nothin
 
 
 # ---------------------------------------------------------------------- clean sweeps
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_clean_plain_and_thermal_sweeps_warn_nothing(seed):
     assert scenario_fit(wm.Calibrator(), seed=seed)[1] == []
@@ -179,6 +186,7 @@ def test_clean_plain_and_thermal_sweeps_warn_nothing(seed):
     assert scenario_fit(wm.ThermalCalibrator(), seed=seed, **thermal)[1] == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_the_wide_band_pages_sweep_calibrated_wide_band_warns_nothing(seed):
     cal, notes = scenario_fit(
@@ -187,6 +195,7 @@ def test_the_wide_band_pages_sweep_calibrated_wide_band_warns_nothing(seed):
     assert notes == [], [str(note) for note in notes]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_a_clean_cascade_warns_nothing(seed):
     """The cascade page's device (SiN slopes on every stage): its coarsest stage, swept over

@@ -20,93 +20,34 @@ import dataclasses
 
 import numpy as np
 import pytest
-from scipy import optimize, special
+from scipy import optimize
 
 import wavemeter as wm
 from wavemeter.calibration.checks.misfit import MisfitReport, misfit_report
-from wavemeter.calibration.models.learned_fit import fit_learned_map
 from wavemeter.exceptions import InputError
-from wavemeter.model.cone import cone_vectors, delay_phase_rad
 from wavemeter.simulation.drift import slow_power_drift
 from wavemeter.stats import cosine_columns, nested_tests
 from wavemeter.stats.nested_tests import TEST_P_VALUE
 from wavemeter.stats.projection import Projector
 
-POWER_W = 1e-3
-NOISE_W = 5e-7  # Table 1
-FSR_HZ = 50e9
-FSRS = 20
-READINGS_PER_FSR = 200
-MAP_VARIATION = 0.02  # A_1, A_2 relative to A_0, elementwise
-QUADRATIC_PHASE_RAD = 1.0  # b_2: group-delay dispersion of a few 1e-26 s^2 over 1 THz
+from .helpers import (
+    NOISE_W,
+    POWER_W,
+    QUADRATIC_PHASE_RAD,
+    WidebandSweep,
+    fit_map,
+    narrow_band_case,
+    wideband_report,
+    wideband_sweep,
+)
+from .helpers import WIDEBAND_FSRS as FSRS
+from .helpers import WIDEBAND_READINGS_PER_FSR as READINGS_PER_FSR
+
 SWEEPS = 40
 MISFIT_CAUSES = ("power_drift", "phase_drift", "dispersion", "other_misfit")
 
 
 # ---------------------------------------------------------------------- the model
-@dataclasses.dataclass(frozen=True)
-class WidebandSweep:
-    frequency_hz: np.ndarray  # (N,)
-    center_hz: float
-    half_span_hz: float
-    phase_coefficients_rad: np.ndarray  # true b_1..b_P (P,)
-    powers_w: np.ndarray  # (N, n)
-
-    @property
-    def y(self) -> np.ndarray:
-        return (self.frequency_hz - self.center_hz) / self.half_span_hz
-
-
-def legendre_columns(y: np.ndarray, degree: int) -> np.ndarray:
-    """``L_j(y)`` for ``j = 0..degree`` (N, degree + 1)."""
-    return np.column_stack([special.eval_legendre(j, y) for j in range(degree + 1)])
-
-
-def model_phase_rad(y: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
-    """``sum_i b_i y^i``, ``i = 1..P`` (rad)."""
-    return sum(b * y ** (i + 1) for i, b in enumerate(coefficients))
-
-
-def wideband_sweep(
-    ports: int,
-    seed: int,
-    *,
-    map_degree: int = 2,
-    higher_phase_rad: tuple = (QUADRATIC_PHASE_RAD,),
-    power: np.ndarray | None = None,
-) -> WidebandSweep:
-    """Readings of the wide-band model; ``higher_phase_rad`` are ``b_2, b_3, ...``."""
-    rng = np.random.default_rng(seed)
-    device = wm.Interferometer.table1(ports, seed=seed)
-    base = device.true_map() * POWER_W
-    coefficients = [base] + [
-        MAP_VARIATION * rng.standard_normal(base.shape) * base for _ in range(map_degree)
-    ]
-    samples = FSRS * READINGS_PER_FSR
-    half_span = FSRS * FSR_HZ / 2.0
-    frequency = device.center_hz + half_span * (2.0 * (np.arange(samples) + 0.5) / samples - 1.0)
-    y = (frequency - device.center_hz) / half_span
-    phase_coefficients = np.array([2.0 * np.pi * half_span / FSR_HZ, *higher_phase_rad])
-    maps = np.einsum("kj,jab->kab", legendre_columns(y, map_degree), np.array(coefficients))
-    objects = cone_vectors(model_phase_rad(y, phase_coefficients), 1.0 if power is None else power)
-    powers = np.einsum("kab,kb->ka", maps, objects)
-    powers += NOISE_W * rng.standard_normal(powers.shape)
-    return WidebandSweep(frequency, device.center_hz, half_span, phase_coefficients, powers)
-
-
-def fit_map(sweep: WidebandSweep, coefficients: np.ndarray, degree: int):
-    """Least-squares map of ``degree`` at the phase coefficients: the phases (N,), design
-    (N, 3 (degree + 1)), each reading's map (N, n, 3) and the residual (N, n)."""
-    y = sweep.y
-    phase = model_phase_rad(y, coefficients)
-    design = np.einsum("kj,ki->kji", legendre_columns(y, degree), cone_vectors(phase))
-    design = design.reshape(y.size, -1)
-    solution, *_ = np.linalg.lstsq(design, sweep.powers_w, rcond=None)
-    map_coefficients = solution.reshape(degree + 1, 3, -1)  # (j, object, port)
-    maps = np.einsum("kj,jip->kpi", legendre_columns(y, degree), map_coefficients)
-    return phase, design, maps, sweep.powers_w - design @ solution
-
-
 def fit_phase(sweep: WidebandSweep, degree: int, order: int) -> np.ndarray:
     """Phase coefficients ``b_1..b_order`` by least squares, the map projected out (variable
     projection), from the true ones off by 0.01 rad."""
@@ -118,62 +59,12 @@ def fit_phase(sweep: WidebandSweep, degree: int, order: int) -> np.ndarray:
     return solution.x
 
 
-def wideband_report(
-    sweep: WidebandSweep, coefficients: np.ndarray, degree: int, **options
-) -> MisfitReport:
-    phase, design, maps, _ = fit_map(sweep, coefficients, degree)
-    derivatives = np.array([sweep.y ** (i + 1) for i in range(coefficients.size)])
-    return misfit_report(
-        sweep.powers_w,
-        sweep.frequency_hz,
-        sweep.center_hz,
-        coefficients[0] / (2.0 * np.pi * sweep.half_span_hz),
-        maps,
-        phase_rad=phase,
-        design=design,
-        phase_derivatives=derivatives,
-        **options,
-    )
-
-
 def first_cause(report: MisfitReport) -> str:
     assert report.warnings, "the fault was not detected"
     return report.warnings[0].cause
 
 
 # ---------------------------------------------------------------------- today's reports
-def narrow_band_case(kind: str):
-    """A one-map sweep and its learned fit: the arguments of today's call, and the design
-    and phase derivatives today's defaults stand for."""
-    device = wm.Interferometer.table1(4, seed=50)
-    frequency = device.sweep_hz(600, 3.0)
-    power = POWER_W * slow_power_drift(600, 0.3, rng=50) if kind == "offsets" else POWER_W
-    powers = device.powers(frequency, power, NOISE_W, rng=51)
-    center = 0.5 * (frequency.min() + frequency.max())
-    scale = power / power.mean() if kind == "offsets" else None
-    fit = fit_learned_map(
-        powers,
-        frequency,
-        center,
-        fsr_hz=FSR_HZ,
-        fsr_tolerance=0.2,
-        scale=scale,
-        affine=kind == "offsets",
-    )
-    options = {"scale": scale}
-    phase = delay_phase_rad(frequency, center, fit.delay_s)
-    if kind == "offsets":
-        options.update(offset_w=fit.map_[:, 3], offset_std_w=np.full(4, 1e-7))
-    if kind == "phase":  # a thermal model's phase, with its expected scatter
-        phase = phase + 0.02 * np.sin(np.linspace(0.0, 6.0, frequency.size))
-        options.update(phase_rad=phase, phase_noise_std_rad=np.full(frequency.size, 1e-3))
-    objects = cone_vectors(phase, 1.0 if scale is None else scale)
-    design = objects if kind != "offsets" else np.column_stack([objects, np.ones(600)])
-    derivatives = (2.0 * np.pi * (frequency - center))[None]
-    arguments = (powers, frequency, center, fit.delay_s, fit.map_[:, :3])
-    return arguments, options, design, derivatives
-
-
 def assert_same_report(report: MisfitReport, reference: MisfitReport, rel: float) -> None:
     assert report.causes == reference.causes
     assert report.noise_method == reference.noise_method
@@ -195,6 +86,7 @@ def test_todays_defaults_passed_explicitly_give_todays_report(kind):
     assert_same_report(explicit, default, rel=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["plain", "offsets", "phase"])
 def test_a_stack_of_identical_maps_is_the_single_map(kind):
     arguments, options, _, _ = narrow_band_case(kind)
@@ -219,6 +111,7 @@ def in_model_reports() -> list[tuple[MisfitReport, MisfitReport]]:
     return reports
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", [0, 1], ids=["true_phase", "fitted_phase"])
 def test_in_model_wideband_sweeps_do_not_warn(in_model_reports, which):
     # tests at 1e-6 each: a false alarm among 40 sweeps has a probability below 4e-4
@@ -226,6 +119,7 @@ def test_in_model_wideband_sweeps_do_not_warn(in_model_reports, which):
     assert [entry for entry in warned if entry[1]] == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", [0, 1], ids=["true_phase", "fitted_phase"])
 def test_in_model_p_values_are_not_concentrated_near_zero(in_model_reports, which):
     """Each test's p-value is uniform (or conservative) under the model: below 0.05 in at
@@ -242,6 +136,7 @@ def test_in_model_p_values_are_not_concentrated_near_zero(in_model_reports, whic
         assert p_values.min() > TEST_P_VALUE, name
 
 
+@pytest.mark.slow
 def test_in_model_noise_is_the_detector_noise(in_model_reports):
     errors = []
     for true, _ in in_model_reports:
@@ -254,7 +149,15 @@ def test_in_model_noise_is_the_detector_noise(in_model_reports):
 
 
 # ---------------------------------------------------------------------- out of the model
-@pytest.mark.parametrize(("ports", "seed"), [(3, 60), (4, 61), (4, 62)])
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("ports", "seed"),
+    [
+        (3, 60),
+        pytest.param(4, 61, marks=pytest.mark.slow),
+        pytest.param(4, 62, marks=pytest.mark.slow),
+    ],
+)
 def test_unmodelled_cubic_phase_is_phase_drift(ports, seed):
     # b_3 = 0.02 rad: after the fitted b_1 y + b_2 y^2 a remainder 0.008 P_3(y) of 3e-3 rad
     # RMS, against a phase noise of ~1.4e-3 rad per reading (5e-7 W over a fringe tangent of
@@ -268,6 +171,7 @@ def test_unmodelled_cubic_phase_is_phase_drift(ports, seed):
     assert first_cause(refitted) in MISFIT_CAUSES
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("ports", "seed"), [(3, 63), (4, 64)])
 def test_unmodelled_even_phase_is_dispersion(ports, seed):
     # b_4 = 0.02 rad (fit P = 2): its remainder after 1 and y^2 is (8/35) b_4 P_4(y), 1.5e-3
@@ -279,6 +183,7 @@ def test_unmodelled_even_phase_is_dispersion(ports, seed):
     assert report.p_values["dispersion"] < TEST_P_VALUE
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("ports", "seed"), [(3, 65), (4, 66)])
 def test_unmodelled_map_variation_warns(ports, seed):
     # the true map is quadratic in y, the fit linear: a residual P_2(y) A_2 u(t) of 3e-6 to
@@ -292,6 +197,7 @@ def test_unmodelled_map_variation_warns(ports, seed):
     assert "each in its own way" in str(report.warnings[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("ports", "seed"), [(3, 67), (4, 68)])
 def test_unmodelled_power_drift_is_power_drift(ports, seed):
     # 0.5 % peak with five cycles over the sweep: not a polynomial of degree 2 in y, so the
@@ -323,6 +229,7 @@ def test_projector_drops_a_coupled_direction_the_others_absorb():
     assert np.all(left < 1e-12 * np.linalg.norm(coupled, axis=(0, 1)))
 
 
+@pytest.mark.slow
 def test_projected_directions_give_the_statistics_of_the_formed_ones(monkeypatch):
     """Directions applied through their structure (ProjectedCosineColumns) and cosine
     columns formed and factored by Householder QR are the same algebra in another order.

@@ -39,7 +39,7 @@ from wavemeter.calibration.models.moments import (
     taylor_order,
 )
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 FSR_HZ = 50e9
 TOLERANCE = 0.2
@@ -118,8 +118,9 @@ def test_moment_cost_map_slope_and_curvature_equal_the_direct_ones(mode):
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", MODES)
-@pytest.mark.parametrize("span_fsr", [1.0, 20.0])
+@pytest.mark.parametrize("span_fsr", [1.0, pytest.param(20.0, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("ports", [3, 4])
 def test_fit_equals_the_direct_golden_search(ports, span_fsr, mode):
     frequency, readings, monitor, affine = sweep(
@@ -173,6 +174,7 @@ def chunks_of(frequency, readings, monitor, sizes, order):
         yield frequency[rows], readings[rows], None if monitor is None else monitor[rows]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", MODES)
 def test_chunked_accumulation_equals_one_shot(mode):
     frequency, readings, monitor, affine = sweep(span_fsr=4.0, samples=4000, mode=mode)

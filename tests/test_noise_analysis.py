@@ -81,8 +81,9 @@ def test_band_expectation_of_unit_white_noise_is_one_above_the_first_bins():
 # --- linewidth, floor --------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @INCIDENTAL
-@pytest.mark.parametrize("laser_over_floor", [3.0, 30.0])
+@pytest.mark.parametrize("laser_over_floor", [3.0, pytest.param(30.0, marks=pytest.mark.slow)])
 def test_lorentzian_linewidth_is_recovered_within_its_std_and_5_percent_above_3x_floor(
     laser_over_floor,
 ):
@@ -184,6 +185,7 @@ def white_fm_beta_fwhm_hz(h0: float, start_hz: float) -> float:
 BETA_SEEDS = range(6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("case", "levels", "sigma_hz"),
     [
@@ -227,6 +229,7 @@ def test_little_psd_above_the_beta_line_gives_an_upper_limit_that_holds_the_trut
         assert row[1].startswith("< ")
 
 
+@pytest.mark.slow
 def test_white_fm_well_above_the_beta_line_and_the_floor_stays_a_number_within_its_std():
     """White FM of 30 kHz (``pi h0``) at 5x a meter floor of 1.8e3 Hz^2/Hz: the PSD is
     above the line up to 17 kHz, a significant area on every seed (the six seeds of the
@@ -292,6 +295,7 @@ CASES = {
 }
 
 
+@pytest.mark.slow
 @INCIDENTAL
 @pytest.mark.parametrize("case", CASES)
 def test_allan_family_matches_the_analytic_power_law(case):

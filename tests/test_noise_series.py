@@ -22,7 +22,7 @@ from wavemeter.jobs.noise import EXCLUDED_FLAGS, measure_series, reads_modulo_fs
 from wavemeter.jobs.noise_clock import time_unit_s
 from wavemeter.jobs.noise_unwrap import AMBIGUOUS_STEP_CAUSE
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 RATE_HZ = 1e4
 ROWS = 3000
@@ -121,6 +121,7 @@ def test_untrustworthy_readings_are_excluded_and_counted_by_reason(meter, tmp_pa
     assert "line 12" in series.invalid_examples[0]  # header is line 1: row 10 is line 12
 
 
+@pytest.mark.slow
 def test_a_drift_over_two_fsrs_is_unwrapped_chunk_by_chunk(meter, tmp_path, rng):
     device, calibration = meter
     frequency = laser_hz(device, ROWS, rng, drift_fsr=2.2)

@@ -25,7 +25,7 @@ from scipy import stats
 
 import wavemeter as wm
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 MEASURED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "minipti-fiber-3x3"
@@ -91,6 +91,7 @@ def test_measured_fibre_coupler_flags_almost_none_of_its_own_readings(measured, 
     assert "heavier tail than the noise" in note
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ports", [3, 4])
 def test_fresh_readings_of_a_device_with_a_model_error_are_not_flagged(simulated, ports):
     """Readings of the compressing device, like its sweep's, stay under the threshold; the
@@ -217,6 +218,7 @@ def outlying_sweeps(device, model_error: bool, bench):
     return sweep_hz, sweep, spoilt, largest
 
 
+@pytest.mark.slow
 def test_a_few_outliers_in_the_sweep_do_not_move_the_threshold(bench):
     """With a model error, the threshold (as the step along a fixed direction that takes a
     reading off the model) moves by less than 10 % with 1 % of the sweep outlying."""
@@ -375,6 +377,7 @@ def test_the_stream_flags_what_flags_gives_about_the_threshold(simulated, reques
     assert [bool(bit) for bit in flags[:7] & OFF_MODEL] == [False] * 4 + [True] * 3
 
 
+@pytest.mark.slow
 def test_a_wideband_calibration_with_a_model_error_reads_its_readings_unflagged(bench):
     device = wm.Interferometer.table1(ports=3, seed=2)
     rng = np.random.default_rng(4)

@@ -118,6 +118,7 @@ def _agrees_to_the_digit(shown: str, value: float) -> bool:
     return abs(number - value) <= 0.5 * unit * (1 + 1e-9) + 1e-12 * abs(value)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "case",
     [pytest.param(name, marks=() if name == "learned" else pytest.mark.slow) for name in CASES],
@@ -161,6 +162,7 @@ def test_the_report_shows_the_figures_evaluate_prints(case, tmp_path, capsys, mo
         assert compared >= 6, (label, header)
 
 
+@pytest.mark.slow
 def test_measure_evaluate_and_the_report_count_the_same_flags(tmp_path, capsys, monkeypatch):
     """A calibration over half an FSR reads a test over the whole FSR: about half the
     readings are flagged OUTSIDE_SPAN, and the three commands count the same ones."""

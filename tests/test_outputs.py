@@ -25,8 +25,8 @@ from wavemeter.cli import main
 from wavemeter.exceptions import InputError
 from wavemeter.report.demo import DEMO_FILES, DEMO_SETUP
 
-from .conftest import one_error, simulated_files
-from .conftest import run_cli as run
+from .helpers import one_error, simulated_files
+from .helpers import run_cli as run
 
 SCRIPT = Path(sys.executable).with_name("wavemeter")
 
@@ -187,6 +187,7 @@ def test_atomic_path_writes_with_the_usual_mode(tmp_path):
 
 
 # ---------------------------------------------------------------------------- signals
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("signum", "exit_code"), [(signal.SIGTERM, 143), (signal.SIGHUP, 129), (signal.SIGINT, 130)]
 )
@@ -216,6 +217,7 @@ def test_main_restores_the_signal_handlers(capsys):
 
 
 # ---------------------------------------------------------------------------- stdin, stdout
+@pytest.mark.slow
 def test_stdin_to_stdout_is_the_same_table_as_files(files, tmp_path):
     out = tmp_path / "f.csv"
     keep = ["--keep", "true_frequency_hz"]
@@ -231,6 +233,7 @@ def test_stdin_to_stdout_is_the_same_table_as_files(files, tmp_path):
     assert done.stderr.decode().startswith("wrote stdout (300 rows)")
 
 
+@pytest.mark.slow
 def test_stdin_sweep_and_calibration_to_stdout(files, tmp_path):
     done = subprocess.run(
         [str(SCRIPT), "calibrate", "-", "-o", "-"],

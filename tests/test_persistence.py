@@ -10,7 +10,7 @@ import pytest
 import wavemeter as wm
 from wavemeter.calibration.files.document import FORMAT, SCHEMA_VERSION
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 
 @pytest.fixture(scope="module")

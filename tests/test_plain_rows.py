@@ -4,6 +4,7 @@ and gives them the same numbers."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -30,6 +31,7 @@ def plan_of(header, temperature: bool, request: ColumnRequest | None = None):
     return plan_columns(source, request, need_x=False, extras=(False, temperature))
 
 
+@pytest.mark.slow
 @settings(max_examples=600, deadline=None)
 @given(row=st.fixed_dictionaries({name: VALUES for name in HEADER}))
 def test_plain_rows_are_the_valid_rows_of_convert_rows(row):

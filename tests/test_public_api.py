@@ -45,6 +45,17 @@ def test_import_and_help_load_no_numpy():
     assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
 
 
+def test_the_0_1_baselines_module_gives_the_public_baselines():
+    from wavemeter import baselines
+
+    classes = [name for name in baselines.__all__ if name.endswith("Calibrator")]
+    assert len(classes) == 5
+    for name in classes:
+        assert getattr(baselines, name) is getattr(wm, name)
+    for name in set(baselines.__all__) - set(classes):
+        assert callable(getattr(baselines, name))
+
+
 def test_dir_lists_the_public_names_and_subpackages_only():
     import wavemeter as wm
 

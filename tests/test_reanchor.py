@@ -18,7 +18,7 @@ import pytest
 import wavemeter as wm
 from wavemeter.model.cone import wrap_to_period
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 REFERENCE_K = 293.15
 FRINGE_SHIFT_HZ_PER_K = 2.6e9

@@ -29,7 +29,7 @@ from wavemeter.calibration.models.reference_check import (
 )
 from wavemeter.io import write_table
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli, simulated_files, thermal_sweep
+from .helpers import NOISE_W, POWER_W, one_error, run_cli, simulated_files, thermal_sweep
 
 #: the seeds of the right inputs: each warns with probability WARN_P_VALUE (1e-3)
 SEEDS = (1, 2, 3, 4, 5)

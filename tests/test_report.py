@@ -18,7 +18,7 @@ from wavemeter.report.formatting import significant
 from wavemeter.report.fringes import NOISE_BAND_LABEL
 from wavemeter.report.plotting import DATA_ZORDER, REFERENCE_ZORDER
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 FIGURES = ("fringes", "object_space", "retrieved", "residual", "histogram")
 UNIT_AT_END = re.compile(r"(\([^()]+\)|\[[^\[\]]+\])\s*$")
@@ -134,6 +134,7 @@ def test_fit_lines_are_drawn_over_sparse_translucent_markers(single_content):
     assert min(line.get_zorder() for line in fits) > max(line.get_zorder() for line in markers)
 
 
+@pytest.mark.slow
 def test_references_are_drawn_above_the_data(content):
     figures, _ = content
     data_top = max(line.get_zorder() for line in _marker_lines(figures["residual"].axes[1]))
@@ -157,6 +158,7 @@ def _overlaps(first, second) -> bool:
     )
 
 
+@pytest.mark.slow
 def test_legends_lie_outside_every_data_area(content):
     figures, _ = content
     legends_seen = 0
@@ -269,6 +271,7 @@ def test_error_unit_follows_the_size_of_the_errors():
     assert large.axes[1].get_ylabel() == "frequency error (MHz)"
 
 
+@pytest.mark.slow
 def test_import_wavemeter_does_not_import_matplotlib():
     code = (
         "import sys, wavemeter, wavemeter.report, wavemeter.report.figures, "

@@ -23,10 +23,13 @@ from PIL import Image
 import wavemeter as wm
 from wavemeter.report.html import report_paths
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 CHROMIUM = shutil.which("chromium")
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed")
+pytestmark = [
+    pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed"),
+    pytest.mark.slow,  # a real browser
+]
 
 FLAGS = (
     "--headless",

@@ -23,7 +23,7 @@ from wavemeter.model.errors import error_summary_hz
 from wavemeter.report.content import comparison_calibration, retrieved_frequency_hz
 from wavemeter.report.html import report_paths, write_report
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 FSRS_HZ = (1e12, 100e9, 10e9)
 BAND_HZ = 0.8e12
@@ -64,6 +64,7 @@ def wrong_orders(calibration, test) -> np.ndarray:
     return np.abs(error) >= 0.5 * calibration.fsr_hz_at(test.frequency_hz)
 
 
+@pytest.mark.slow
 def test_a_cascade_is_retrieved_absolute_so_wrong_orders_show(fitted):
     calibration, _, test = fitted
     retrieved = retrieved_frequency_hz(calibration, test.powers_w, test.frequency_hz)
@@ -99,6 +100,7 @@ def test_a_cascade_has_no_comparison_method(fitted):
         comparison_calibration(calibration, sweep.powers_w, sweep.frequency_hz)
 
 
+@pytest.mark.slow
 def test_the_page_shows_stages_hand_overs_and_the_wrong_orders(fitted, tmp_path):
     calibration, sweep, test = fitted
     page = tmp_path / "report.html"

@@ -20,7 +20,7 @@ from wavemeter.report.formatting import port_label, significant
 from wavemeter.report.html import report_paths
 from wavemeter.report.page import PAPER_CITATION
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 FIGURES = ("fringes", "object_space", "retrieved", "residual", "histogram")
@@ -99,6 +99,7 @@ def test_port_labels_drop_the_file_unit_only(name, label):
     assert port_label(name) == label
 
 
+@pytest.mark.slow
 def test_page_is_self_contained_with_valid_pngs_beside_it(written):
     paths, page = written
     html_path, *pngs = paths
@@ -154,6 +155,7 @@ def test_captions_cite_the_paper_in_full(written):
     assert f"[1] {PAPER_CITATION}" in page
 
 
+@pytest.mark.slow
 def test_header_shows_the_calibration_diagnostics_when_it_has_them(one_fsr, tmp_path):
     calibration, sweep, test = one_fsr
     diagnosed = wm.Calibrator(50e9).fit(sweep.powers_w, sweep.x_hz)
@@ -174,6 +176,7 @@ def test_header_shows_the_calibration_diagnostics_when_it_has_them(one_fsr, tmp_
     assert "<tr><td>p2</td><td>dead</td><td>4.98e-07</td><td>1.23</td></tr>" in page
 
 
+@pytest.mark.slow
 def test_the_diagnostics_a_fit_records_are_shown_and_none_without_them(one_fsr, tmp_path):
     calibration, sweep, test = one_fsr
     fitted = wm.Calibrator(50e9).fit(sweep.powers_w, sweep.x_hz)
@@ -186,6 +189,7 @@ def test_the_diagnostics_a_fit_records_are_shown_and_none_without_them(one_fsr, 
     assert "Diagnostics" not in page
 
 
+@pytest.mark.slow
 def test_an_existing_output_is_kept_unless_forced(one_fsr, tmp_path):
     calibration, sweep, test = one_fsr
     out = tmp_path / "r.html"
@@ -249,6 +253,7 @@ def test_set_report_refuses_test_readings_outside_the_set(tmp_path):
         wm.write_report(calibration, sweep, beyond, tmp_path / "r.html")
 
 
+@pytest.mark.slow
 def test_report_on_the_sweep_alone(one_fsr, tmp_path):
     calibration, sweep, _ = one_fsr
     page = wm.write_report(calibration, sweep, out_html=tmp_path / "sweep.html")[0].read_text()
@@ -269,6 +274,7 @@ def test_unfitted_calibration_is_refused(one_fsr, tmp_path):
         wm.write_report(wm.Calibrator(), sweep, test, tmp_path / "r.html")
 
 
+@pytest.mark.slow
 def test_cli_report_replaces_outputs_only_with_force(tmp_path, capsys):
     sweep, cal, out = tmp_path / "scan.csv", tmp_path / "chip.wmcal.json", tmp_path / "r.html"
     assert main(shlex.split(f"simulate -o {sweep} --samples 301 --test 300 --quiet")) == 0

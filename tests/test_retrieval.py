@@ -14,7 +14,7 @@ from wavemeter.model.cone import cone_vectors, delay_phase_rad, wrap_phase_rad
 from wavemeter.model.retrieval import cone_ml_phase_rad, source_power_ratio
 from wavemeter.model.uncertainty import ml_phase_gradient, phase_std_rad
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 
 def _noisy(device, rng, samples=20000, power_w=POWER_W):
@@ -102,6 +102,7 @@ def _dense_grid_optimum(readings, matrix, noise, phases=20000):
     return wrap_phase_rad(optimum), maxima
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("device", "noise_pattern"),
     [

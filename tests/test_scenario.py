@@ -20,7 +20,7 @@ from wavemeter.exceptions import InputError
 from wavemeter.io import SENTINEL_DBM
 from wavemeter.simulation import Scenario
 
-from .conftest import one_error, run_cli
+from .helpers import one_error, run_cli
 
 #: option sets of ``wavemeter simulate`` and the same scenario in library names and SI units
 CASES = {

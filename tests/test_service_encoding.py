@@ -1,5 +1,5 @@
 """The wire format of the service: batches round-trip exactly, foreign or damaged messages
-are refused with a reason, and a client counts gaps and restarts from the sequences."""
+are refused with a reason (a client counting gaps and restarts: ``test_service_client.py``)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ import pytest
 pytest.importorskip("zmq", reason="the serve extra (pyzmq) is not installed")
 
 import wavemeter as wm  # noqa: E402
-from wavemeter.service.client import _Tracker  # noqa: E402
 from wavemeter.service.encoding import (  # noqa: E402
     READINGS_FORMAT,
     VERSION,
@@ -19,26 +18,13 @@ from wavemeter.service.encoding import (  # noqa: E402
     encode_batch,
     encode_message,
 )
-from wavemeter.service.records import CORE_FIELDS, ReadingBatch  # noqa: E402
+from wavemeter.service.records import CORE_FIELDS  # noqa: E402
 
-
-def _batch(first=0, count=5, run="r1", channel=3) -> ReadingBatch:
-    rng = np.random.default_rng(first)
-    columns = {
-        "sequence": np.arange(first, first + count),
-        "source_time_ns": 1_800_000_000_000_000_000 + np.arange(count) * 1_000_000,
-        "time_ns": 1_800_000_000_000_100_000 + np.arange(count) * 1_000_000,
-        "frequency_hz": 193.4e12 + rng.normal(0, 1e7, count),
-        "frequency_std_hz": np.full(count, 1.2e7),
-        "flags": np.array([0, 8, 0, 2, 0][:count] + [0] * max(0, count - 5)),
-        "true_frequency_hz": 193.4e12 + rng.normal(0, 1e6, count),
-    }
-    columns["frequency_hz"][1] = np.nan
-    return ReadingBatch(channel, columns, run=run, name="Ti:Sa")
+from .helpers import reading_batch  # noqa: E402
 
 
 def test_a_batch_round_trips_exactly():
-    batch = _batch()
+    batch = reading_batch()
     kind, back = decode_message(encode_batch(batch))
     assert kind == READINGS_FORMAT
     assert (back.channel, back.run, back.name, len(back)) == (3, "r1", "Ti:Sa", 5)
@@ -55,7 +41,7 @@ def test_a_batch_round_trips_exactly():
 
 
 def test_foreign_or_damaged_messages_are_refused_with_a_reason():
-    body = encode_batch(_batch())
+    body = encode_batch(reading_batch())
     message = msgpack.unpackb(body)
     cases = [
         (b"\xc1 not msgpack", "not msgpack"),
@@ -74,19 +60,3 @@ def test_other_messages_decode_as_maps_and_topics_end_in_a_slash():
     kind, message = decode_message(encode_message("wavemeter.heartbeat", run="r", time_ns=5))
     assert kind == "wavemeter.heartbeat" and message["time_ns"] == 5
     assert channel_topic(3) == b"ch/3/" and not channel_topic(30).startswith(channel_topic(3))
-
-
-def test_the_client_counts_gaps_and_restarts():
-    tracker = _Tracker(token=None, channel=None)
-
-    def take(batch):
-        return tracker.take([channel_topic(batch.channel), encode_batch(batch)])
-
-    take(_batch(0, 5))
-    take(_batch(5, 5))
-    assert tracker.missed == 0
-    take(_batch(12, 5))  # 10 and 11 lost
-    assert tracker.missed == 2
-    take(_batch(0, 5, run="r2"))  # a restarted service numbers from 0 again
-    take(_batch(5, 5, run="r2"))
-    assert (tracker.missed, tracker.restarts) == (2, 1)

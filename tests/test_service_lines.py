@@ -36,6 +36,7 @@ def _reader() -> LineReader:
     return LineReader(header)
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(st.lists(LINES, min_size=1, max_size=8))
 def test_a_block_of_lines_reads_as_each_line_does(lines):

@@ -52,6 +52,7 @@ def run(capsys, command: str) -> str:
     return printed.out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("laser", list(LASERS))
 def test_noise_finds_the_levels_simulate_laser_gave(tmp_path, capsys, laser):
     white, flicker, walk, drift = LASERS[laser]
@@ -92,6 +93,7 @@ def _noise_section_commands() -> list[str]:
     ]
 
 
+@pytest.mark.slow
 def test_the_noise_page_commands_run_in_order_and_print_what_it_says(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     commands = _noise_section_commands()

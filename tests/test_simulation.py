@@ -11,7 +11,7 @@ import wavemeter as wm
 from wavemeter.model.couplers import mmi_matrix
 from wavemeter.simulation.coupler_draws import symmetry_classes
 
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W
 
 
 def _objects(device, frequency_hz, power_w=POWER_W):
@@ -60,6 +60,7 @@ def test_symmetry_classes_group_equal_entries():
             np.testing.assert_allclose(values, values[0], atol=1e-12)
 
 
+@pytest.mark.slow
 def test_table1_draws_are_seeded_and_realistic():
     a = wm.Interferometer.table1(3, seed=5)
     b = wm.Interferometer.table1(3, seed=5)

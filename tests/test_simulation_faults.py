@@ -16,7 +16,7 @@ from wavemeter.simulation import (
 )
 from wavemeter.simulation.drift import DRIFT_HARMONICS
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli
+from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
 EPS = np.finfo(float).eps
 #: rounding of a sum of readings of about POWER_W (W): a few ulp

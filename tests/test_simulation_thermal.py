@@ -11,7 +11,7 @@ from scipy.optimize import brentq
 import wavemeter as wm
 from wavemeter.simulation import THERMAL_PRESETS, Interferometer
 
-from .conftest import POWER_W
+from .helpers import POWER_W
 
 #: the issue's numbers: fringe shift (Hz/K) and relative delay rate (1/K) of each platform;
 #: SOI's delay rate is dn/dT of silicon over the group index, 1.8e-4 / 4.2

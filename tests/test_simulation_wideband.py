@@ -15,7 +15,7 @@ from wavemeter.simulation import SPECTRAL_PRESETS, Interferometer, SpectralPrese
 from wavemeter.simulation.coupler_draws import symmetry_classes
 from wavemeter.simulation.scenario_defaults import SPECTRAL_STREAM
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli
+from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
 EPS = np.finfo(float).eps
 #: the issue's silicon-nitride numbers: dispersion (s^2), coupler slope sigma (symmetric,

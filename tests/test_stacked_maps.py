@@ -105,6 +105,7 @@ def test_a_stack_of_one_map_gives_the_single_map_result(ports):
     _assert_same(pinv_phase_gradient(readings, inverses), pinv_phase_gradient(readings, inverse))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ports", PORTS)
 def test_a_stack_of_maps_equals_a_loop_over_the_readings(ports):
     _, stack, phase, power, readings = _stack(ports, 200, seed=10 + ports)

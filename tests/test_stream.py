@@ -35,7 +35,7 @@ from wavemeter.jobs import follow_lines, stream_lines
 from wavemeter.jobs.stream import MAX_LINE_WARNINGS
 from wavemeter.units import SPEED_OF_LIGHT_M_S
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli, thermal_sweep
+from .helpers import NOISE_W, POWER_W, one_error, run_cli, thermal_sweep
 
 SCRIPT = Path(sys.executable).with_name("wavemeter")
 INVALID = int(wm.ReadingFlag.INVALID)
@@ -215,6 +215,7 @@ def test_a_missing_required_input_is_refused_before_any_row(device):
     )
 
 
+@pytest.mark.slow
 def test_a_cascade_streams_its_order_error_probability():
     fsrs_hz = (1e12, 100e9, 10e9)
     cascade = wm.CascadeInterferometer.table1(fsrs_hz, ports=3, seed=4, spectral="sin")
@@ -372,6 +373,7 @@ def _stream_child(*arguments) -> subprocess.Popen:
     )
 
 
+@pytest.mark.slow
 def test_the_command_answers_each_line_before_the_next_is_written(cal_path, calibration, readings):
     child = _stream_child(cal_path)
     try:
@@ -393,6 +395,7 @@ def test_the_command_answers_each_line_before_the_next_is_written(cal_path, cali
     assert err.startswith("end of input: streamed 12 readings from <stdin>, 0 invalid")
 
 
+@pytest.mark.slow
 def test_ctrl_c_exits_130_with_the_lines_written_intact(cal_path, readings):
     child = _stream_child(cal_path)
     try:
@@ -412,6 +415,7 @@ def test_ctrl_c_exits_130_with_the_lines_written_intact(cal_path, readings):
     )
 
 
+@pytest.mark.slow
 def test_follow_reads_a_file_as_it_grows(cal_path, calibration, readings, tmp_path):
     path = tmp_path / "log.csv"
     lines = mw_lines(readings[:4])
@@ -433,6 +437,7 @@ def test_follow_reads_a_file_as_it_grows(cal_path, calibration, readings, tmp_pa
     assert "Traceback" not in err and f"streamed 4 readings from {path}" in err
 
 
+@pytest.mark.slow
 def test_a_reader_that_goes_away_ends_the_command_quietly(cal_path, readings, tmp_path):
     path = tmp_path / "many.csv"
     path.write_text("\n".join([HEADER_MW, *mw_lines(np.resize(readings, (3000, 3)))]) + "\n")

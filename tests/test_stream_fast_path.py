@@ -30,7 +30,7 @@ from wavemeter.io import read_table
 from wavemeter.io.convert import convert_rows
 from wavemeter.jobs import stream, stream_lines
 
-from .conftest import NOISE_W, POWER_W, thermal_sweep
+from .helpers import NOISE_W, POWER_W, thermal_sweep
 
 RTOL = 1e-12
 FLAG = wm.ReadingFlag
@@ -222,6 +222,7 @@ def cascade(request):
     return cal, np.vstack([rows, noisy, off_cone]) + dark_w
 
 
+@pytest.mark.slow
 def test_a_cascade_streams_what_read_gives(cascade):
     cal, rows = cascade
     records = list(cal.stream(rows))
@@ -242,6 +243,7 @@ def test_a_cascade_streams_what_read_gives(cascade):
     assert 0 < np.count_nonzero(moved) < moved.size  # the threshold lies among them
 
 
+@pytest.mark.slow
 def test_each_stage_reads_one_reading_as_the_batch_does(cascade):
     cal, rows = cascade
     chain = cal.read(rows)
@@ -268,6 +270,7 @@ def test_each_stage_reads_one_reading_as_the_batch_does(cascade):
             coarse = frequency
 
 
+@pytest.mark.slow
 def test_a_maximum_likelihood_cascade_streams_through_read(cascade, monkeypatch):
     cal, rows = cascade
     monkeypatch.setattr(cal, "retrieval", "ml")

@@ -23,10 +23,9 @@ import wavemeter as wm
 from wavemeter.calibration.contract.flags import ReadingFlag
 from wavemeter.exceptions import FileFormatError, InputError
 from wavemeter.io import ColumnRequest, iter_readings, read_table, write_table
-from wavemeter.io import text as text_module
 from wavemeter.jobs import measure_file
 
-from .conftest import one_error, run_cli, simulated_files
+from .helpers import one_error, run_cli, simulated_files, text_with_comments_and_blank_lines
 
 ROWS = 60
 #: rows whose port 2 reading is missing (NaN): invalid, skipped with drop_invalid
@@ -137,6 +136,7 @@ def assert_same_output(found: dict, expected: dict) -> None:
 
 
 # ---------------------------------------------------------------------------- same output
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "name",
     ["r.csv", "r.tsv", "r.parquet", "r.h5", "r.npz", "r_matrix.h5", "r_matrix_t.h5",
@@ -234,53 +234,14 @@ def test_a_kept_column_of_numbers_that_turns_to_text_is_refused(chip, tmp_path):
 
 
 # ---------------------------------------------------------------------------- text chunks
-def text_with_comments_and_blank_lines(chip, newline: str = "\n") -> tuple[str, list[int]]:
-    """The readings as CSV text after two comment lines, with blank lines here and there;
-    and the file line (1-based) of each data row."""
-    text = ["# chip 7", "# measured 2026-11-24", "time_s,p1_w,p2_w,p3_w"]
-    line_of_row = []
-    for row, values in enumerate(zip(chip["time_s"], *chip["powers"].T, strict=True)):
-        if row % 9 == 4:
-            text.append("")
-        text.append(",".join("" if np.isnan(v) else repr(float(v)) for v in values))
-        line_of_row.append(len(text))
-    return newline.join(text) + newline, line_of_row
-
-
-@pytest.mark.parametrize("newline", ["\n", "\r\n", "\r"])
-@pytest.mark.parametrize("parser", ["arrow", "lines"])
-def test_csv_blocks_cut_mid_line_give_the_same_rows(chip, tmp_path, monkeypatch, newline, parser):
-    """Blocks of 37 bytes cut lines (and CRLF pairs) anywhere; the rows are the whole
-    file's, in order, at every chunk size, with pyarrow and with the line parser."""
-    text, _ = text_with_comments_and_blank_lines(chip, newline)
-    data = tmp_path / "r.csv"
-    data.write_bytes(text.encode())
-    monkeypatch.setattr(text_module, "_BLOCK_BYTES", 37)
-    if parser == "lines":
-        monkeypatch.setattr(text_module, "_pyarrow", lambda: None)
-    whole = read_table(data, ColumnRequest(keep=("time_s",)), need_x=False, allow_invalid=True)
-    for chunk_rows in CHUNK_SIZES:
-        stream = iter_readings(
-            data, ColumnRequest(keep=("time_s",)), chunk_rows=chunk_rows, allow_invalid=True
-        )
-        chunks = list(stream)
-        assert all(chunk.n_rows <= chunk_rows for chunk in chunks)
-        powers = np.concatenate([chunk.powers_w for chunk in chunks])
-        np.testing.assert_array_equal(powers, whole.powers_w)
-        kept = np.concatenate([chunk.kept["time_s"] for chunk in chunks])
-        np.testing.assert_array_equal(kept, chip["time_s"])
-        # rows read; the total counted from line ends (each blank line counts)
-        blank = text.count(newline * 2)
-        assert stream.progress == ROWS and stream.progress_total == (ROWS + blank, "rows")
-
-
+@pytest.mark.slow
 @pytest.mark.parametrize("parser", ["arrow", "lines"])
 def test_invalid_rows_across_chunks_keep_their_file_lines(chip, tmp_path, monkeypatch, parser):
     text, line_of_row = text_with_comments_and_blank_lines(chip)
     data = tmp_path / "r.csv"
     data.write_text(text)
     if parser == "lines":
-        monkeypatch.setattr(text_module, "_pyarrow", lambda: None)
+        monkeypatch.setitem(sys.modules, "pyarrow", None)  # as where it is not installed
     expected = [f"line {line_of_row[row]} (p2_w is NaN, empty or inf)" for row in MISSING_ROWS]
     for chunk_rows in CHUNK_SIZES:
         out = tmp_path / f"o{chunk_rows}.csv"
@@ -323,7 +284,7 @@ def test_a_bad_cell_deep_in_the_file_is_named_by_its_line(chip, tmp_path, monkey
     data = tmp_path / "r.csv"
     data.write_text("\n".join(lines))
     if parser == "lines":
-        monkeypatch.setattr(text_module, "_pyarrow", lambda: None)
+        monkeypatch.setitem(sys.modules, "pyarrow", None)  # as where it is not installed
     with pytest.raises(FileFormatError, match=rf"line {bad_line}, column 'p1_w': 'abc' is not"):
         list(iter_readings(data, chunk_rows=7, allow_invalid=True))
 
@@ -456,6 +417,7 @@ def _peak_rss_bytes(*args) -> int:
     return int(done.stdout.split()[-1]) * 1024
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(sys.platform != "linux", reason="ru_maxrss in kB on Linux")
 def test_peak_memory_does_not_grow_with_the_file(chip, tmp_path):
     """2e5 rows take no more than 1.2x the peak memory of 2e4 rows plus one chunk."""

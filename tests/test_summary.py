@@ -18,7 +18,7 @@ import wavemeter as wm
 from wavemeter.calibration.files.registry import registered
 from wavemeter.calibration.models.linear_map import map_cost, object_vectors
 
-from .conftest import NOISE_W, POWER_W, thermal_sweep
+from .helpers import NOISE_W, POWER_W, thermal_sweep
 
 MONTE_CARLO_SEEDS = 200
 MONTE_CARLO_RTOL = 0.2
@@ -84,6 +84,7 @@ def test_the_standard_error_is_the_curvature_of_the_cost(sweep, fitted):
     assert fitted.delay_std_s_ == pytest.approx(np.sqrt(variance), rel=0.01)
 
 
+@pytest.mark.slow
 def test_the_standard_error_matches_a_monte_carlo_over_noise_seeds():
     device = wm.Interferometer.table1(3, seed=7)
     frequency = device.sweep_hz(501)
@@ -100,6 +101,7 @@ def test_the_standard_error_matches_a_monte_carlo_over_noise_seeds():
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tag", sorted(registered()))
 def test_every_calibrator_has_a_summary(sweep, tag, tmp_path):
     device, frequency, readings = sweep

@@ -17,7 +17,7 @@ import pytest
 import wavemeter as wm
 from wavemeter.calibration.models.thermal_fit import thermal_phase_rad
 
-from .conftest import NOISE_W, POWER_W, THERMAL_SWEEP_TEMPERATURES_K, thermal_sweep
+from .helpers import NOISE_W, POWER_W, THERMAL_SWEEP_TEMPERATURES_K, thermal_sweep
 
 SENSOR_STD_K = 1e-3
 TEST_READINGS = 3000
@@ -74,6 +74,7 @@ def test_readings(sin_device, calibrated):
     return powers, frequency, measured
 
 
+@pytest.mark.slow
 def test_rates_and_fsr_are_recovered_within_their_standard_errors(sin_device, calibrated):
     thermal = calibrated.diagnostics_["thermal"]
     phase_rate, delay_rate = true_rates(sin_device, calibrated)
@@ -93,6 +94,7 @@ def test_rates_and_fsr_are_recovered_within_their_standard_errors(sin_device, ca
     assert calibrated.reference_temperature_k_ == pytest.approx(293.15, abs=1e-4)
 
 
+@pytest.mark.slow
 def test_readings_at_any_calibrated_temperature_have_honest_uncertainties(
     sin_device, calibrated, test_readings
 ):
@@ -181,6 +183,7 @@ def test_readings_beyond_the_calibrated_temperatures_are_flagged(calibrated, tes
     assert np.all(below & wm.ReadingFlag.TEMPERATURE_RANGE)
 
 
+@pytest.mark.slow
 def test_a_recording_during_a_ramp_of_repeated_sweeps_fits_without_warnings():
     device = wm.Interferometer.table1(4, seed=3).with_thermal("sin")
     rng = np.random.default_rng(5)
@@ -240,6 +243,7 @@ def test_sweeps_too_far_apart_for_the_plausible_rates_warn(sin_device):
     assert [record["cause"] for record in cal.diagnostics_["warnings"]] == ["thermal_ambiguity"]
 
 
+@pytest.mark.slow
 def test_a_noisy_sensor_is_named_and_its_noise_kept_out_of_the_detectors(sin_device):
     sensor_std_k = 5e-3
     powers, frequency, temperature = thermal_sweep(sin_device, 2000, NOISE_W, rng=9)
@@ -331,6 +335,7 @@ def test_the_file_keeps_the_rates(calibrated, tmp_path):
     assert loaded.diagnostics_["thermal"] == calibrated.diagnostics_["thermal"]
 
 
+@pytest.mark.slow
 def test_a_drift_the_temperature_does_not_explain_is_still_named(sin_device):
     """With the 1 mK sensor's phase scatter expected by the diagnostics, a slow extra bias
     drift (0.02 rad, 1.5x the reading phase noise over ~2000 readings) is still found."""

@@ -19,7 +19,7 @@ import wavemeter as wm
 from wavemeter import ReadingFlag
 from wavemeter.simulation.drift import slow_power_drift
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 FSR_HZ = 50e9
 
@@ -193,6 +193,7 @@ def _z_scores(device, calibrator_factory, *, calibrations, samples, tests, noise
 IMPAIRED = {"symmetric_sigma": 0.2, "breaking_sigma": 0.1, "responsivity_sigma": 0.4}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("retrieval", ["pinv", "ml"])
 @pytest.mark.parametrize(
     ("ports", "impairments", "noise_ratios"),
@@ -216,6 +217,7 @@ def test_frequency_std_gives_unit_z_scores(retrieval, ports, impairments, noise_
     assert 0.95 < np.std(z) < 1.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("retrieval", ["pinv", "ml"])
 def test_frequency_std_counts_the_calibration_of_few_samples(retrieval):
     device = wm.Interferometer.table1(3, seed=9)
@@ -252,6 +254,7 @@ class _NoiseOnly(wm.Calibrator):
         return super().frequency_std_hz(powers, include_calibration=False, **inputs)
 
 
+@pytest.mark.slow
 def test_set_frequency_std_gives_unit_z_scores():
     rng = np.random.default_rng(11)
     device = wm.Interferometer.table1(3, seed=11)

@@ -25,7 +25,7 @@ from wavemeter.model.uncertainty import (
     student_factor,
 )
 
-from .conftest import NOISE_W, POWER_W, random_test_frequencies
+from .helpers import NOISE_W, POWER_W, random_test_frequencies
 
 DEVICES = {
     "ideal": lambda ports: wm.Interferometer.ideal(ports),
@@ -141,6 +141,7 @@ def test_bad_shapes_are_named():
 
 
 # ------------------------------------------------------------ z-scores of reading noise
+@pytest.mark.slow
 @pytest.mark.parametrize("unequal", [False, True], ids=["equal-noise", "noise-1:3:1"])
 @pytest.mark.parametrize("kind", sorted(DEVICES))
 @pytest.mark.parametrize("ports", [3, 4, 5])
@@ -281,6 +282,7 @@ def test_covariance_matches_a_monte_carlo_of_the_fit():
     assert sample[-1, -1] / covariance[-1, -1] == pytest.approx(1.0, abs=4.5 * np.sqrt(2 / 400))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("retrieval", ["pinv", "ml"])
 @pytest.mark.parametrize("sweep_samples", [8, 200])
 def test_calibration_variance_of_a_reading_over_many_calibrations(sweep_samples, retrieval):

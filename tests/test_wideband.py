@@ -62,6 +62,7 @@ def held_out(device, low_hz, high_hz, count=4000, seed=5):
     return device.powers(frequency, POWER_W, NOISE_W, rng=seed + 1), frequency
 
 
+@pytest.mark.slow
 def test_linear_phase_device_gives_order_one_and_the_papers_result():
     device = wm.Interferometer.table1(3, seed=4)
     frequency = band_hz(device, fsr_count=8)
@@ -80,6 +81,7 @@ def test_linear_phase_device_gives_order_one_and_the_papers_result():
     )
 
 
+@pytest.mark.slow
 def test_dispersion_is_found_as_phase_order_two():
     device = dispersive()
     cal = fitted(device, band_hz(device))
@@ -90,6 +92,7 @@ def test_dispersion_is_found_as_phase_order_two():
     assert cal.n_parameters_ == 3 * 3 * (cal.map_order_ + 1) + cal.phase_order_
 
 
+@pytest.mark.slow
 def test_coupler_slopes_are_found_as_a_map_order():
     device = dataclasses.replace(
         wm.Interferometer.table1(4, seed=6).with_spectral("sin", seed=2), dispersion_s2=0.0
@@ -112,7 +115,8 @@ def test_noiseless_band_is_recovered_to_rounding():
     assert cal.phase_coefficients_[1] == pytest.approx(device.dispersion_s2, rel=1e-6)
 
 
-@pytest.mark.parametrize("retrieval", ["pinv", "ml"])
+@pytest.mark.slow
+@pytest.mark.parametrize("retrieval", ["pinv", pytest.param("ml", marks=pytest.mark.slow)])
 def test_held_out_fsrs_of_a_sweep_with_gaps_are_read_at_the_bound(retrieval):
     """Calibrated on every 4th FSR, read in the FSRs between: the error and its stated
     standard deviation agree with the calibration's own bound."""
@@ -133,6 +137,7 @@ def test_held_out_fsrs_of_a_sweep_with_gaps_are_read_at_the_bound(retrieval):
     assert abs(np.std(error / stated) - 1.0) < band
 
 
+@pytest.mark.slow
 def test_coarse_frequency_picks_the_order_and_flags_a_far_one():
     device = dispersive()
     frequency = band_hz(device)
@@ -151,6 +156,7 @@ def test_coarse_frequency_picks_the_order_and_flags_a_far_one():
     assert ORDER_MARGIN_FSR == 0.25
 
 
+@pytest.mark.slow
 def test_coarse_missing_or_outside_the_band_is_refused_and_flagged():
     device = dispersive()
     frequency = band_hz(device)
@@ -223,6 +229,7 @@ def test_settings_are_checked_by_name(setting, value):
         wm.WidebandCalibrator(**{setting: value}).fit(readings, frequency)
 
 
+@pytest.mark.slow
 def test_monitored_power_with_offsets_is_fitted_affine():
     device = dataclasses.replace(dispersive(), dark_offset_w=np.array([2e-6, -1e-6, 3e-6]))
     frequency = band_hz(device, fsr_count=8, per_fsr=400)
@@ -237,6 +244,7 @@ def test_monitored_power_with_offsets_is_fitted_affine():
     assert np.all(np.abs(cal.offset_w_ - device.dark_offset_w) < 5 * std)
 
 
+@pytest.mark.slow
 def test_a_phase_order_too_low_warns_with_the_remedy_of_this_calibrator():
     device = dispersive()
     frequency = band_hz(device)
@@ -276,6 +284,7 @@ def test_a_map_order_the_fsrs_cannot_tell_from_the_phase_is_refused():
         wm.WidebandCalibrator(map_order=3).fit(readings, frequency)
 
 
+@pytest.mark.slow
 def test_orders_are_raised_while_every_reading_rejects_the_smaller_model():
     """Fixed to a constant map, the phase order is raised by the sweep's F test; the test
     record says which models were tried and taken, and the fit leaves nothing to warn."""
@@ -291,6 +300,7 @@ def test_orders_are_raised_while_every_reading_rejects_the_smaller_model():
     assert all(test["map_order"] == 0 for test in record["sweep_tests"])
 
 
+@pytest.mark.slow
 def test_a_fit_that_loses_the_fringes_is_refused(monkeypatch):
     """The FSR at the middle of the band must stay in the bracket searched: a growth that
     lost the fringes is an error, not a calibration."""
@@ -306,6 +316,7 @@ def test_a_fit_that_loses_the_fringes_is_refused(monkeypatch):
     assert raised.value.parameter == "fsr_hz"
 
 
+@pytest.mark.slow
 def test_a_plain_calibrator_over_a_band_of_changing_couplers_names_the_wide_band():
     device = dataclasses.replace(
         wm.Interferometer.table1(3, seed=6).with_spectral("sin", seed=2), dispersion_s2=0.0
