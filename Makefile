@@ -18,7 +18,7 @@ test: $(BIN)/wavemeter
 
 # the fast tier: every test not marked slow (under a minute on 2 cores; covers every module)
 test-fast: $(BIN)/wavemeter
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -m "not slow" -n 2
 
 # the fast tier against the full suite, timed side by side, and the fast tier's coverage
 tiers: $(BIN)/wavemeter

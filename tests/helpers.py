@@ -11,6 +11,7 @@ checks it.
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import shlex
 from pathlib import Path
@@ -321,3 +322,34 @@ def narrow_band_case(kind: str):
     derivatives = (2.0 * np.pi * (frequency - center))[None]
     arguments = (powers, frequency, center, fit.delay_s, fit.map_[:, :3])
     return arguments, options, design, derivatives
+
+
+def read_csv_values(path) -> tuple[list[str], np.ndarray]:
+    """Header and values of a CSV, each cell parsed with ``float()`` (no unit handling)."""
+    with open(path, newline="") as file:
+        rows = list(csv.reader(file))
+    return rows[0], np.array([[float(cell) for cell in row] for row in rows[1:]])
+
+
+def assert_file_holds(path, table: dict) -> None:
+    header, values = read_csv_values(path)
+    assert header == list(table)
+    for index, (name, expected) in enumerate(table.items()):
+        # == on every value (NaN nowhere): the written text is the shortest round trip
+        assert values[:, index].tolist() == np.asarray(expected, dtype=float).tolist(), name
+
+
+class RecordingSink:
+    """An output that records every voltage written; it fails while ``failing``."""
+
+    def __init__(self, limits_v=(-5.0, 5.0), output_v=1.25):
+        self.limits_v = limits_v
+        self.output_v = output_v
+        self.written: list[float] = []
+        self.failing = False
+
+    def write(self, voltage_v: float) -> None:
+        if self.failing:
+            raise OSError("the DAC does not answer")
+        self.written.append(voltage_v)
+        self.output_v = voltage_v

@@ -21,7 +21,7 @@ from wavemeter.io import write_table
 from wavemeter.jobs import calibrate_file
 from wavemeter.simulation import ReferenceCell, laser_sweep
 
-from .conftest import NOISE_W, POWER_W, one_error, run_cli
+from .helpers import NOISE_W, POWER_W, one_error, run_cli
 
 BAND = "193.9THz:194.9THz"
 CELL = "--reference-column cell_transmission --cell-pressure 13.3kPa --cell-pressure-std 0.4kPa"

@@ -16,7 +16,7 @@ import pytest
 from wavemeter.simulation import Scenario
 
 from ._fringe import true_fringe_coefficients_s
-from .test_benchmark_wideband_smoke import BENCHMARKS
+from .helpers import BENCHMARKS
 
 
 @pytest.fixture(scope="module")

@@ -17,7 +17,7 @@ import pytest
 
 import wavemeter as wm
 
-from .conftest import NOISE_W, POWER_W, thermal_sweep
+from .helpers import NOISE_W, POWER_W, thermal_sweep
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 OFF_MODEL = int(wm.ReadingFlag.OFF_MODEL)

@@ -8,7 +8,6 @@ and the command prints the same refusal under its option's name.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import doctest
 
@@ -20,7 +19,7 @@ from wavemeter.exceptions import InputError
 from wavemeter.io import SENTINEL_DBM
 from wavemeter.simulation import Scenario
 
-from .helpers import one_error, run_cli
+from .helpers import assert_file_holds, one_error, run_cli
 
 #: option sets of ``wavemeter simulate`` and the same scenario in library names and SI units
 CASES = {
@@ -115,21 +114,6 @@ CASES = {
 }
 
 
-def _read_csv(path) -> tuple[list[str], np.ndarray]:
-    """Header and values of a CSV, each cell parsed with ``float()`` (no unit handling)."""
-    with open(path, newline="") as file:
-        rows = list(csv.reader(file))
-    return rows[0], np.array([[float(cell) for cell in row] for row in rows[1:]])
-
-
-def _assert_file_holds(path, table: dict) -> None:
-    header, values = _read_csv(path)
-    assert header == list(table)
-    for index, (name, expected) in enumerate(table.items()):
-        # == on every value (NaN nowhere): the written text is the shortest round trip
-        assert values[:, index].tolist() == np.asarray(expected, dtype=float).tolist(), name
-
-
 @pytest.mark.parametrize("case", list(CASES))
 def test_the_command_writes_the_scenarios_tables_bit_for_bit(tmp_path, capsys, case):
     options, fields = CASES[case]
@@ -137,11 +121,11 @@ def test_the_command_writes_the_scenarios_tables_bit_for_bit(tmp_path, capsys, c
     code, _, err = run_cli(capsys, f"simulate -o {sweep_path} {options} --quiet")
     assert code == 0, err
     sweep, test = Scenario(**fields).tables()
-    _assert_file_holds(sweep_path, sweep)
+    assert_file_holds(sweep_path, sweep)
     if test is None:
         assert not (tmp_path / "s-test.csv").exists()
     else:
-        _assert_file_holds(tmp_path / "s-test.csv", test)
+        assert_file_holds(tmp_path / "s-test.csv", test)
 
 
 def test_the_laser_file_is_the_scenarios_laser_table(tmp_path, capsys):
@@ -168,15 +152,15 @@ def test_the_laser_file_is_the_scenarios_laser_table(tmp_path, capsys):
         test=5,
     )
     laser = scenario.laser_table()
-    _assert_file_holds(laser_path, laser)
+    assert_file_holds(laser_path, laser)
     assert list(laser)[:2] == ["time_s", "true_frequency_hz"] and "temperature_k" in laser
     assert laser["time_s"][1] == 1e-6
     assert f"wrote {laser_path} (3000 rows: time_s, true_frequency_hz, p1_w" in printed
     assert "laser: 3000 readings at 1 MHz" in printed and "white FM 1e+09 Hz^2/Hz" in printed
     # the laser has a stream of its own: the sweep and test files are those without it
     sweep, test = Scenario(platform="sin", samples=50, test=5).tables()
-    _assert_file_holds(tmp_path / "s.csv", sweep)
-    _assert_file_holds(tmp_path / "s-test.csv", test)
+    assert_file_holds(tmp_path / "s.csv", sweep)
+    assert_file_holds(tmp_path / "s-test.csv", test)
 
 
 def test_dbm_readings_at_a_null_are_the_readers_no_reading_code():

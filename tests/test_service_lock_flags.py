@@ -17,15 +17,13 @@ import numpy as np
 import pytest
 
 from ._service import wait_for
-from .conftest import NOISE_W, POWER_W
+from .helpers import NOISE_W, POWER_W, RecordingSink
 
 pytest.importorskip("zmq", reason="the serve extra (pyzmq) is not installed")
 
 import wavemeter as wm  # noqa: E402
 from wavemeter.service import Client, Server, read_log  # noqa: E402
 from wavemeter.service.lock_loop import HOLD_FLAGS  # noqa: E402
-
-from .test_service_locks import RecordingSink  # noqa: E402
 
 pytestmark = pytest.mark.slow
 

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from ._service import wait_for
+from .helpers import RecordingSink
 
 pytest.importorskip("zmq", reason="the serve extra (pyzmq) is not installed")
 
@@ -21,22 +22,6 @@ from wavemeter.service.simulated import NOISE_W, POWER_W, simulated_meter  # noq
 
 LOCAL = "tcp://127.0.0.1:0"
 RATE_HZ = 1000.0
-
-
-class RecordingSink:
-    """An output that records every voltage written; it fails while ``failing``."""
-
-    def __init__(self, limits_v=(-5.0, 5.0), output_v=1.25):
-        self.limits_v = limits_v
-        self.output_v = output_v
-        self.written: list[float] = []
-        self.failing = False
-
-    def write(self, voltage_v: float) -> None:
-        if self.failing:
-            raise OSError("the DAC does not answer")
-        self.written.append(voltage_v)
-        self.output_v = voltage_v
 
 
 @pytest.fixture(scope="module")

@@ -17,8 +17,7 @@ from scipy import stats
 
 from wavemeter.simulation import Scenario
 
-from .conftest import one_error, run_cli
-from .test_scenario import _assert_file_holds
+from .helpers import assert_file_holds, one_error, run_cli
 
 OFFSET_W = (2e-6, -1e-6, 5e-7)
 NOISE_W = 5e-7
@@ -65,7 +64,7 @@ def test_the_command_writes_the_dark_file_and_calibrate_removes_the_offset(tmp_p
     )
     assert code == 0, err
     assert f"wrote {dark} ({ROWS} rows: p1_w, p2_w, p3_w)" in printed
-    _assert_file_holds(dark, Scenario(dark=ROWS, dark_offset_w=OFFSET_W, seed=4).dark_table())
+    assert_file_holds(dark, Scenario(dark=ROWS, dark_offset_w=OFFSET_W, seed=4).dark_table())
     calibration = tmp_path / "c.wmcal.json"
     code, _, err = run_cli(capsys, f"calibrate {sweep} -o {calibration} --dark {dark} --quiet")
     assert code == 0, err
