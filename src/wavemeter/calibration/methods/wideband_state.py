@@ -111,7 +111,8 @@ class BandStateMixin:
                 "field 'phase_coefficients_rad' must start with the linear term 2 pi (half the "
                 f"span) / fsr_hz = {linear!r} rad (the delay), got {coefficients_rad.tolist()}"
             )
-        try:  # a fringe phase's delay is checked against fsr_hz by the loader
+        header_fsr_hz = self.fsr_hz_
+        try:
             self._set_model(
                 coefficients_rad,
                 state_array(state, "map_coefficients", (map_order + 1, ports, 3)),
@@ -121,6 +122,11 @@ class BandStateMixin:
             raise InputError(
                 f"field 'phase_coefficients_rad' must give a phase rising across the band: {exc}"
             ) from exc
+        if not abs(self.fsr_hz_ / header_fsr_hz - 1.0) <= fields.DELAY_RTOL:  # fringe phase
+            raise InputError(
+                "field 'phase_coefficients_rad' (with the map's fringe phase) must give the "
+                f"delay 1 / fsr_hz = {1.0 / header_fsr_hz!r} s, got {self.delay_s_!r} s"
+            )
         self.cost_ = state_float(state, "cost_w2", minimum=0.0)
         self.residual_rms_ = state_float(state, "residual_rms_w", minimum=0.0)
         self.noise_std_w_ = state_float(state, "noise_std_w", minimum=0.0)
