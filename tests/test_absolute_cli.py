@@ -73,6 +73,7 @@ def within_budget(path, test, test_hz) -> float:
     return rms(error) / rms(std)
 
 
+@pytest.mark.slow
 def test_calibrate_corrects_the_recorded_axis(capsys, files):
     folder, _, test, test_hz = files
     result = calibrated(capsys, folder, "sweep.csv", "abs.wmcal.json")
@@ -164,6 +165,7 @@ def test_the_job_takes_a_table_object_and_a_wideband_method(files):
     )
 
 
+@pytest.mark.slow
 def test_the_report_draws_the_cell_the_correction_and_the_budget(capsys, files):
     folder, *_ = files
     calibrated(capsys, folder, "sweep.csv", "report.wmcal.json")

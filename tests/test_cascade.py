@@ -141,6 +141,7 @@ def test_wrong_orders_seen_match_those_predicted_at_high_noise():
     assert abs(np.std(z) - 1.0) < 0.05
 
 
+@pytest.mark.slow
 def test_the_readings_noise_scales_batches_not_single_readings_or_glitches():
     rng = np.random.default_rng(12)
     quiet = rng.chisquare(1, 10_000)

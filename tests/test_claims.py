@@ -56,6 +56,7 @@ def test_claim2_four_training_samples_suffice(ports, seeds):
         assert _max_error_hz(cal, device, device.powers(test_hz, POWER_W), test_hz) <= ONE_HZ
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("test_power_w", [0.25e-3, 4e-3])
 def test_claim1_calibration_and_test_power_may_differ(test_power_w):
     rng = np.random.default_rng(7)

@@ -74,6 +74,7 @@ FAULTS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fault", sorted(FAULTS))
 def test_every_warning_of_a_faulty_sweep_reads_clean(fault, tmp_path, capsys):
     sweep, cal = tmp_path / "sweep.csv", tmp_path / "chip.wmcal.json"
@@ -95,6 +96,7 @@ def test_every_warning_of_a_faulty_sweep_reads_clean(fault, tmp_path, capsys):
     assert _unclean("\n".join(printed)) == []
 
 
+@pytest.mark.slow
 def test_the_report_reads_clean(files, tmp_path, capsys):
     page = tmp_path / "report.html"
     code, _, err = run_cli(
@@ -199,6 +201,7 @@ def test_a_read_only_folder_is_named_not_the_temporary_file(tmp_path, monkeypatc
     assert ".tmp" not in message and "permission denied" in message
 
 
+@pytest.mark.slow
 def test_a_noise_level_not_significant_is_an_upper_limit(tmp_path, capsys):
     """A laser without random-walk FM: its fitted h_-2 scatters about zero and may come out
     negative; the report gives an upper limit, never a negative level."""
@@ -221,6 +224,7 @@ def test_a_noise_level_not_significant_is_an_upper_limit(tmp_path, capsys):
     assert _unclean(text) == []
 
 
+@pytest.mark.slow
 def test_the_fleet_says_what_it_calibrated_now(tmp_path, capsys):
     folder = tmp_path / "wafer"
     folder.mkdir()

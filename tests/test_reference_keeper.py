@@ -47,6 +47,7 @@ def test_a_good_window_passes_and_its_line_is_extrapolated():
     assert 0.9 < check.scatter_ratio < 1.1
 
 
+@pytest.mark.slow
 def test_good_windows_are_almost_never_refused():
     """2000 windows of 30 readings: each check refuses a good one with p = 1e-6, so no
     refusal is expected (the chance of one is under 1 %)."""
