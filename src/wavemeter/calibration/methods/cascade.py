@@ -31,14 +31,13 @@ from ...validation import (
 from ..contract.base import BaseCalibrator, Part
 from ..contract.summary import FitValue
 from ..files import fields
-from ..files.document import calibrator_fields, calibrator_from_fields
-from ..files.state import state_array, state_float
 from ..fitting.reference import ReferenceCellMixin
 from ..models.band_reading import band_cone_distance
 from .cascade_chain import ChainReadingMixin
 from .cascade_handover import HandoverChecksMixin, handover_rules, stage_label
 from .cascade_params import design_fsrs_hz, stage_columns
 from .cascade_report import CASCADE_RECORD_RULES, cascade_tables, order_error_check
+from .cascade_state import CascadeStateMixin
 from .learned import RETRIEVALS
 from .wideband import WidebandCalibrator
 
@@ -48,7 +47,9 @@ __all__ = ["CascadeCalibrator", "DEFAULT_FSRS_HZ"]
 DEFAULT_FSRS_HZ = (5e12, 500e9, 50e9)
 
 
-class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, ReferenceCellMixin, BaseCalibrator):
+class CascadeCalibrator(
+    CascadeStateMixin, ChainReadingMixin, HandoverChecksMixin, ReferenceCellMixin, BaseCalibrator
+):
     """Absolute frequency from interferometer stages of decreasing FSR (module docstring).
 
     Parameters
@@ -477,61 +478,3 @@ class CascadeCalibrator(ChainReadingMixin, HandoverChecksMixin, ReferenceCellMix
             Part(stage_label(index, design[index]), "stage", stage, tuple(stage.span_hz_))
             for index, stage in enumerate(self.stages_)
         )
-
-    # ------------------------------------------------------------------ persistence
-    def _state(self) -> dict:
-        return {
-            "stage_ports": [list(block) for block in self.stage_ports_],
-            "stages": [calibrator_fields(stage) for stage in self.stages_],
-            "handovers": self.handovers_,
-            "edge_margin_std": self.edge_margin_std_,
-            "cone_distance_median": self.cone_distance_median_.tolist(),
-            "model_error_hz": self.model_error_hz_.tolist(),
-        }
-
-    def _set_state(self, state: dict) -> None:
-        design = self._design_fsrs_hz()
-        documents = state.get("stages")
-        if not isinstance(documents, list) or len(documents) != len(design):
-            raise InputError(f"field 'stages' must list {len(design)} stage calibrations")
-        blocks = state.get("stage_ports")
-        if not isinstance(blocks, list):
-            raise InputError("field 'stage_ports' must list the columns of each stage")
-        saved, self.stage_ports = (
-            self.stage_ports,
-            tuple(tuple(block) if isinstance(block, list) else block for block in blocks),
-        )
-        try:
-            columns = self._stage_columns(self.n_ports_)
-        finally:
-            self.stage_ports = saved
-        stages = [
-            calibrator_from_fields(document, f"stage {index + 1}")
-            for index, document in enumerate(documents)
-        ]
-        for index, (stage, block) in enumerate(zip(stages, columns, strict=True)):
-            if not isinstance(stage, WidebandCalibrator) or stage.n_ports_ != len(block):
-                raise InputError(
-                    f"stage {index + 1} must be a 'wideband' calibration of {len(block)} ports, "
-                    f"got {type(stage).method!r} with {stage.n_ports_}"
-                )
-        handovers = state.get("handovers")
-        if not isinstance(handovers, list) or len(handovers) != len(design) - 1:
-            raise InputError(f"field 'handovers' must list {len(design) - 1} hand-overs")
-        self.stages_ = stages
-        self.stage_ports_ = columns
-        self.stage_fsrs_hz_ = np.array([stage.fsr_hz_ for stage in stages])
-        self.fsr_hz_ = float(self.stage_fsrs_hz_[-1])
-        self.handovers_ = handovers
-        self.edge_margin_std_ = state_float(state, "edge_margin_std")
-        self.cone_distance_median_ = state_array(state, "cone_distance_median", (len(design),))
-        self.model_error_hz_ = state_array(state, "model_error_hz", (len(design),))
-
-    def _check_state(self) -> None:
-        super()._check_state()
-        record = (self.diagnostics_ or {}).get("cascade")
-        if record and len(record["stages"]) != len(self.stages_):
-            raise InputError(
-                f"field 'diagnostics.cascade.stages' must list the {len(self.stages_)} stages, "
-                f"got {len(record['stages'])}"
-            )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
 from ...validation import check_positive
 
 __all__ = ["design_fsrs_hz", "stage_columns"]
@@ -19,7 +19,7 @@ def design_fsrs_hz(values) -> tuple[float, ...]:
     if not flat or len(values) < 2:
         raise InputError(
             "fsr_hz must be the design FSRs of two or more stages (Hz, coarsest first), "
-            f"got {values!r:.80}",
+            f"got {shown(values)}",
             parameter="fsr_hz",
         )
     try:
