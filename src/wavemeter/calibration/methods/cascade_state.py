@@ -8,9 +8,11 @@ import numpy as np
 from ...exceptions import InputError
 from ..files.document import calibrator_fields, calibrator_from_fields
 from ..files.state import state_array, state_float
-from .wideband import WidebandCalibrator
 
 __all__ = ["CascadeStateMixin"]
+
+#: the method of every stage (a wide-band calibration of the stage's columns)
+STAGE_METHOD = "wideband"
 
 
 class CascadeStateMixin:
@@ -47,7 +49,7 @@ class CascadeStateMixin:
             for index, document in enumerate(documents)
         ]
         for index, (stage, block) in enumerate(zip(stages, columns, strict=True)):
-            if not isinstance(stage, WidebandCalibrator) or stage.n_ports_ != len(block):
+            if stage.method != STAGE_METHOD or stage.n_ports_ != len(block):
                 raise InputError(
                     f"stage {index + 1} must be a 'wideband' calibration of {len(block)} ports, "
                     f"got {type(stage).method!r} with {stage.n_ports_}"
