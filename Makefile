@@ -14,11 +14,11 @@ demo: $(BIN)/wavemeter
 	$(BIN)/wavemeter demo
 
 test: $(BIN)/wavemeter
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # the fast tier: every test not marked slow (under a minute on 2 cores; covers every module)
 test-fast: $(BIN)/wavemeter
-	$(BIN)/python -m pytest -q -m "not slow" -n 2
+	$(BIN)/python -m pytest -q -m "not slow" -n 2 --dist loadfile
 
 # the fast tier against the full suite, timed side by side, and the fast tier's coverage
 tiers: $(BIN)/wavemeter
