@@ -284,7 +284,10 @@ def _run_dask(tasks, job: dict, done: Callable, client, workers, scheduler) -> N
                         n_workers=workers or os.cpu_count() or 1,
                         threads_per_worker=1,
                         dashboard_address=None,
-                        silence_logs=logging.ERROR,
+                        # a worker whose heartbeat meets the closing scheduler logs an
+                        # ERROR with a traceback; a device's own failure comes back as
+                        # its result, so only a critical log is the user's business
+                        silence_logs=logging.CRITICAL,
                     )
                 )
             client = stack.enter_context(distributed.Client(cluster))
