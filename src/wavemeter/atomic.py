@@ -99,7 +99,7 @@ def atomic_path(path) -> Iterator[Path]:
     except OSError as exc:  # a read-only folder, a full disk: about the output, not our name
         raise InputError(
             f"cannot write {target}: folder {folder} takes no new file "
-            f"({exc.strerror.lower()}); choose a folder you can write to"
+            f"({(exc.strerror or type(exc).__name__).lower()}); choose a folder you can write to"
         ) from None
     try:
         yield temporary
