@@ -30,6 +30,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "src" / "wavemeter"
 PYTEST = ["-m", "pytest", "-q", "-p", "no:cacheprovider"]
 FAST = ["-m", "not slow"]
+#: the timed runs spread whole files over both cores, as ``make test`` and ``make test-fast``
+CORES = ["-n", "2", "--dist", "loadfile"]
 #: the targets: the fast tier's share of the full suite's time, and its wall time (s)
 MAX_RATIO = 0.25
 MAX_FAST_S = 60.0
@@ -99,8 +101,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     print(f"{os.cpu_count()} cores; load average at start {load_average()} (1, 5, 15 min)")
-    fast = run([*PYTEST, *FAST])
-    full = run(PYTEST)
+    fast = run([*PYTEST, *CORES, *FAST])
+    full = run([*PYTEST, *CORES])
     with tempfile.TemporaryDirectory() as folder:
         fast_data, full_data = Path(folder) / "fast", Path(folder) / "full"
         fast_coverage = coverage_run(fast_data, FAST)
