@@ -212,6 +212,17 @@ def _one_line(prefix: str, text: str) -> str:
     return one_line(prefix, text)
 
 
+def _usage_text(exc: click.ClickException) -> str:
+    """Click's message, pointing at the help of the command whose usage was wrong (a bad
+    value's message already says what is allowed)."""
+    message = exc.format_message()
+    context = getattr(exc, "ctx", None)
+    bad_value = isinstance(exc, click.BadParameter) and not isinstance(exc, click.MissingParameter)
+    if isinstance(exc, click.UsageError) and not bad_value and context is not None:
+        return f"{message.rstrip('.')} (see '{context.command_path} --help')"
+    return message
+
+
 def _error_line(text: str) -> str:
     """``error: text`` on one line, without control characters."""
     return _one_line("error: ", text)
@@ -344,7 +355,7 @@ def main(argv=None) -> int:
         click.echo("error: interrupted", err=True)
         return 130
     except click.ClickException as exc:
-        click.echo(_error_line(exc.format_message()), err=True)
+        click.echo(_error_line(_usage_text(exc)), err=True)
         return EXIT_INPUT_ERROR
     except WarningsRefused as exc:
         for warning in exc.refused:
