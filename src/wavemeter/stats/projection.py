@@ -102,7 +102,9 @@ class Projector:
         per_port = per_port.transpose(1, 0, 2).reshape(columns, -1)  # (c, n t)
         along = coefficients[columns * ports :]
         for rows in row_blocks(samples):
-            block = (self.basis[rows] @ per_port).reshape(-1, ports, coefficients.shape[1])
+            block = (self.basis[rows] @ per_port).reshape(
+                rows.stop - rows.start, ports, coefficients.shape[1]
+            )
             block += np.tensordot(self.coupled[rows], along, axes=(2, 0))
             yield rows, block
 
