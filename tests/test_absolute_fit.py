@@ -256,10 +256,11 @@ def test_the_thermal_calibrator_on_the_corrected_axis():
     assert rms(error) <= 1.2 * rms(std)
 
 
-def test_a_smooth_drift_within_the_axis_budget_is_set_aside_not_warned():
-    # these draws leave the corrected axis a smooth error that the misfit test names
-    # dispersion (a polynomial in frequency): within twice the axis budget it is the
-    # correction's own error, stated in the budget, and kept in the diagnostics
+def test_the_corrected_axis_own_smooth_error_is_not_a_misfit():
+    # these draws leave the corrected axis a smooth error (the meter's phase noise through
+    # the smoothing) that the misfit test used to name dispersion and set aside as within
+    # twice the axis budget: that phase along the rows is now the axis's, not tested
+    # (``tests/test_reference_cell_misfit.py``), so nothing is warned or set aside
     cell = ReferenceCell.simulated(rng=1)
     sweep = laser_sweep(BAND_HZ, SAMPLES, "tls-spec", rng=2)
     device = wm.Interferometer.table1(3, seed=1)
@@ -278,5 +279,5 @@ def test_a_smooth_drift_within_the_axis_budget_is_set_aside_not_warned():
         warnings.simplefilter("error", wm.CalibrationWarning)
         calibration = wm.Calibrator(50e9).fit(powers, sweep.recorded_hz, **keywords)
     record = calibration.diagnostics_["reference_cell"]
-    assert [note["cause"] for note in record["explained_by_axis"]] == ["dispersion"]
-    assert record["phase_error_rms_hz"] <= 2.0 * record["axis_budget_rms_hz"]
+    assert record["explained_by_axis"] == []
+    assert calibration.diagnostics_["fit"]["p_values"]["phase_scatter"] > 0.01

@@ -128,6 +128,28 @@ def test_bad_numbers_are_refused_naming_the_field(documents, tmp_path, name, mut
     assert str(info.value).startswith(f"{path}: ")
 
 
+def test_a_refused_field_is_quoted_as_the_file_holds_it(documents, tmp_path):
+    """One formatter (``wavemeter.exceptions.shown``) quotes values everywhere; a field of a
+    file is quoted as the file holds it (JSON, every digit, cut to 80 characters with
+    ``...``), so that a search of the file finds it, where a message of the library shows
+    numbers to 6 digits."""
+    document = json.loads(json.dumps(documents["learned"]))
+    digits = 1.2345678912345e-07
+    document["state"]["map"][0][1] = "dark"
+    path = write(tmp_path / "bad.wmcal.json", document)
+    with pytest.raises(wm.FileFormatError) as info:
+        wm.load_calibration(path)
+    quoted = str(info.value).split("got ", 1)[1]
+    assert quoted.endswith("...") and len(quoted) == 80
+    assert quoted[:-3] in path.read_text()  # the file's own text, cut
+    document = json.loads(json.dumps(documents["learned"]))
+    document["state"]["noise_std_w"] = [digits, None]
+    path = write(tmp_path / "list.wmcal.json", document)
+    with pytest.raises(wm.FileFormatError, match=r"got \[1\.2345678912345e-07, null\]$"):
+        wm.load_calibration(path)
+    assert "1.2345678912345e-07" in path.read_text()
+
+
 def test_files_without_the_new_fields_still_load(documents, sweep, tmp_path):
     """No diagnostics, no delay standard error: what 0.1 wrote (tests/data/v0.1 has more)."""
     document = json.loads(json.dumps(documents["learned"]))

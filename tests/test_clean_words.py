@@ -182,6 +182,19 @@ def test_shown_gives_numbers_as_people_write_them():
     assert shown(list(range(10))) == "(0, 1, 2, 3, 4, 5, 6, 7, ...)"
 
 
+def test_shown_quotes_a_files_field_as_the_file_holds_it():
+    """The same formatter, for a value read from a file: JSON with every digit, so that the
+    message quotes what a search of the file finds; cut to 80 characters with ``...``."""
+    assert shown(np.float64(0.051501123456789), as_in_file=True) == "0.051501123456789"
+    assert shown([1.0, None, float("nan")], as_in_file=True) == "[1.0, null, NaN]"
+    assert shown({"a": [1, 2]}, as_in_file=True) == '{"a": [1, 2]}'
+    assert shown(None, as_in_file=True) == "null" and shown(True, as_in_file=True) == "true"
+    assert shown("nm", as_in_file=True) == "'nm'"
+    assert shown(np.arange(3.0), as_in_file=True) == "[0.0, 1.0, 2.0]"
+    long = shown(list(range(100)), as_in_file=True)
+    assert len(long) == 80 and long.endswith("...") and long.startswith("[0, 1, 2")
+
+
 def test_a_read_only_folder_is_named_not_the_temporary_file(tmp_path, monkeypatch):
     from wavemeter.atomic import atomic_path
 

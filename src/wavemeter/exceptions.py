@@ -10,6 +10,7 @@ a command-line flag (the CLI adds flag hints where it knows them).
 from __future__ import annotations
 
 import contextlib
+import json
 import warnings
 
 __all__ = [
@@ -221,10 +222,18 @@ def recorded_calibration_warnings():
             )
 
 
-def shown(value) -> str:
+#: longest text of a value :func:`shown` quotes (longer ones are cut, ``...`` marking it)
+SHOWN_CHARACTERS = 80
+
+
+def shown(value, *, as_in_file: bool = False) -> str:
     """A value as a message shows it: numbers as people write them (``0.0515``, never
     ``np.float64(0.0515)``), a text in quotes (cut to 80 characters), a sequence item by
-    item, anything else by its kind.
+    item (the first 8), anything else by its kind.
+
+    With ``as_in_file``, a value read from a file as the file holds it (JSON: every digit
+    of a number, lists in brackets, objects in braces, ``null``, ``NaN``), so that the
+    message quotes what a search of the file finds; cut to 80 characters.
 
     Examples
     --------
@@ -232,9 +241,14 @@ def shown(value) -> str:
     >>> from wavemeter.exceptions import shown
     >>> shown(np.float64(0.0515011)), shown(np.int64(3)), shown("nm"), shown((1.0, np.nan))
     ('0.0515011', '3', "'nm'", '(1, nan)')
+    >>> shown([1.23456789e-07, None], as_in_file=True), shown(None, as_in_file=True)
+    ('[1.23456789e-07, null]', 'null')
     """
     if hasattr(value, "item") and getattr(value, "ndim", 1) == 0:
         value = value.item()  # a numpy scalar
+    if as_in_file and not isinstance(value, str):
+        text = json.dumps(value, allow_nan=True, default=_plain)
+        return text if len(text) <= SHOWN_CHARACTERS else text[: SHOWN_CHARACTERS - 3] + "..."
     if isinstance(value, bool) or value is None:
         return str(value).lower() if value is not None else "nothing"
     if isinstance(value, float):
@@ -242,10 +256,17 @@ def shown(value) -> str:
     if isinstance(value, int):
         return str(value)
     if isinstance(value, str):
-        return repr(value[:80])
+        return repr(value[:SHOWN_CHARACTERS])
     if hasattr(value, "tolist"):
         value = value.tolist()
     if isinstance(value, (list, tuple)):
         items = ", ".join(shown(item) for item in list(value)[:8])
         return f"({items}{', ...' if len(value) > 8 else ''})"
+    return f"a {type(value).__name__}"
+
+
+def _plain(value):
+    """What JSON cannot write, as plain values: numpy's scalars and arrays; else its kind."""
+    if hasattr(value, "tolist"):
+        return value.tolist()
     return f"a {type(value).__name__}"

@@ -12,7 +12,13 @@ from .identify import Identification, identify_lines
 from .line_fit import FittedLines, find_absorption_lines, fit_absorption_lines, record_noise_std
 from .lines import LINE_TABLE_COLUMNS, ReferenceLines
 from .lineshape import doppler_sigma_hz, voigt_absorbance, voigt_fwhm_hz
-from .sweep import SweepAxis, axis_from_phase, correct_sweep_axis, smooth_sweep_phase
+from .sweep import (
+    SweepAxis,
+    axis_from_phase,
+    correct_sweep_axis,
+    smooth_sweep_phase,
+    smoothing_bandwidth,
+)
 
 __all__ = [
     "AxisCorrection",
@@ -31,6 +37,7 @@ __all__ = [
     "identify_lines",
     "record_noise_std",
     "smooth_sweep_phase",
+    "smoothing_bandwidth",
     "voigt_absorbance",
     "voigt_fwhm_hz",
 ]

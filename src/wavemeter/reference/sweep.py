@@ -6,7 +6,8 @@ that phase, identifies them, fits the correction ``f = g(phi)`` and returns the 
 axis of every sample with the fit's record. :func:`correct_sweep_axis` does it for a sweep
 with a recorded axis, the phase coming from a calibration the caller fitted on that axis
 (``phase_of``). The calibration's own uncertainty is not in the budget: the calibrator
-fitted on the corrected axis adds it.
+fitted on the corrected axis adds it; the axis's share of the meter's own phase noise
+(smoothed along the sweep) is told by its bandwidth (``SweepAxis.phase_bandwidth_per_reading``).
 """
 
 from __future__ import annotations
@@ -28,12 +29,17 @@ __all__ = [
     "correct_sweep_axis",
     "smooth_sweep_phase",
     "DEFAULT_SMOOTHING_SAMPLES",
+    "SMOOTHING_STOP_GAIN",
+    "smoothing_bandwidth",
 ]
 
 #: samples of the cubic Savitzky-Golay window that smooths the phase along the sweep
 DEFAULT_SMOOTHING_SAMPLES = 101
 #: a sample-to-sample phase step beyond this share of pi cannot be unwrapped safely
 MAX_PHASE_STEP = 0.5
+#: the smoothing passes the meter's phase noise up to the frequency where its gain first
+#: falls below this (its power then below 1 %)
+SMOOTHING_STOP_GAIN = 0.1
 
 
 @dataclass(frozen=True)
@@ -54,6 +60,11 @@ class SweepAxis:
         Which table line each fitted line is.
     correction : AxisCorrection
         The fitted ``g`` with its budget (``correction.budget_hz(phase)``).
+    phase_bandwidth_per_reading : float
+        Frequency (cycles per reading, along the sweep) up to which the axis follows the
+        meter's own phase noise (:func:`smoothing_bandwidth` of the smoothing window): a
+        calibration fitted on the axis cannot tell a phase error of the readings that
+        changes more slowly from the axis's.
     """
 
     frequency_hz: np.ndarray
@@ -62,6 +73,7 @@ class SweepAxis:
     lines: FittedLines
     identification: Identification
     correction: AxisCorrection
+    phase_bandwidth_per_reading: float
 
     def budget_hz(self) -> dict:
         """The axis budget (Hz) of every sample, by term and ``"total"``, each shape (N,)."""
@@ -118,16 +130,39 @@ def smooth_sweep_phase(phase_rad, window_samples: int | None = None):
             f"the phase jumps by {step[worst]:.3g} rad between samples {worst} and {worst + 1}: "
             "the sweep is too coarse to unwrap (sample more densely than a few per FSR)"
         )
-    window = DEFAULT_SMOOTHING_SAMPLES if window_samples is None else int(window_samples)
-    window = min(window, phase.size // 5)
-    window -= 1 - window % 2
-    if window < 5:
-        raise InputError(f"the smoothing window must be at least 5 samples, got {window}")
+    window = _window(phase.size, window_samples)
     smoothed = savgol_filter(unwrapped, window, 3, mode="interp")
     residual = unwrapped - smoothed
     spread = float(np.median(np.abs(residual - np.median(residual))) / 0.6745)
     gain = float(np.sqrt(np.sum(savgol_coeffs(window, 3) ** 2)))
     return smoothed, spread * gain
+
+
+def _window(samples: int, window_samples: int | None) -> int:
+    """The odd smoothing window (samples) for a sweep of ``samples``; raises below 5."""
+    window = DEFAULT_SMOOTHING_SAMPLES if window_samples is None else int(window_samples)
+    window = min(window, samples // 5)
+    window -= 1 - window % 2
+    if window < 5:
+        raise InputError(f"the smoothing window must be at least 5 samples, got {window}")
+    return window
+
+
+def smoothing_bandwidth(window_samples: int) -> float:
+    """Frequency (cycles per sample) where the gain of :func:`smooth_sweep_phase`'s filter
+    (cubic Savitzky-Golay, ``window_samples`` odd) first falls below ``SMOOTHING_STOP_GAIN``.
+
+    Examples
+    --------
+    >>> from wavemeter.reference import smoothing_bandwidth
+    >>> print(f"{smoothing_bandwidth(101):.4f} cycles per sample")
+    0.0162 cycles per sample
+    """
+    from scipy.signal import freqz, savgol_coeffs
+
+    frequency, response = freqz(savgol_coeffs(window_samples, 3), worN=64 * window_samples)
+    below = np.abs(response) < SMOOTHING_STOP_GAIN
+    return float(frequency[np.argmax(below)] / (2.0 * np.pi)) if below.any() else 0.5
 
 
 def axis_from_phase(
@@ -219,6 +254,7 @@ def axis_from_phase(
         lines=fitted,
         identification=identification,
         correction=correction,
+        phase_bandwidth_per_reading=smoothing_bandwidth(_window(phase.size, smoothing_samples)),
     )
 
 

@@ -165,7 +165,10 @@ class ProjectedCosineColumns(CosineColumns):
         for _ in range(2):
             formed = self._off_frame(formed)
         frame, sizes, _ = linalg.svd(formed.reshape(rows, -1), full_matrices=False)
-        frame = self._off_frame(frame[:, sizes > RANK_TOLERANCE].reshape(self.shape + (-1,)))
+        kept = frame[:, sizes > RANK_TOLERANCE]
+        if kept.shape[1] == 0:  # every one of them inside after all
+            return np.zeros((rows, 0))
+        frame = self._off_frame(kept.reshape(self.shape + (kept.shape[1],)))
         return linalg.qr(frame.reshape(rows, -1), mode="economic")[0]
 
     def _off_frame(self, values: np.ndarray) -> np.ndarray:

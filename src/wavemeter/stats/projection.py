@@ -36,20 +36,7 @@ class Projector:
         self.basis = basis
         projected = self.per_port(coupled)
         norms = np.sqrt(np.einsum("ijk,ijk->k", coupled, coupled))
-        kept = []
-        for index, norm in enumerate(norms):
-            column = np.ascontiguousarray(projected[:, :, index])
-            for _ in range(2):
-                for previous in kept:
-                    column -= np.einsum("ij,ij->", previous, column) * previous
-            remaining = np.sqrt(np.einsum("ij,ij->", column, column))
-            if remaining > RANK_TOLERANCE * norm:
-                column /= remaining
-                kept.append(column)
-        if len(kept) == 1:
-            self.coupled = kept[0][:, :, None]
-        else:
-            self.coupled = np.stack(kept, axis=2) if kept else np.zeros(coupled.shape[:2] + (0,))
+        self.coupled = _orthonormalised(projected, norms)
         # B' coupled_j per port j (n, c, q): ~0, the coupled directions are off the basis
         samples, ports, kept_count = self.coupled.shape
         products = inner_products(basis, self.coupled.reshape(samples, -1))
@@ -115,7 +102,9 @@ class Projector:
         per_port = per_port.transpose(1, 0, 2).reshape(columns, -1)  # (c, n t)
         along = coefficients[columns * ports :]
         for rows in row_blocks(samples):
-            block = (self.basis[rows] @ per_port).reshape(-1, ports, coefficients.shape[1])
+            block = (self.basis[rows] @ per_port).reshape(
+                rows.stop - rows.start, ports, coefficients.shape[1]
+            )
             block += np.tensordot(self.coupled[rows], along, axes=(2, 0))
             yield rows, block
 
@@ -128,6 +117,28 @@ class Projector:
         for port in range(ports):
             fitted[:, port, port] = self.basis
         return np.concatenate([fitted.reshape(samples, ports, -1), self.coupled], axis=2)
+
+
+def _orthonormalised(projected: np.ndarray, norms: np.ndarray) -> np.ndarray:
+    """The columns ``projected`` (N, n, q) orthonormalised in order (Gram-Schmidt's result,
+    signs kept), each one the ones before absorb (to ``RANK_TOLERANCE`` of its ``norms``)
+    dropped: by Householder QR of the columns up to the first dropped one, the rest
+    projected off what was kept (twice) and factored again."""
+    samples, ports, _ = projected.shape
+    columns = np.array(projected.reshape(samples * ports, -1), order="F")
+    frames = []
+    while columns.shape[1]:
+        for _ in range(2):
+            for frame in frames:
+                columns -= frame @ (frame.T @ columns)
+        triangle, frame = householder_qr(np.array(columns, order="F"), frame=True)
+        diagonal = np.diag(triangle)[: columns.shape[1]]
+        absorbed = np.abs(diagonal) <= RANK_TOLERANCE * norms[: diagonal.size]
+        first = int(np.argmax(absorbed)) if absorbed.any() else diagonal.size
+        frames.append(frame[:, :first] * np.sign(diagonal[:first]))
+        columns, norms = columns[:, first + 1 :], norms[first + 1 :]
+    kept = np.hstack(frames) if frames else np.zeros((samples * ports, 0))
+    return kept.reshape(samples, ports, -1)
 
 
 class Columns:

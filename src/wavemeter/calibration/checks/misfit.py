@@ -44,9 +44,11 @@ from .residual_tests import (
     DISPERSION_MIN_SPAN_FSR,
     HARMONICS,
     SMOOTH_ORDERS,
+    axis_phase_columns,
     harmonic_columns,
     images,
     lag1_autocorrelation,
+    off_axis_phase,
     pinv_variance_ratio,
     rms,
     scatter_tests,
@@ -226,6 +228,8 @@ def misfit_report(
     design=None,
     phase_derivatives=None,
     test_axis: bool = True,
+    axis_bandwidth_per_reading: float = 0.0,
+    method: str | None = None,
 ) -> MisfitReport:
     """Test a fitted calibration sweep against the model and name what departs from it.
 
@@ -274,6 +278,15 @@ def misfit_report(
         Test the frequency axis for rounding (``quantised_axis``). When it is rounded, the
         other causes are named on the readings moved back onto the recorded axis (a report
         made with ``test_axis=False``).
+    axis_bandwidth_per_reading : float
+        When the frequency axis was made from the meter's own phase smoothed along the rows
+        (a reference cell's corrected axis), the frequency (cycles per reading) up to which
+        it follows that phase's noise: the axis was fitted to the readings there, so a phase
+        error smooth along the rows at those scales is the axis's, not a misfit. Its
+        discrete cosines of the row (:func:`~.residual_tests.axis_phase_columns`) along the
+        fringe tangent are directions of the fit, not tested. 0: an axis given.
+    method : None or str
+        The calibration method judged (its ``method``): a remedy never suggests it.
 
     Returns
     -------
@@ -301,6 +314,9 @@ def misfit_report(
         if phase_derivatives is None
         else checked_phase_derivatives(phase_derivatives, samples)
     )
+    axis = axis_phase_columns(samples, axis_bandwidth_per_reading)
+    axis_phase = axis.shape[1] > 0
+    derivatives = np.vstack([derivatives, axis.T])
     unit = cone_vectors(phase)
     objects = unit if power is None else unit * power[:, None]
     design_given = design
@@ -347,7 +363,16 @@ def misfit_report(
     # (``docs/theory/diagnostics.rst``, "The residual tests")
     pooled = unequal_p >= POOLED_NOISE_P_VALUE
     weight = np.full(ports, np.sqrt(np.mean(noise**2))) if pooled else noise
-    scatter = scatter_tests(residual, image, tangent, residual_dof, pooled, expected)
+    scatter = scatter_tests(
+        off_axis_phase(residual, tangent, axis),
+        image,
+        tangent,
+        residual_dof,
+        pooled,
+        expected,
+        axis.shape[1] * (1.0 - 1.0 / ports),
+    )
+    del axis
     variance_ratio = pinv_variance_ratio(matrix, image, tangent)
     # whitened in place from here on: the tests keep no other copy of these (N, n) arrays
     for values in (residual, image, tangent):
@@ -419,6 +444,8 @@ def misfit_report(
             design=design_given,
             phase_derivatives=phase_derivatives,
             test_axis=False,
+            axis_bandwidth_per_reading=axis_bandwidth_per_reading,
+            method=method,
         )
         notes = [quantised_axis_warning(axis, quantised, samples, delay), *inner.warnings]
     else:
@@ -426,7 +453,17 @@ def misfit_report(
         if not exact_fit:
             notes.append(
                 misfit_warning(
-                    structure, band, names, ratio, lag1, harmonic_power, span, delay, model_free
+                    structure,
+                    band,
+                    names,
+                    ratio,
+                    lag1,
+                    harmonic_power,
+                    span,
+                    delay,
+                    model_free,
+                    method=method,
+                    axis_phase=axis_phase,
                 )
             )
         if offsets is not None and not dark_given:

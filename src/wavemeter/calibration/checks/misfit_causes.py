@@ -29,6 +29,7 @@ __all__ = [
     "CAUSES",
     "REMEDIES",
     "WIDE_SWEEP_REMEDY",
+    "WIDE_BAND_METHODS",
     "EXPLAINED_FRACTION",
     "TIE_FRACTION",
     "TIE_Z",
@@ -76,12 +77,18 @@ MAX_PINV_VARIANCE_RATIO = 1.2**2
 #: is named (a drift leaves less: only its second-order terms)
 SLOPE_SHARE = 0.05
 
-#: the first remedy of a misfit no cause explains on a sweep of several FSRs
-WIDE_SWEEP_REMEDY = (
-    "over a sweep of several FSRs the couplers and photodiodes change with the wavelength: "
-    "calibrate the band with WidebandCalibrator (a map smooth in frequency), or per FSR "
-    "(CalibrationSet)"
+#: the calibrations of a band of several FSRs, by their ``method``: what a remedy of a
+#: misfit on such a band suggests (after "calibrate"), less the method already in use
+WIDE_BAND_METHODS = {
+    "wideband": "the band with WidebandCalibrator (a map smooth in frequency)",
+    "calibration_set": "per FSR (CalibrationSet)",
+}
+#: why a misfit no cause explains on a sweep of several FSRs may be the band's
+WIDE_SWEEP_REASON = (
+    "over a sweep of several FSRs the couplers and photodiodes change with the wavelength"
 )
+#: the first remedy of such a misfit
+WIDE_SWEEP_REMEDY = f"{WIDE_SWEEP_REASON}: calibrate " + ", or ".join(WIDE_BAND_METHODS.values())
 
 REMEDIES = {
     "power_drift": (
@@ -124,8 +131,9 @@ def _excess(test: ResidualTest | None) -> float:
     return test.excess if test is not None and test.failed else 0.0
 
 
-def _cause(structure: Structure, band: BandTests | None) -> str:
-    """The alternative that explains the residual best (``docs/theory/diagnostics.rst``)."""
+def _cause(structure: Structure, band: BandTests | None, axis_phase: bool = False) -> str:
+    """The alternative that explains the residual best (``docs/theory/diagnostics.rst``);
+    ``axis_phase``: the phase smooth along the rows is a corrected axis's, not tested."""
     if not structure.smooth_failed:
         scatter = structure.scatter
         return "power_drift" if scatter.power_excess >= scatter.phase_excess else "phase_drift"
@@ -141,6 +149,10 @@ def _cause(structure: Structure, band: BandTests | None) -> str:
         if best <= 0.0 or best < EXPLAINED_FRACTION * structure.smooth.excess
         else next(name for name, value in explained.items() if _ties(value, best))
     )
+    if axis_phase and cause == "power_drift" and not _ties(best, structure.smooth.excess):
+        # the phase's share of any structure went into the axis: what is left must be the
+        # power's alone (a port's own background leaves some across the image too)
+        return "other_misfit"
     # harmonics of the fringe (a detector's nonlinearity) are no change with frequency,
     # though a polynomial times the fringe mimics them over a few FSRs
     harmonic = cause == "other_misfit" and _ties(structure.harmonics.excess, best)
@@ -206,12 +218,33 @@ def _phase_clause(error: np.ndarray, delay_s: float) -> str:
     )
 
 
-def misfit_warning(structure, band, names, ratio, lag1, harmonic_power, span, delay, model_free):
+def _wide_sweep_remedy(method: str | None) -> str | None:
+    """``WIDE_SWEEP_REMEDY`` without the calibration ``method`` in use; None when it offers
+    nothing else."""
+    others = [text for name, text in WIDE_BAND_METHODS.items() if name != method]
+    return f"{WIDE_SWEEP_REASON}: calibrate " + ", or ".join(others) if others else None
+
+
+def misfit_warning(
+    structure,
+    band,
+    names,
+    ratio,
+    lag1,
+    harmonic_power,
+    span,
+    delay,
+    model_free,
+    method=None,
+    axis_phase=False,
+):
     """The one warning that names the misfit, or None when every residual test passes
-    (``band`` the tests of a wide sweep against a polynomial in frequency, or None)."""
+    (``band`` the tests of a wide sweep against a polynomial in frequency, or None;
+    ``method`` the calibration's, which no remedy suggests; ``axis_phase``: the phase
+    smooth along the rows is a corrected axis's, not tested)."""
     if not structure.failed:
         return None
-    cause = _cause(structure, band)
+    cause = _cause(structure, band, axis_phase)
     residual = f"lag-1 autocorrelation of the residual up to {lag1.max():.2f}"
     if model_free:
         high = ratio >= min(ratio.max(), 1.0 + 0.5 * (ratio.max() - 1.0))
@@ -239,7 +272,7 @@ def misfit_warning(structure, band, names, ratio, lag1, harmonic_power, span, de
             f"remains in the residual after the fit ({residual}); without a power monitor "
             "part of a drift is absorbed into the map and the FSR"
         )
-        if _in_frequency(structure, band) and band.single_map:
+        if _in_frequency(structure, band) and band.single_map and method != "wideband":
             seen += (
                 f"; over this {span:.3g} FSR sweep a polynomial in frequency explains it, as "
                 "detectors whose responsivity changes with the wavelength alike would give: "
@@ -272,9 +305,10 @@ def misfit_warning(structure, band, names, ratio, lag1, harmonic_power, span, de
             f"({residual}; harmonics 2-3 of the fringe phase up to "
             f"{harmonic_power.max():.3g}x their noise level)"
         )
-        if span > DISPERSION_MIN_SPAN_FSR:
+        wide = _wide_sweep_remedy(method)
+        if span > DISPERSION_MIN_SPAN_FSR and wide is not None:
             # over many FSRs the couplers and photodiodes change with the wavelength
-            return _warning(cause, seen, f"{WIDE_SWEEP_REMEDY}; else {REMEDIES[cause]}")
+            return _warning(cause, seen, f"{wide}; else {REMEDIES[cause]}")
     return _warning(cause, seen)
 
 

@@ -22,6 +22,7 @@ from scipy import linalg, special, stats
 
 from ...model.retrieval import stacked_pinv
 from ...stats.blocks import row_blocks
+from ...stats.cosine_transform import discrete_cosines
 from ...stats.nested_tests import TEST_P_VALUE, ResidualTest
 
 __all__ = [
@@ -40,6 +41,8 @@ __all__ = [
     "Structure",
     "structure_tests",
     "smooth_scales",
+    "axis_phase_columns",
+    "off_axis_phase",
     "rms",
 ]
 
@@ -168,11 +171,15 @@ class Scatter:
         return min(self.power_p, self.phase_p) < TEST_P_VALUE
 
 
-def scatter_tests(residual, image, tangent, dof: float, pooled: bool, phase_noise_rad) -> Scatter:
+def scatter_tests(
+    residual, image, tangent, dof: float, pooled: bool, phase_noise_rad, removed_phase=0.0
+) -> Scatter:
     """Tests 6 and 7 (``docs/theory/diagnostics.rst``) on the residual (N, n) and the directions
     ``a_P`` (``image``) and ``a_t`` (``tangent``) of every reading (N, n); ``pooled``: one
     noise level for every port; ``phase_noise_rad`` (N,) the phase scatter the model
-    expects besides the detector noise (0 for none).
+    expects besides the detector noise (0 for none); ``removed_phase`` the degrees of
+    freedom removed along ``a_t`` beyond ``dof``'s share of them (a corrected axis's,
+    :func:`off_axis_phase`).
 
     Per reading, with ``r``, ``a``, ``t`` whitened by the level: the component along ``a``
     is ``r a / |a|``, the one along the part of ``t`` orthogonal to ``a`` (of squared norm
@@ -217,6 +224,7 @@ def scatter_tests(residual, image, tangent, dof: float, pooled: bool, phase_nois
         )
 
     power_p, power_excess, power_rms = test(power, along_norm)
+    dof -= removed_phase
     phase_p, phase_excess, phase_rms = test(phase, across_norm, phase_noise_rad)
     return Scatter(power_p, phase_p, power_excess, phase_excess, power_rms, phase_rms)
 
@@ -306,6 +314,28 @@ def structure_tests(tests, harmonic_test, image, tangent, frequency, center, spa
         smooth=smooth,
         scatter=scatter,
     )
+
+
+def axis_phase_columns(samples: int, bandwidth_per_reading: float) -> np.ndarray:
+    """The discrete cosines of the row (N, K) a frequency axis made from the meter's own
+    phase smoothed to ``bandwidth_per_reading`` (cycles per reading) follows: ``K = 2 N``
+    times it (cosine ``m`` turns ``m / 2N`` cycles per reading), at most the largest of
+    ``SMOOTH_ORDERS`` (beyond it they would change no test along the rows); (N, 0) for 0."""
+    orders = min(int(2 * samples * max(bandwidth_per_reading, 0.0)), SMOOTH_ORDERS[-1])
+    return discrete_cosines(samples, min(orders, samples - 1))
+
+
+def off_axis_phase(residual: np.ndarray, tangent: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """The residual (N, n) less its least-squares fit by ``columns`` (N, K) along each
+    reading's fringe tangent (N, n): what is left when a phase error smooth along the rows
+    (the corrected axis's) is taken out; the residual itself for K = 0."""
+    if columns.shape[1] == 0:
+        return residual
+    weight = np.einsum("ij,ij->i", tangent, tangent)
+    gram = columns.T @ (columns * weight[:, None])
+    along = columns.T @ np.einsum("ij,ij->i", residual, tangent)
+    phase = columns @ linalg.solve(gram, along, assume_a="pos")
+    return residual - tangent * phase[:, None]
 
 
 def rms(values: np.ndarray) -> float:

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Protocol
 
 from ...atomic import atomic_path
-from ...exceptions import FileFormatError, InputError, WavemeterError
+from ...exceptions import FileFormatError, InputError, WavemeterError, shown
 from ...validation import MIN_SAMPLES, check_fitted
 from .fields import (
     CENTER_RANGE_HZ,
@@ -34,7 +34,6 @@ from .fields import (
     header_scales,
 )
 from .registry import calibrator_class, registered
-from .rules import shown
 from .state import is_real
 
 __all__ = [
@@ -175,7 +174,9 @@ def _fail(path, problem: str) -> FileFormatError:
 def _number(document: dict, key: str, path) -> float:
     value = document.get(key)
     if not is_real(value) or not math.isfinite(value):
-        raise _fail(path, f"field {key!r} must be a finite number, got {shown(value)}")
+        raise _fail(
+            path, f"field {key!r} must be a finite number, got {shown(value, as_in_file=True)}"
+        )
     return float(value)
 
 
@@ -184,7 +185,10 @@ def _count(document: dict, key: str, path, minimum: int) -> int:
     if isinstance(value, float) and value.is_integer():
         value = int(value)
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise _fail(path, f"field {key!r} must be an integer >= {minimum}, got {shown(value)}")
+        raise _fail(
+            path,
+            f"field {key!r} must be an integer >= {minimum}, got {shown(value, as_in_file=True)}",
+        )
     return value
 
 
@@ -199,26 +203,33 @@ def _frequencies(document: dict, path) -> tuple[float, float, tuple[float, float
         and all(is_real(value) and math.isfinite(value) for value in span)
         and span[0] <= span[1]
     ):
-        raise _fail(path, f"field 'span_hz' must be [low, high] in Hz, got {shown(span)}")
+        raise _fail(
+            path, f"field 'span_hz' must be [low, high] in Hz, got {shown(span, as_in_file=True)}"
+        )
     low, high = float(span[0]), float(span[1])
     lowest, highest = CENTER_RANGE_HZ
     if not lowest <= center <= highest:
         raise _fail(
             path,
             f"field 'center_hz' must be an optical frequency ({lowest:g} to {highest:g} Hz), "
-            f"got {shown(center)}",
+            f"got {shown(center, as_in_file=True)}",
         )
     if not low <= center <= high:
         raise _fail(
-            path, f"field 'center_hz' {shown(center)} must lie in span_hz [{low!r}, {high!r}]"
+            path,
+            f"field 'center_hz' {shown(center, as_in_file=True)} must lie in span_hz "
+            f"{shown([low, high], as_in_file=True)}",
         )
     if not 0 < low or not high <= 2 * highest:
-        raise _fail(path, f"field 'span_hz' must hold optical frequencies, got {shown(span)}")
+        raise _fail(
+            path,
+            f"field 'span_hz' must hold optical frequencies, got {shown(span, as_in_file=True)}",
+        )
     if not MIN_FSR_HZ <= fsr < center:
         raise _fail(
             path,
             f"field 'fsr_hz' must be >= {MIN_FSR_HZ:g} Hz (a delay of at most 1 ms) and below "
-            f"the centre frequency, got {shown(fsr)}",
+            f"the centre frequency, got {shown(fsr, as_in_file=True)}",
         )
     return fsr, center, (low, high)
 
@@ -226,7 +237,7 @@ def _frequencies(document: dict, path) -> tuple[float, float, tuple[float, float
 def _optional_object(document: dict, key: str, path) -> dict:
     value = document.get(key, {})
     if not isinstance(value, dict):
-        raise _fail(path, f"field {key!r} must be an object, got {shown(value)}")
+        raise _fail(path, f"field {key!r} must be an object, got {shown(value, as_in_file=True)}")
     return value
 
 
@@ -240,7 +251,9 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
     ``path`` names the source in error messages (a file, or a window of a set).
     """
     if not isinstance(document, dict):
-        raise _fail(path, f"calibration fields must be an object, got {shown(document)}")
+        raise _fail(
+            path, f"calibration fields must be an object, got {shown(document, as_in_file=True)}"
+        )
     method = document.get("method")
     try:
         cls = calibrator_class(method)
@@ -249,7 +262,8 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
     if cls is None:
         raise _fail(
             path,
-            f"unknown calibration method {shown(method)}; known: {', '.join(sorted(registered()))}",
+            f"unknown calibration method {shown(method, as_in_file=True)}; known: "
+            f"{', '.join(sorted(registered()))}",
         )
     params = document.get("params")
     state = document.get("state")
@@ -269,7 +283,10 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
         or len(names) != n_ports
         or not all(isinstance(name, str) for name in names)
     ):
-        raise _fail(path, f"field 'port_names' must list {n_ports} names, got {shown(names)}")
+        raise _fail(
+            path,
+            f"field 'port_names' must list {n_ports} names, got {shown(names, as_in_file=True)}",
+        )
     fsr, center, span = _frequencies(document, path)
     rms = _number(document, "calibration_rms_hz", path)
     if not 0 <= rms <= center:
@@ -299,8 +316,8 @@ def calibrator_from_fields(document: dict, path="<calibration>") -> FittedCalibr
     if abs(calibrator.fsr_hz_ / fsr - 1.0) > DELAY_RTOL:
         raise _fail(
             path,
-            f"field 'fsr_hz' {shown(fsr)} disagrees with the state, whose delay gives an FSR of "
-            f"{shown(calibrator.fsr_hz_)} Hz",
+            f"field 'fsr_hz' {shown(fsr, as_in_file=True)} disagrees with the state, whose "
+            f"delay gives an FSR of {shown(calibrator.fsr_hz_)} Hz",
         )
     return calibrator
 
@@ -343,14 +360,16 @@ def _checked_document(document, path) -> CalibrationFile:
     ):
         raise _fail(
             path,
-            f"calibration schema_version {shown(version)} is not supported by wavemeter "
-            f"{_package_version()} (reads 1..{SCHEMA_VERSION}); upgrade wavemeter",
+            f"calibration schema_version {shown(version, as_in_file=True)} is not supported by "
+            f"wavemeter {_package_version()} (reads 1..{SCHEMA_VERSION}); upgrade wavemeter",
         )
     header = {}
     for key in ("wavemeter_version", "created_utc"):
         value = document.get(key)
         if value is not None and not isinstance(value, str):
-            raise _fail(path, f"field {key!r} must be a string, got {shown(value)}")
+            raise _fail(
+                path, f"field {key!r} must be a string, got {shown(value, as_in_file=True)}"
+            )
         header[key] = value
     metadata = _optional_object(document, "metadata", path)
     return CalibrationFile(

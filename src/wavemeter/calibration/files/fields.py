@@ -21,7 +21,7 @@ import inspect
 import math
 from collections.abc import Mapping
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
 from .rules import (
     POWER_SCALE_W,
     SPREAD_RELATIVE,
@@ -33,7 +33,6 @@ from .rules import (
     largest_magnitude,
     largest_singular_value,
     rule_table,
-    shown,
     vector_norm,
 )
 
@@ -72,7 +71,6 @@ __all__ = [
     "largest_singular_value",
     "record_number",
     "rule_table",
-    "shown",
     "vector_norm",
 ]
 
@@ -152,14 +150,16 @@ def _located(node, path: list[str], name: str, required: bool):
     key, rest = path[0], path[1:]
     if key == "*":
         if not isinstance(node, list):
-            raise InputError(f"field {name!r} must be a list, got {shown(node)}")
+            raise InputError(f"field {name!r} must be a list, got {shown(node, as_in_file=True)}")
         for index, child in enumerate(node):
             if child is None:
-                raise InputError(f"field {name!r} must hold no null, got {shown(node)}")
+                raise InputError(
+                    f"field {name!r} must hold no null, got {shown(node, as_in_file=True)}"
+                )
             yield from _located(child, rest, f"{name}[{index}]", required)
         return
     if not isinstance(node, dict):
-        raise InputError(f"field {name!r} must be an object, got {shown(node)}")
+        raise InputError(f"field {name!r} must be an object, got {shown(node, as_in_file=True)}")
     if key in node or required:
         yield from _located(node.get(key), rest, f"{name}.{key}", required)
 
@@ -202,13 +202,19 @@ def check_setting_types(cls: type, settings: dict) -> None:
         default = defaults[name].default if name in defaults else None
         number = isinstance(default, (int, float)) and not isinstance(default, bool)
         if number and (isinstance(value, bool) or not isinstance(value, (int, float))):
-            raise InputError(f"field 'params.{name}' must be a number, got {shown(value)}")
+            raise InputError(
+                f"field 'params.{name}' must be a number, got {shown(value, as_in_file=True)}"
+            )
         if isinstance(default, str) and not isinstance(value, str):
-            raise InputError(f"field 'params.{name}' must be a text, got {shown(value)}")
+            raise InputError(
+                f"field 'params.{name}' must be a text, got {shown(value, as_in_file=True)}"
+            )
         if value is None and default is not None and name in defaults:
             raise InputError(f"field 'params.{name}' must not be null")
         if _holds_object(value):
-            raise InputError(f"field 'params.{name}' must hold no object, got {shown(value)}")
+            raise InputError(
+                f"field 'params.{name}' must hold no object, got {shown(value, as_in_file=True)}"
+            )
 
 
 def check_fields(

@@ -10,14 +10,13 @@ the field, what it holds and what is allowed. Which field obeys which rule:
 
 from __future__ import annotations
 
-import json
 import types
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
 
 __all__ = [
     "CovarianceRule",
@@ -30,7 +29,6 @@ __all__ = [
     "largest_magnitude",
     "largest_singular_value",
     "rule_table",
-    "shown",
     "vector_norm",
 ]
 
@@ -71,14 +69,6 @@ def vector_norm(array: np.ndarray) -> float | None:
     return float(np.linalg.norm(unit)) * largest
 
 
-def shown(value) -> str:
-    """A value as the file holds it (JSON; a text in single quotes, as messages quote),
-    cut to 80 characters."""
-    if isinstance(value, str):
-        return repr(value[:80])
-    return json.dumps(value, allow_nan=True, default=str)[:80]
-
-
 class Scales(dict):
     """Scales the relative rules compare with: name -> (value, what it is, unit)."""
 
@@ -103,7 +93,9 @@ def _power_scales(scales: Scales) -> None:
 
 def _numbers(name: str, value) -> np.ndarray:
     """A field's value as a float array, or an InputError naming it."""
-    problem = InputError(f"field {name!r} must hold numbers only, got {shown(value)}")
+    problem = InputError(
+        f"field {name!r} must hold numbers only, got {shown(value, as_in_file=True)}"
+    )
     if isinstance(value, (bool, str)) or isinstance(value, dict):
         raise problem
     try:
@@ -117,18 +109,18 @@ def _numbers(name: str, value) -> np.ndarray:
     array = array.astype(float)
     if not np.all(np.isfinite(array)):
         kind = "be a finite number" if array.ndim == 0 else "hold finite numbers only"
-        raise InputError(f"field {name!r} must {kind}, got {shown(value)}")
+        raise InputError(f"field {name!r} must {kind}, got {shown(value, as_in_file=True)}")
     return array
 
 
 def _first_outside(array: np.ndarray, inside: np.ndarray) -> str:
     """``value`` (and its index in an array) of the first element not ``inside``."""
     index = np.flatnonzero(~inside.ravel())[0]
-    value = float(array.ravel()[index])
+    value = shown(float(array.ravel()[index]), as_in_file=True)
     if array.ndim == 0:
-        return f"{value!r}"
+        return value
     where = ", ".join(str(int(at)) for at in np.unravel_index(index, array.shape))
-    return f"{value!r} (element [{where}])"
+    return f"{value} (element [{where}])"
 
 
 @dataclass(frozen=True)
@@ -194,7 +186,10 @@ class FieldRule:
         """Raise an InputError naming ``name`` unless every element is allowed."""
         array = _numbers(name, value)
         if self.scalar and array.ndim:
-            raise InputError(f"field {name!r} ({self.what}) must be one number, got {shown(value)}")
+            raise InputError(
+                f"field {name!r} ({self.what}) must be one number, got "
+                f"{shown(value, as_in_file=True)}"
+            )
         if self.integer and not np.all(array == np.round(array)):
             raise InputError(
                 f"field {name!r} ({self.what}) must hold whole numbers, got "
@@ -366,7 +361,10 @@ class RecordRule:
                 "texts": "a list of texts",
                 "flag": "true or false",
             }[self.kind]
-            raise InputError(f"field {name!r} ({self.what}) must be {wanted}, got {shown(value)}")
+            raise InputError(
+                f"field {name!r} ({self.what}) must be {wanted}, got "
+                f"{shown(value, as_in_file=True)}"
+            )
 
 
 def rule_table(rules: dict) -> Mapping:

@@ -7,8 +7,7 @@ import math
 
 import numpy as np
 
-from ...exceptions import InputError
-from .rules import shown
+from ...exceptions import InputError, shown
 
 __all__ = ["is_real", "state_float", "state_array"]
 
@@ -36,7 +35,9 @@ def state_float(
         raise InputError(f"field {key!r} is missing")
     value = state[key]
     if not is_real(value) or not math.isfinite(value):
-        raise InputError(f"field {key!r} must be a finite number, got {shown(value)}")
+        raise InputError(
+            f"field {key!r} must be a finite number, got {shown(value, as_in_file=True)}"
+        )
     value = float(value)
     if minimum is not None and (value < minimum or (open_minimum and value == minimum)):
         relation = ">" if open_minimum else ">="
@@ -62,10 +63,12 @@ def state_array(state: dict, key: str, shape: tuple) -> np.ndarray:
     except (ValueError, TypeError) as exc:
         raise InputError(
             f"field {key!r} must be nested lists of numbers of equal lengths, got "
-            f"{shown(state[key])}"
+            f"{shown(state[key], as_in_file=True)}"
         ) from exc
     if array.dtype.kind not in "iuf":
-        raise InputError(f"field {key!r} must hold numbers only, got {shown(state[key])}")
+        raise InputError(
+            f"field {key!r} must hold numbers only, got {shown(state[key], as_in_file=True)}"
+        )
     matches = array.ndim == len(shape) and all(
         size is None or size == actual for size, actual in zip(shape, array.shape, strict=True)
     )

@@ -288,8 +288,11 @@ def fit_on_reference(
         The recorded axis (Hz), or None to self-calibrate.
     cell : CellRecording
     fit_on : callable
-        ``fit_on(frequency_hz) -> warnings``: fits the calibrator on an axis, returning the
-        fit's warnings (not issued).
+        ``fit_on(frequency_hz, axis_bandwidth_per_reading=0.0) -> warnings``: fits the
+        calibrator on an axis, returning the fit's warnings (not issued); the corrected
+        axis comes with the bandwidth (cycles per reading) up to which it follows the
+        meter's own phase noise, which its fit diagnostics do not count as a misfit
+        (:attr:`~wavemeter.calibration.fitting.sweep.Sweep.axis_bandwidth_per_reading`).
     design_fsr_hz, fsr_tolerance : float
         The design FSR (Hz) of the interferometer whose phase makes the axis, and its
         relative tolerance.
@@ -336,7 +339,7 @@ def fit_on_reference(
     else:
         recorded = check_frequency(frequency_hz, powers_w.shape[0])
         axis = _corrected_axis(calibrator, powers_w, recorded, cell, fit_on, interferometer, inputs)
-    notes = fit_on(axis.frequency_hz)
+    notes = fit_on(axis.frequency_hz, axis.phase_bandwidth_per_reading)
     record, budget = axis_records(
         axis,
         cell.transmission,

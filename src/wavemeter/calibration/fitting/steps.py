@@ -99,11 +99,14 @@ def check_ports(
     )
 
 
-def cone_misfit_report(ctx: FitContext, center_hz: float) -> MisfitReport:
+def cone_misfit_report(
+    ctx: FitContext, center_hz: float, method: str | None = None
+) -> MisfitReport:
     """Step 5 for a method without a cone map of its own: the sweep against the cone model
     with the least-squares map at the sweep's own delay (the data are tested against the
     model, not against a method's approximations). The checks of the pseudo-inverse
-    retrieval concern the learned calibrator only and are left out."""
+    retrieval concern the learned calibrator only and are left out; ``method`` the
+    calibration's, which no remedy suggests."""
     sweep = ctx.sweep
     objects = object_vectors(sweep.frequency_hz, center_hz, ctx.delay_s, sweep.scale)
     return misfit_report(
@@ -115,6 +118,8 @@ def cone_misfit_report(ctx: FitContext, center_hz: float) -> MisfitReport:
         scale=sweep.scale,
         dark_given=sweep.dark_w is not None,
         weighted_retrieval=True,
+        axis_bandwidth_per_reading=sweep.axis_bandwidth_per_reading,
+        method=method,
     )
 
 
@@ -277,7 +282,7 @@ class SweepFitMixin(ReferenceCellMixin):
             "axis_error_hz": axis_error_hz,
         }
 
-        def fit_on(axis_hz):
+        def fit_on(axis_hz, axis_bandwidth_per_reading=0.0):
             sweep = checked_sweep(
                 raw,
                 axis_hz,
@@ -286,6 +291,7 @@ class SweepFitMixin(ReferenceCellMixin):
                 dark_w=dark_w,
                 temperature_k=temperature_k,
                 temperature_required_by=required,
+                axis_bandwidth_per_reading=axis_bandwidth_per_reading,
             )
             return self._fit_sweep(sweep)
 
@@ -312,7 +318,9 @@ class SweepFitMixin(ReferenceCellMixin):
         self._take_power_range(sweep.powers_w)
         error = self._frequency_hz(sweep.powers_w - self.offset_w_, ReadingInputs())
         self.calibration_rms_hz_ = rms(wrap_to_period(error - sweep.frequency_hz, self.fsr_hz_))
-        self.diagnostics_, notes = diagnostics_record(ctx, cone_misfit_report(ctx, self.center_hz_))
+        self.diagnostics_, notes = diagnostics_record(
+            ctx, cone_misfit_report(ctx, self.center_hz_, self.method)
+        )
         return notes
 
     def _fsr_tolerance(self) -> float:

@@ -69,6 +69,10 @@ class Sweep:
         Chip temperature of each reading (K).
     monitor_mean_w : None or float
         The monitor's mean over the whole sweep, when these readings are a sample of it.
+    axis_bandwidth_per_reading : float
+        When the axis was made from the meter's own phase smoothed along the sweep (a
+        reference cell's corrected axis), the frequency (cycles per reading) up to which it
+        follows that phase's noise; 0 for an axis given.
 
     Examples
     --------
@@ -94,6 +98,7 @@ class Sweep:
     dark_w: np.ndarray | None = None
     temperature_k: np.ndarray | None = None
     monitor_mean_w: float | None = None
+    axis_bandwidth_per_reading: float = 0.0
 
     @functools.cached_property
     def scale(self) -> np.ndarray | None:
@@ -129,6 +134,7 @@ class Sweep:
             self.dark_w,
             None if self.temperature_k is None else self.temperature_k[rows],
             None if self.monitor_w is None else self.monitor_mean,
+            self.axis_bandwidth_per_reading,
         )
 
     @property
@@ -174,6 +180,7 @@ def checked_sweep(
     dark_w=None,
     temperature_k=None,
     temperature_required_by: str | None = None,
+    axis_bandwidth_per_reading: float = 0.0,
 ) -> Sweep:
     """What ``fit`` was given, validated (:class:`Sweep`); raises :class:`InputError` naming
     the value that is wrong."""
@@ -185,7 +192,15 @@ def checked_sweep(
     dark = check_dark(dark_w, ports)
     names = checked_port_names(port_names, ports)
     temperature = checked_temperature(temperature_k, samples, temperature_required_by)
-    return Sweep(raw if dark is None else raw - dark, frequency, monitor, names, dark, temperature)
+    return Sweep(
+        raw if dark is None else raw - dark,
+        frequency,
+        monitor,
+        names,
+        dark,
+        temperature,
+        axis_bandwidth_per_reading=axis_bandwidth_per_reading,
+    )
 
 
 def check_frequency_unit(frequency_hz: np.ndarray) -> None:

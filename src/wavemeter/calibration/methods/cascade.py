@@ -276,7 +276,10 @@ class CascadeCalibrator(
         raw = check_powers(powers, min_samples=MIN_SAMPLES)
         columns = self._stage_columns(raw.shape[1])
 
-        def fit_on(axis_hz):
+        def fit_on(axis_hz, axis_bandwidth_per_reading=0.0):
+            # the stages are fitted by their public fit, on an axis as given: the corrected
+            # axis's bandwidth does not reach their fit diagnostics
+            del axis_bandwidth_per_reading
             return self._fit_stages(
                 raw, axis_hz, power_monitor_w, port_names, dark_w, temperature_k
             )

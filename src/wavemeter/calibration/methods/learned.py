@@ -351,6 +351,8 @@ class Calibrator(
             weighted_retrieval=self.retrieval == "ml",
             phase_rad=self._sweep_model_phase_rad(ctx),
             phase_noise_std_rad=self._sweep_phase_noise_rad(ctx),
+            axis_bandwidth_per_reading=sweep.axis_bandwidth_per_reading,
+            method=self.method,
         )
 
     def _sweep_model_phase_rad(self, ctx: LearnedContext) -> np.ndarray | None:

@@ -123,6 +123,8 @@ class BandChecksMixin:
             phase_rad=self.band_model_.phase_rad(frequency_hz),
             design=objects,
             phase_derivatives=np.power.outer(y, np.arange(1, self.phase_order_ + 1)).T,
+            axis_bandwidth_per_reading=ctx.sweep.axis_bandwidth_per_reading,
+            method=self.method,
         )
 
     def _residual_phase_by_window(self, ctx, readings) -> list[dict]:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...exceptions import InputError
+from ...exceptions import InputError, shown
 from ..files import fields
 from ..files.state import state_array, state_float
 from ..models.wideband_orders import MAX_MAP_ORDER, MAX_PHASE_ORDER, parameter_count
@@ -99,7 +99,7 @@ class BandStateMixin:
         if definition not in PHASE_DEFINITIONS:
             raise InputError(
                 f"field 'phase_definition' must be one of {PHASE_DEFINITIONS}, got "
-                f"{fields.shown(definition)}"
+                f"{shown(definition, as_in_file=True)}"
             )
         coefficients_rad = state_array(state, "phase_coefficients_rad", (phase_order,))
         linear = 2.0 * np.pi * self.half_span_hz_ / self.fsr_hz_  # the delay, in rad
@@ -145,6 +145,6 @@ class BandStateMixin:
         if state.get("n_parameters") != self.n_parameters_:
             raise InputError(
                 f"field 'n_parameters' must be {self.n_parameters_}, the parameters of the orders "
-                f"and ports, got {fields.shown(state.get('n_parameters'))}"
+                f"and ports, got {shown(state.get('n_parameters'), as_in_file=True)}"
             )
         self._set_off_model_state(state)

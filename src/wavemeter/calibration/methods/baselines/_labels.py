@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ....exceptions import InputError
+from ....exceptions import InputError, shown
 from ....model.cone import wrap_phase_rad
 from ...contract.base import BaseCalibrator
 from ...contract.summary import FitValue
@@ -173,7 +173,9 @@ class LabelLockedCalibrator(ComparedWithLearnedMixin, SweepFitMixin, BaseCalibra
     def _set_lock_state(self, state: dict) -> None:
         direction = state.get("direction")
         if isinstance(direction, bool) or direction not in (1, -1):
-            raise InputError(f"field 'direction' must be 1 or -1, got {fields.shown(direction)}")
+            raise InputError(
+                f"field 'direction' must be 1 or -1, got {shown(direction, as_in_file=True)}"
+            )
         self.direction_ = int(direction)
         self.phase_origin_rad_ = state_float(
             state, "phase_origin_rad", minimum=-np.pi, maximum=np.pi

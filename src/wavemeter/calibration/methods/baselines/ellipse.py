@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ....exceptions import InputError
+from ....exceptions import InputError, shown
 from ...files import fields
 from ...files.state import state_float
 from ._labels import LabelLockedCalibrator
@@ -106,7 +106,9 @@ class FringeEllipse:
     def from_dict(cls, state: dict) -> FringeEllipse:
         """Inverse of :meth:`to_dict`; checks that the ellipse is proper."""
         if not isinstance(state, dict):
-            raise InputError(f"field 'ellipse' must be an object, got {fields.shown(state)}")
+            raise InputError(
+                f"field 'ellipse' must be an object, got {shown(state, as_in_file=True)}"
+            )
         ellipse = cls(**{name: state_float(state, name) for name in cls.__dataclass_fields__})
         if not (
             ellipse.amplitude_x > 0 and ellipse.amplitude_y > 0 and 0 < ellipse.phase_rad < np.pi

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ....exceptions import InputError
+from ....exceptions import InputError, shown
 from ...files import fields
 from ...files.state import state_array
 from ._labels import LabelLockedCalibrator
@@ -76,7 +76,9 @@ class PlaneEllipse:
         ports: ``basis`` orthonormal, ``normal`` a unit vector orthogonal to it with
         ``normal . origin > 0``."""
         if not isinstance(state, dict):
-            raise InputError(f"field 'plane_ellipse' must be an object, got {fields.shown(state)}")
+            raise InputError(
+                f"field 'plane_ellipse' must be an object, got {shown(state, as_in_file=True)}"
+            )
         origin = state_array(state, "origin", (ports,))
         basis = state_array(state, "basis", (ports, 2))
         normal = state_array(state, "normal", (ports,))
