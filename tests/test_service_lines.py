@@ -83,3 +83,23 @@ def test_the_service_publishes_what_stream_writes():
         for name in ("frequency_hz", "frequency_std_hz"):
             np.testing.assert_allclose(columns[name], written[name], rtol=1e-13, equal_nan=True)
     assert (written["flags"][[5, 9, 13]].astype(int) & wm.ReadingFlag.INVALID).all()
+
+
+def test_a_lone_line_reads_as_in_a_block_on_a_switch_schedule():
+    """Lines one at a time (the lone-line path) give the block's channels, powers, invalid
+    rows and counts, with the switch schedule going on across the invalid ones."""
+    _, calibration = simulated_meter(7)
+    lines = ["0.3,0.2,0.25", "0.1,abc,0.2", "# a comment", "0.2,0.2,0.2", "nan,1,1", "1,2,3"]
+    header = "P1_mW,P2_mW,P3_mW"
+    alone, together = (LineParser(name, channels=3) for name in ("alone", "together"))
+    for parser in (alone, together):
+        parser.start([header], calibration)
+    blocks = [block for line in lines if (block := alone.rows([line], 7)) is not None]
+    block = together.rows(lines, 7)
+    assert len(blocks) == 5
+    np.testing.assert_array_equal(np.concatenate([b.channel for b in blocks]), block.channel)
+    np.testing.assert_array_equal(np.concatenate([b.invalid for b in blocks]), block.invalid)
+    np.testing.assert_array_equal(np.vstack([b.powers_w for b in blocks]), block.powers_w)
+    np.testing.assert_array_equal(block.channel, [0, 1, 2, 0, 1])
+    np.testing.assert_array_equal(block.invalid, [False, True, False, True, False])
+    assert alone.counts == together.counts and alone.counts.invalid == 2

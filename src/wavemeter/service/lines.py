@@ -175,6 +175,10 @@ class LineParser:
             kept.append(line)
         if not kept:
             return None
+        if len(kept) == 1 and self.channel_column is None and self._plain is not None:
+            block = self._plain_row(kept[0], arrival_ns)
+            if block is not None:
+                return block
         start = self._number
         self._number += len(kept)
         self.counts.lines += len(kept)
@@ -198,6 +202,31 @@ class LineParser:
             source_time_ns=np.full(len(channels), arrival_ns, dtype=np.int64),
             temperature_k=temperature,
             coarse_hz=coarse,
+        )
+
+    def _plain_row(self, line: str, arrival_ns: int) -> RowBlock | None:
+        """A lone valid line without a channel column, read as :meth:`rows` reads it
+        (:meth:`LineReader.values` and the plain converter) without the arrays of a block;
+        None for a line they refuse (:meth:`rows` then names why)."""
+        values, reason = self._reader.values(line)
+        found = None if reason is not None else self._plain.convert(values)
+        if found is None:
+            return None
+        powers, kelvin = found
+        self._number += 1
+        self.counts.lines += 1
+        channel = self._switch % self.channels
+        self._switch += 1
+        temperature = _given(1, self.header.temperature_column, self.temperature_k)
+        if temperature is not None and self.header.temperature_column:
+            temperature[0] = kelvin
+        return RowBlock(
+            channel=np.array([channel], dtype=np.int64),
+            powers_w=powers[np.newaxis],
+            invalid=np.zeros(1, dtype=bool),
+            source_time_ns=np.array([arrival_ns], dtype=np.int64),
+            temperature_k=temperature,
+            coarse_hz=_given(1, self.header.coarse_column, self.coarse_hz),
         )
 
     def _channels(self, data, reasons):
