@@ -3,8 +3,10 @@
 :meth:`StreamMixin.stream` turns an iterable of rows (possibly endless: a live source)
 into one :class:`~wavemeter.calibration.contract.records.StreamReading` per row, with the
 numbers :meth:`~wavemeter.calibration.contract.reading.ReadingMixin.readout` gives the row
-alone. What stays the same from row to row is worked out once per stream
-(``_stream_reader``; the learned family and the cascade read a row in one light pass).
+alone; :meth:`StreamMixin.row_reader` gives the same for one reading at a time (what the
+live service reads with). What stays the same from row to row is worked out once per
+reader (``_row_reader`` around ``_stream_reader``; the learned family reads a usual row in
+plain floats, the cascade in one light pass per stage).
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ flag thresholds and the covariance are taken once, and a reading that is finite,
 given no per-reading input is read with Python floats (the same arithmetic as
 :meth:`readout`'s arrays, one reading at a time: frequency, its standard deviation, every
 flag bit); every other reading, and the exact ``OFF_MODEL`` test where the screen cannot
-decide, go the generic way. About 15 us a reading instead of ~180 us.
+decide, go the generic way: ~20 us a reading instead of ~180 us (Table 1, 3 ports).
 """
 
 from __future__ import annotations
