@@ -175,7 +175,7 @@ class TcpLineSource:
         try:
             listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             listener.bind((self.host, self.port))
-            listener.listen(16)
+            listener.listen(100)
         except OSError:
             listener.close()
             raise
@@ -244,6 +244,9 @@ class _Connection:
             except WavemeterError as exc:
                 self._reply(f"error: {exc}\n".encode())
                 data = b""
+            except BaseException:
+                self.close()  # not left watched; the loop reports the error
+                raise
             if not data:
                 self.close()
                 return
