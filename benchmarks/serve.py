@@ -117,11 +117,10 @@ def paced(write, lines: list[str], rate_hz: float) -> np.ndarray:
 class Service:
     """A `wavemeter serve CAL --source tcp://127.0.0.1:0` child and one writer connection."""
 
-    def __init__(self, calibration: Path, *extra):
+    def __init__(self, calibration: Path, *extra, launcher=("-m", "wavemeter")):
         command = [
             sys.executable,
-            "-m",
-            "wavemeter",
+            *launcher,
             "serve",
             str(calibration),
             "--source",
@@ -166,7 +165,9 @@ class Service:
             self.process.wait()
 
 
-def subscribers(service: Service, count: int, first: int, readings: int, folder: Path):
+def subscribers(
+    service: Service, count: int, first: int, readings: int, folder: Path, script=SUBSCRIBER
+):
     """Start ``count`` subscriber children that keep readings ``first`` .. on."""
     children = []
     for k in range(count):
@@ -175,7 +176,7 @@ def subscribers(service: Service, count: int, first: int, readings: int, folder:
             [
                 sys.executable,
                 "-c",
-                SUBSCRIBER,
+                script,
                 service.publish,
                 service.control,
                 str(first),

@@ -353,3 +353,45 @@ class RecordingSink:
             raise OSError("the DAC does not answer")
         self.written.append(voltage_v)
         self.output_v = voltage_v
+
+
+def with_bad_readings(readings: np.ndarray, inputs: dict, rng) -> tuple[np.ndarray, dict]:
+    """Copies of test ``readings`` (N >= 20, n) and their per-reading ``inputs`` (each one
+    value or N) with bad ones put in: a NaN cell, no light, negative power, a dim reading
+    (lit, below the no-light fraction of the sweep's power), tenfold power, a reading far
+    off the cone, an inf cell, ten readings at 0.3-3x the power; for each input a NaN, and
+    for ``coarse_hz`` two values terahertz outside the band."""
+    rows = readings.copy()
+    inputs = {
+        name: np.full(len(rows), float(value)) if np.ndim(value) == 0 else np.array(value)
+        for name, value in inputs.items()
+    }
+    rows[0, 1], rows[1], rows[2], rows[6, -1] = np.nan, 0.0, -rows[2], np.inf
+    rows[3] *= 0.002
+    rows[4] *= 10.0
+    rows[5, 0] += 50 * NOISE_W
+    picked = rng.choice(np.arange(10, len(rows)), size=10, replace=False)
+    rows[picked] *= rng.uniform(0.3, 3.0, (10, 1))
+    for name, values in inputs.items():
+        values[7] = np.nan
+        if name == "coarse_hz":
+            values[8] += 3e12
+            values[9] -= 5e12
+    return rows, inputs
+
+
+def bound_rms_hz(device, frequency_hz, ports, known_power: bool) -> float:
+    """RMS over test frequencies of the per-sample Cramer-Rao bound (Hz).
+
+    ``known_power``: the source power is known (information ``|a_t|^2 / sigma^2`` of the
+    ports read); otherwise it is a nuisance (:func:`wavemeter.crlb_frequency_std`).
+    """
+    phase = 2 * np.pi * (frequency_hz - device.center_hz) * device.delay_s
+    matrix = device.true_map()[list(ports)]
+    if known_power:
+        tangent = np.stack([-np.sin(phase), np.cos(phase), np.zeros_like(phase)], axis=-1)
+        slope = POWER_W * np.linalg.norm(tangent @ matrix.T, axis=1)
+        per_sample = device.true_fsr_hz / (2 * np.pi) * NOISE_W / slope
+    else:
+        per_sample = wm.crlb_frequency_std(matrix, phase, POWER_W, NOISE_W, device.true_fsr_hz)
+    return float(np.sqrt(np.mean(per_sample**2)))

@@ -35,7 +35,7 @@ import wavemeter as wm
 from wavemeter.calibration.contract.base import BaseCalibrator
 from wavemeter.calibration.files.registry import registered
 
-from .helpers import thermal_sweep
+from .helpers import bound_rms_hz, thermal_sweep, with_bad_readings
 
 POWER_W = 1e-3
 NOISE_W = 5e-7  # Table 1: 5e-4 mW at 1 mW
@@ -80,23 +80,6 @@ def simulated(kind: str, ports: int, noise_w: float, thermal: bool = False):
     for array in (sweep_hz, test_hz, sweep, test, *inputs.values()):
         array.setflags(write=False)
     return device, sweep, sweep_hz, test, test_hz, inputs
-
-
-def bound_rms_hz(device, frequency_hz, ports, known_power: bool) -> float:
-    """RMS over test frequencies of the per-sample Cramer-Rao bound (Hz).
-
-    ``known_power``: the source power is known (information ``|a_t|^2 / sigma^2`` of the
-    ports read); otherwise it is a nuisance (:func:`wavemeter.crlb_frequency_std`).
-    """
-    phase = 2 * np.pi * (frequency_hz - device.center_hz) * device.delay_s
-    matrix = device.true_map()[list(ports)]
-    if known_power:
-        tangent = np.stack([-np.sin(phase), np.cos(phase), np.zeros_like(phase)], axis=-1)
-        slope = POWER_W * np.linalg.norm(tangent @ matrix.T, axis=1)
-        per_sample = device.true_fsr_hz / (2 * np.pi) * NOISE_W / slope
-    else:
-        per_sample = wm.crlb_frequency_std(matrix, phase, POWER_W, NOISE_W, device.true_fsr_hz)
-    return float(np.sqrt(np.mean(per_sample**2)))
 
 
 def reading_inputs(calibrator, frequency_hz) -> dict:
@@ -330,6 +313,26 @@ class CalibratorContract:
             assert np.isnan(found.frequency_std_hz).all()
         for values in found.extras.values():
             assert values.shape == (50,) and np.isnan(values[~good]).all()
+
+    def test_row_reader_agrees_with_readout_on_good_and_bad_readings(self):
+        """What stream and the service read with gives each reading readout's numbers (to
+        float64 rounding; measured <= 1e-15), flags and extras; a missing input is named."""
+        cal, _, test, test_hz = self.fitted("table1", NOISE_W)
+        rng = np.random.default_rng(29)
+        picked = rng.choice(len(test), size=120, replace=False)
+        rows, inputs = with_bad_readings(test[picked], reading_inputs(cal, test_hz[picked]), rng)
+        batch, read = cal.readout(rows, **inputs), cal.row_reader()
+        found = [read(row, **{k: v[i] for k, v in inputs.items()}) for i, row in enumerate(rows)]
+        np.testing.assert_array_equal([r.flags for r in found], batch.flags)
+        expected = {"frequency_hz": batch.frequency_hz, "frequency_std_hz": batch.frequency_std_hz}
+        for name, values in {**expected, **batch.extras}.items():
+            got = [r.extras[name] if name in batch.extras else getattr(r, name) for r in found]
+            np.testing.assert_allclose(got, values, rtol=1e-12, atol=0, err_msg=name)
+        assert (batch.flags[[0, 1, 2, 6]] & wm.ReadingFlag.INVALID).all()
+        assert batch.flags[4] & wm.ReadingFlag.POWER_RANGE
+        for name in cal.requires:
+            with pytest.raises(wm.InputError, match=name):
+                read(rows[10])
 
     def test_score_is_minus_the_rms_error(self):
         cal, device, test, test_hz = self.fitted("table1", NOISE_W)

@@ -83,3 +83,27 @@ def test_the_service_publishes_what_stream_writes():
         for name in ("frequency_hz", "frequency_std_hz"):
             np.testing.assert_allclose(columns[name], written[name], rtol=1e-13, equal_nan=True)
     assert (written["flags"][[5, 9, 13]].astype(int) & wm.ReadingFlag.INVALID).all()
+
+
+def test_a_lone_line_reads_as_in_a_block_on_a_switch_schedule():
+    """Lines one at a time (the lone-line path) give the block's channels, powers, invalid
+    rows and counts, with the switch schedule going on across the invalid ones."""
+    _, calibration = simulated_meter(7)
+    lines = ["0.3,0.2,0.25", "0.1,abc,0.2", "# a comment", "0.2,0.2,0.2", "nan,1,1", "1,2,3"]
+    lines += ["9.91e37,1,1", "1e20,1,1", "-1,0.5,0.4", "0,0,0", "inf,1,1", "1e-300,0,0"]
+    rng = np.random.default_rng(5)
+    lines += [",".join(repr(float(v)) for v in row) for row in rng.lognormal(-1, 2, (40, 3))]
+    for header in ("P1_mW,P2_mW,P3_mW", "P1_W,P2_W,P3_W", "P1_nW,P2_uW,P3_V", "P1,P2,P3"):
+        alone, together = (LineParser(name, channels=3) for name in ("alone", "together"))
+        for parser in (alone, together):
+            parser.start([header], calibration)
+        blocks = [block for line in lines if (block := alone.rows([line], 7)) is not None]
+        block = together.rows(lines, 7)
+        assert len(blocks) == len(lines) - 1 == len(block)
+        for name in ("channel", "invalid", "powers_w"):
+            found = np.concatenate([getattr(b, name) for b in blocks])
+            np.testing.assert_array_equal(found, getattr(block, name), err_msg=header)
+        assert alone.counts == together.counts
+        np.testing.assert_array_equal(block.channel[:5], [0, 1, 2, 0, 1])
+        # text, NaN, a power-meter code, 0 W and inf are no reading in any unit
+        assert {1, 3, 5, 8, 9} <= set(np.flatnonzero(block.invalid)) and not block.invalid[6]

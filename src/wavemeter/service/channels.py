@@ -72,7 +72,8 @@ class Channel:
         self.flagged = 0
         self.flag_counts = dict.fromkeys((name for name, _ in _BITS), 0)
         self.dropped = 0
-        self.latest: Reading | None = None
+        self._last_batch: ReadingBatch | None = None  # its last reading: latest
+        self._latest: Reading | None = None
         self.rate_hz = 0.0
         self.last_seen = None  # time.monotonic() of the latest reading
         self._counted = (time.monotonic(), 0)
@@ -128,7 +129,7 @@ class Channel:
 
     def account(self, batch: ReadingBatch) -> None:
         """Count a published batch in the statistics, and keep its last reading."""
-        self.latest = batch.last()
+        self._last_batch, self._latest = batch, None
         flags = batch.columns["flags"]
         self.readings += len(flags)
         self.last_seen = time.monotonic()
@@ -137,6 +138,13 @@ class Channel:
             self.flagged += int(flagged.sum())
             for name, bit in _BITS:
                 self.flag_counts[name] += int(np.count_nonzero(flags & bit))
+
+    @property
+    def latest(self) -> Reading | None:
+        """The latest reading published (None before the first), made when asked."""
+        if self._latest is None and self._last_batch is not None:
+            self._latest = self._last_batch.last()
+        return self._latest
 
     def watch(self, timeout_s: float, now: float) -> bool:
         """Update the status and the rate at monotonic time ``now``; True when the status

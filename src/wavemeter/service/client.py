@@ -269,13 +269,17 @@ class Client(_Locks):
         return self._batches(self._subscribe(channel), timeout_s)
 
     def _batches(self, tracker: _Tracker, timeout_s: float | None):
-        poller = zmq.Poller()
-        poller.register(self._data, zmq.POLLIN)
+        # a receive that waits at most wait_s (RCVTIMEO): no poll before each message
+        wait_s = SILENCE_S if timeout_s is None else min(SILENCE_S, timeout_s)
+        self._data.setsockopt(zmq.RCVTIMEO, max(1, round(wait_s * 1000)))
         last = time.monotonic()
         while True:
-            wait_s = SILENCE_S if timeout_s is None else min(SILENCE_S, timeout_s)
-            if poller.poll(wait_s * 1000):
-                batch = tracker.take(self._data.recv_multipart())
+            try:
+                frames = self._data.recv_multipart()
+            except zmq.Again:
+                frames = None
+            if frames is not None:
+                batch = tracker.take(frames)
                 if batch is not None:
                     last = time.monotonic()
                     yield batch

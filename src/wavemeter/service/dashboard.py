@@ -26,6 +26,7 @@ TRACE_S = 300.0
 ADEV_EVERY_S = 2.0
 #: fewest bins for an Allan deviation
 _ADEV_MIN_BINS = 8
+_INVALID = int(ReadingFlag.INVALID)
 
 
 class Trace:
@@ -41,12 +42,14 @@ class Trace:
     def add(self, batch: ReadingBatch) -> None:
         """Fold a batch's readable readings into the bins."""
         frequency = batch.columns["frequency_hz"]
+        times_ns = batch.columns["source_time_ns"]
+        if len(frequency) == 1:  # the common case at a reading per batch, in plain numbers
+            value = float(frequency[0])
+            if math.isfinite(value) and not int(batch.columns["flags"][0]) & _INVALID:
+                self._fold(math.floor(int(times_ns[0]) * 1e-9 / BIN_S), value, 1)
+            return
         usable = np.isfinite(frequency) & ((batch.columns["flags"] & ReadingFlag.INVALID) == 0)
         if not usable.any():
-            return
-        times_ns = batch.columns["source_time_ns"]
-        if len(frequency) == 1:  # the common case at a reading per batch
-            self._fold(math.floor(times_ns[0] * 1e-9 / BIN_S), float(frequency[0]), 1)
             return
         numbers = np.floor(times_ns[usable] * 1e-9 / BIN_S).astype(np.int64)
         values = frequency[usable]

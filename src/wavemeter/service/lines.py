@@ -6,14 +6,16 @@ connection). Its first line that is not blank or a comment is the header, read b
 reading, its numbers read by :meth:`wavemeter.jobs.LineReader.block` (a block of lines at
 once, as ``stream`` reads each) and converted to SI by
 :func:`wavemeter.io.convert.convert_rows` (or, for a few rows,
-:class:`~wavemeter.io.convert.PlainRowConverter`, row by row). A line that holds no valid reading
-becomes an invalid row with its reason; its channel is the next one of the switch schedule,
+:class:`~wavemeter.io.convert.PlainRowConverter`, row by row; a lone line in linear units
+in plain floats first, ~5 us against ~30 us). A line that holds no valid reading becomes an
+invalid row with its reason; its channel is the next one of the switch schedule,
 or, with a channel column, the one its cell names (a line without a readable channel is
 counted as unroutable and dropped).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,7 +25,9 @@ from ..exceptions import InputError
 from ..io import ColumnRequest
 from ..io.checks import ColumnChecks
 from ..io.convert import PlainRowConverter, convert_rows
+from ..io.power_codes import SENTINEL_W
 from ..jobs import LineReader, check_readings, read_header
+from ..units import POWER_UNITS, canonical_unit
 from .blocks import RowBlock
 
 __all__ = ["LineParser", "MAX_CHANNELS", "LineCounts"]
@@ -132,6 +136,7 @@ class LineParser:
             self.header = header
             self._reader = LineReader(header)
             self._plain = PlainRowConverter.of(header.plan)
+            self._floats = _LinearRow.of(header.plan) if self._plain is not None else None
             self._checks = ColumnChecks()
             self._number = number
             return lines[index + 1 :]
@@ -175,6 +180,10 @@ class LineParser:
             kept.append(line)
         if not kept:
             return None
+        if len(kept) == 1 and self.channel_column is None and self._plain is not None:
+            block = self._plain_row(kept[0], arrival_ns)
+            if block is not None:
+                return block
         start = self._number
         self._number += len(kept)
         self.counts.lines += len(kept)
@@ -198,6 +207,38 @@ class LineParser:
             source_time_ns=np.full(len(channels), arrival_ns, dtype=np.int64),
             temperature_k=temperature,
             coarse_hz=coarse,
+        )
+
+    def _plain_row(self, line: str, arrival_ns: int) -> RowBlock | None:
+        """A lone valid line without a channel column, read as :meth:`rows` reads it
+        (:meth:`LineReader.values` and the plain converter) without the arrays of a block;
+        None for a line they refuse (:meth:`rows` then names why)."""
+        values, reason = self._reader.values(line)
+        if reason is not None:
+            return None
+        if self._floats is not None:
+            found = self._floats.convert(values)
+            if found is None:  # the converter names what is wrong, or reads it after all
+                found = self._plain.convert(values)
+        else:
+            found = self._plain.convert(values)
+        if found is None:
+            return None
+        powers, kelvin = found
+        self._number += 1
+        self.counts.lines += 1
+        channel = self._switch % self.channels
+        self._switch += 1
+        temperature = _given(1, self.header.temperature_column, self.temperature_k)
+        if temperature is not None and self.header.temperature_column:
+            temperature[0] = kelvin
+        return RowBlock(
+            channel=np.array([channel], dtype=np.int64),
+            powers_w=powers[np.newaxis],
+            invalid=np.zeros(1, dtype=bool),
+            source_time_ns=np.array([arrival_ns], dtype=np.int64),
+            temperature_k=temperature,
+            coarse_hz=_given(1, self.header.coarse_column, self.coarse_hz),
         )
 
     def _channels(self, data, reasons):
@@ -259,3 +300,43 @@ def _given(n: int, column: str | None, value: float | None) -> np.ndarray | None
     if column is not None:
         return np.full(n, np.nan)
     return None if value is None else np.full(n, float(value))
+
+
+class _LinearRow:
+    """A row of port powers in linear units (W, mW, uW, nW, V or relative), without a
+    temperature, converted in plain floats: the numbers
+    :class:`~wavemeter.io.convert.PlainRowConverter` gives (the same scaling,
+    ``value * 10**k`` or ``value / 10**-k``), None for any row it would refuse (not finite,
+    a power-meter code above ``SENTINEL_W``, no light) and for any it might read
+    differently; :class:`PlainRowConverter` then decides."""
+
+    def __init__(self, scales: list[tuple[str, float, bool]]):
+        self.scales = scales  # (field, 10**|k|, multiply) per port, in port order
+
+    @classmethod
+    def of(cls, plan) -> _LinearRow | None:
+        """For up to 7 ports (a sum in the order numpy sums them) in linear units, no
+        temperature column; else None."""
+        if plan.singles or not 0 < len(plan.ports) < 8:
+            return None
+        scales = []
+        for role, unit in zip(plan.ports, plan.role_units, strict=True):
+            exponent = POWER_UNITS.get(canonical_unit(unit or "W", "power"))
+            if exponent is None:  # dBm
+                return None
+            scales.append((role.name, 10.0 ** abs(exponent), exponent >= 0))
+        return cls(scales)
+
+    def convert(self, values: dict[str, float]) -> tuple[np.ndarray, None] | None:
+        powers = []
+        for name, scale, multiply in self.scales:
+            raw = values[name]
+            if not (math.isfinite(raw) and raw <= SENTINEL_W):
+                return None
+            power = raw * scale if multiply else raw / scale
+            if not math.isfinite(power):
+                return None
+            powers.append(power)
+        if not sum(powers) > 0:
+            return None
+        return np.array(powers), None

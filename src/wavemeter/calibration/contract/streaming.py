@@ -3,8 +3,10 @@
 :meth:`StreamMixin.stream` turns an iterable of rows (possibly endless: a live source)
 into one :class:`~wavemeter.calibration.contract.records.StreamReading` per row, with the
 numbers :meth:`~wavemeter.calibration.contract.reading.ReadingMixin.readout` gives the row
-alone. What stays the same from row to row is worked out once per stream
-(``_stream_reader``; the learned family and the cascade read a row in one light pass).
+alone; :meth:`StreamMixin.row_reader` gives the same for one reading at a time (what the
+live service reads with). What stays the same from row to row is worked out once per
+reader (``_row_reader`` around ``_stream_reader``; the learned family reads a usual row in
+plain floats, the cascade in one light pass per stage).
 """
 
 from __future__ import annotations
@@ -77,16 +79,7 @@ class StreamMixin:
         sources = {name: _input_source(name, value) for name, value in given.items()}
         if not isinstance(rows, Iterable):
             raise InputError(f"rows must be an iterable of readings, got {type(rows).__name__}")
-        ports = self.n_ports_
-        read = self._stream_reader()
-        nan = float("nan")
-        unread_extras = types.MappingProxyType(dict.fromkeys(self.reading_outputs, nan))
-
-        def unread(powers: np.ndarray | None, inputs: dict) -> StreamReading:
-            flags = int(ReadingFlag.INVALID)
-            if powers is not None:  # the other bits, where flags can tell them
-                flags |= int(self.flags(powers, **inputs)[0])
-            return StreamReading(nan, nan, flags, unread_extras)
+        read_row = self._row_reader()
 
         def records() -> Iterator[StreamReading]:
             warned = False
@@ -100,16 +93,7 @@ class StreamMixin:
                             f"{name} ended at reading {index} (zero-based) while rows went on: "
                             "give one value per row"
                         ) from None
-                powers = None
-                reason = None
-                try:
-                    powers, inputs = _checked_row(row, inputs, ports)
-                    record = read(powers, inputs)
-                    if math.isnan(record.frequency_hz):
-                        reason = "the calibration has no map for it"
-                except InputError as exc:
-                    record = unread(powers, inputs if powers is not None else {})
-                    reason = str(exc)
+                record, reason = read_row(row, inputs)
                 if reason is not None and not warned:
                     warned = True
                     warnings.warn(
@@ -127,6 +111,71 @@ class StreamMixin:
 
         return records()
 
+    def row_reader(self) -> Callable[..., StreamReading]:
+        """A reader of one reading at a time, what stays the same worked out now.
+
+        ``read(powers, coarse_hz=None, temperature_k=None)`` gives the record of one
+        reading: the numbers :meth:`readout` gives the reading alone (to float64 rounding;
+        the flags bit for bit), extras and all; a reading that cannot be read gets NaN and
+        the flags that say why, without a warning. It reads with the calibration as it is
+        now: ask again after changing it. What :meth:`stream` and the live service read
+        with.
+
+        Returns
+        -------
+        callable
+            ``read(powers, coarse_hz=None, temperature_k=None) -> StreamReading`` for
+            ``powers`` of shape (n,) in the unit of the calibration sweep and the
+            per-reading inputs as numbers (Hz, K).
+
+        Raises
+        ------
+        InputError
+            From ``read``, for a per-reading input the calibration requires that is None.
+        """
+        check_fitted(self)
+        read_row = self._row_reader()
+        required = tuple(sorted(self.requires))
+
+        def read(powers, coarse_hz=None, temperature_k=None) -> StreamReading:
+            inputs = {"coarse_hz": coarse_hz, "temperature_k": temperature_k}
+            if required and any(inputs[name] is None for name in required):
+                self._reading_inputs(coarse_hz, temperature_k, 1)  # raises, naming it
+            return read_row(powers, inputs)[0]
+
+        return read
+
+    def _row_reader(self) -> Callable[[object, dict], tuple[StreamReading, str | None]]:
+        """``read_row(row, inputs) -> (record, reason)``: one row and its per-reading inputs
+        by name (None where not given) to its record, and why it cannot be read (None when
+        it can). Built once per stream from :meth:`_stream_reader`; a calibrator with a
+        faster way for the common reading (finite, lit, in its band) puts it in front."""
+        ports = self.n_ports_
+        read = self._stream_reader()
+        nan = float("nan")
+        unread_extras = types.MappingProxyType(dict.fromkeys(self.reading_outputs, nan))
+
+        def unread(row, inputs: dict) -> StreamReading:
+            flags = int(ReadingFlag.INVALID)
+            try:  # the other bits, where flags can tell them (a NaN or inf cell, no light)
+                powers = np.reshape(np.asarray(row, dtype=float), (1, ports))
+                flags |= int(self.flags(powers, **inputs)[0])
+            except (InputError, TypeError, ValueError):
+                pass  # not n numbers, or inputs that are not numbers: INVALID alone
+            return StreamReading(nan, nan, flags, unread_extras)
+
+        def read_row(row, inputs: dict) -> tuple[StreamReading, str | None]:
+            try:
+                powers, checked = _checked_row(row, inputs, ports)
+                record = read(powers, checked)
+            except InputError as exc:
+                return unread(row, inputs), str(exc)
+            if math.isnan(record.frequency_hz):
+                return record, "the calibration has no map for it"
+            return record, None
+
+        return read_row
+
     def _stream_reader(self) -> Callable[[np.ndarray, dict], StreamReading]:
         """How :meth:`stream` reads one reading; built once per stream.
 
@@ -135,13 +184,14 @@ class StreamMixin:
         callable
             ``read(powers, inputs) -> StreamReading`` for a finite reading ``powers`` (1, n)
             and its per-reading inputs by name (floats, or None where not given); it raises
-            :class:`InputError` where the reading cannot be read at all. Here:
+            :class:`InputError` where the reading cannot be read at all (a dim reading that
+            is read keeps its numbers and ``INVALID``, as in :meth:`readout`). Here:
             :meth:`readout` of the reading.
         """
 
         def read(powers: np.ndarray, inputs: dict) -> StreamReading:
             found = self.readout(powers, **{n: v for n, v in inputs.items() if v is not None})
-            if found.flags[0] & ReadingFlag.INVALID:
+            if found.flags[0] & ReadingFlag.INVALID and np.isnan(found.frequency_hz[0]):
                 raise InputError("it is no reading (no light)")
             return StreamReading(
                 float(found.frequency_hz[0]),

@@ -84,12 +84,20 @@ def twin_probability(distance, twin_distance) -> np.ndarray:
         return special.expit(-0.5 * (np.asarray(twin_distance) - np.asarray(distance)))
 
 
+#: the bits of :func:`power_flags`: all a dim reading's flags say (as ``readout`` says it)
+_LIGHT_BITS = int(ReadingFlag.INVALID | ReadingFlag.POWER_RANGE)
+
+
 def _stream_record(chain: CascadeReading) -> StreamReading:
-    """What a stream gives for one reading read through the stages (with its flags)."""
+    """What a stream gives for one reading read through the stages (with its flags; a dim
+    reading's only that it is no reading to trust, as in ``readout``)."""
+    flags = int(chain.flags[0])
+    if flags & ReadingFlag.INVALID:
+        flags &= _LIGHT_BITS
     return StreamReading(
         float(chain.frequency_hz[-1, 0]),
         float(chain.std_hz[-1, 0]),
-        int(chain.flags[0]),
+        flags,
         {"order_error_probability": float(chain.order_error_probability[0])},
     )
 

@@ -42,6 +42,7 @@ from ..contract.off_model import OffModelMixin
 from ..contract.reading import ERRORS
 from ..contract.records import ReadingInputs, Readout, StreamReading
 from ..contract.streaming import SCREEN_MARGIN
+from .learned_row import pinv_row_reader
 
 __all__ = ["LearnedReadingMixin"]
 
@@ -274,3 +275,12 @@ class LearnedReadingMixin(OffModelMixin):
             )
 
         return read
+
+    def _row_reader(self):
+        """One reading for :meth:`row_reader` and :meth:`stream`: with the pseudo-inverse
+        and a delay-only phase, in plain floats (:func:`.learned_row.pinv_row_reader`)
+        before the generic path."""
+        generic = super()._row_reader()
+        if self.retrieval != "pinv" or not self.plain_delay_phase:
+            return generic
+        return pinv_row_reader(self, generic)
