@@ -1,8 +1,8 @@
 """The service's sockets in this process (fast tier): a TCP line source, a followed file, the
-plain PUB socket and the HTTP side of a :class:`~wavemeter.service.Server` started in a thread
-on 127.0.0.1 with ephemeral ports. The same paths through a real ``wavemeter serve`` process
-are tested (slow tier) in ``test_service_sources.py``, ``test_service_pub.py`` and
-``test_service_http.py``."""
+plain PUB socket, the publish socket's order of sending, and the HTTP side of a
+:class:`~wavemeter.service.Server` started in a thread on 127.0.0.1 with ephemeral ports.
+The same paths through a real ``wavemeter serve`` process are tested (slow tier) in
+``test_service_sources.py``, ``test_service_pub.py`` and ``test_service_http.py``."""
 
 from __future__ import annotations
 
@@ -21,11 +21,14 @@ from prometheus_client.parser import text_string_to_metric_families  # noqa: E40
 
 import wavemeter as wm  # noqa: E402
 from wavemeter.service import Client, Server, decode_message  # noqa: E402
+from wavemeter.service.encoding import channel_topic  # noqa: E402
 from wavemeter.service.lines import LineParser  # noqa: E402
+from wavemeter.service.publisher import Publisher, Subscriber  # noqa: E402
 from wavemeter.service.simulated import NOISE_W, POWER_W, simulated_meter  # noqa: E402
 from wavemeter.service.sources import TcpLineSource, ThreadLineSource  # noqa: E402
 
 from ._service import wait_for  # noqa: E402
+from .helpers import reading_batch  # noqa: E402
 
 LOCAL = "tcp://127.0.0.1:0"
 INVALID = int(wm.ReadingFlag.INVALID)
@@ -176,3 +179,30 @@ def test_with_a_token_http_requests_without_it_are_refused(meter):
         allowed, text = _get(base + "metrics", token="t0k")
     assert (refused, wrong, allowed) == (401, 401, 200)
     assert list(text_string_to_metric_families(text.decode()))
+
+
+def test_a_subscriber_whose_queue_was_full_is_sent_to_last():
+    context = zmq.Context()
+    publisher = Publisher(context, LOCAL)
+    sent, stopped = [], b"stopped"
+
+    def send(frames, flags=0, copy=True):  # a stopped subscriber's queue is full
+        sent.append(frames[0])
+        if frames[0] == stopped:
+            raise zmq.Again()
+
+    publisher._send = send
+    dropped = []
+    publisher.on_dropped = lambda channel, readings: dropped.append(readings)
+    topic = channel_topic(3)
+    for identity in (stopped, b"running-1", b"running-2"):
+        publisher.subscribers[identity] = Subscriber(identity, (topic,))
+    try:
+        for first in (0, 5, 10):
+            publisher.publish(reading_batch(first))
+    finally:
+        publisher.socket.close(linger=0)
+        context.term()
+    assert sent[:3] == [stopped, b"running-1", b"running-2"]  # not yet known to be full
+    assert sent[3:] == [b"running-1", b"running-2", stopped] * 2
+    assert dropped == [5, 5, 5] and publisher.subscribers[stopped].dropped_readings == 15

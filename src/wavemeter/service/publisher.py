@@ -66,6 +66,7 @@ class Subscriber:
     sent_messages: int = 0
     dropped_messages: int = 0
     dropped_readings: int = 0
+    full: bool = False  # its last message was dropped (its queue was full)
 
     def wants(self, topic: bytes) -> bool:
         return any(topic.startswith(prefix) for prefix in self.topics)
@@ -117,7 +118,10 @@ class Publisher:
     def publish(self, batch: ReadingBatch) -> None:
         """Send a batch (split at :data:`MAX_BATCH` readings) to its subscribers."""
         topic = channel_topic(batch.channel)
-        wanting = [s for s in self.subscribers.values() if s.wants(topic)]
+        # those whose queue was full last time go last: a stopped one delays no other
+        wanting = sorted(
+            (s for s in self.subscribers.values() if s.wants(topic)), key=lambda s: s.full
+        )
         plain = self.plain
         if not wanting and plain is None:
             return
@@ -161,6 +165,7 @@ class Publisher:
                 copy=len(body) < _COPY_BYTES,
             )
         except zmq.Again:
+            subscriber.full = True
             if count:
                 subscriber.dropped_messages += 1
                 self.dropped_messages += 1
@@ -171,6 +176,7 @@ class Publisher:
                 return True
             raise
         subscriber.sent_messages += 1
+        subscriber.full = False
         return True
 
     async def serve(self) -> None:
