@@ -40,6 +40,7 @@ __all__ = [
     "parse_power_w",
     "parse_time_s",
     "seconds_per_unit",
+    "decimal_scale",
 ]
 
 SPEED_OF_LIGHT_M_S = 299_792_458.0
@@ -77,11 +78,17 @@ _LOOKUP = {
 }
 
 
+def decimal_scale(exponent: int) -> tuple[float, bool]:
+    """How ``values * 10**exponent`` is worked out, correctly rounded: ``(10.0**|exponent|,
+    True)`` to multiply by, or for a negative exponent ``(10.0**-exponent, False)`` to
+    divide by (``1e-3`` is not exact in binary; ``1000.0`` is)."""
+    return 10.0 ** abs(exponent), exponent >= 0
+
+
 def _scaled(values: np.ndarray, exponent: int) -> np.ndarray:
-    """``values * 10**exponent``, correctly rounded (a division for negative exponents)."""
-    if exponent >= 0:
-        return values * 10.0**exponent
-    return values / 10.0 ** (-exponent)
+    """``values * 10**exponent``, correctly rounded (:func:`decimal_scale`)."""
+    factor, multiply = decimal_scale(exponent)
+    return values * factor if multiply else values / factor
 
 
 def _wavelength_constant(unit: str) -> float:

@@ -27,7 +27,7 @@ from ..io.checks import ColumnChecks
 from ..io.convert import PlainRowConverter, convert_rows
 from ..io.power_codes import SENTINEL_W
 from ..jobs import LineReader, check_readings, read_header
-from ..units import POWER_UNITS, canonical_unit
+from ..units import POWER_UNITS, canonical_unit, decimal_scale
 from .blocks import RowBlock
 
 __all__ = ["LineParser", "MAX_CHANNELS", "LineCounts"]
@@ -306,7 +306,7 @@ class _LinearRow:
     """A row of port powers in linear units (W, mW, uW, nW, V or relative), without a
     temperature, converted in plain floats: the numbers
     :class:`~wavemeter.io.convert.PlainRowConverter` gives (the same scaling,
-    ``value * 10**k`` or ``value / 10**-k``), None for any row it would refuse (not finite,
+    :func:`~wavemeter.units.decimal_scale`), None for any row it would refuse (not finite,
     a power-meter code above ``SENTINEL_W``, no light) and for any it might read
     differently; :class:`PlainRowConverter` then decides."""
 
@@ -324,7 +324,7 @@ class _LinearRow:
             exponent = POWER_UNITS.get(canonical_unit(unit or "W", "power"))
             if exponent is None:  # dBm
                 return None
-            scales.append((role.name, 10.0 ** abs(exponent), exponent >= 0))
+            scales.append((role.name, *decimal_scale(exponent)))
         return cls(scales)
 
     def convert(self, values: dict[str, float]) -> tuple[np.ndarray, None] | None:
